@@ -1,0 +1,291 @@
+"""The tracking schema: `RallyData`, three pandas tables saved as Parquet files in one folder.
+
+What users bring and what the synthetic generator writes. Units: metres, seconds, m/s.
+
+- ``frames``: one row per (rally_id, frame, object). ``t`` is seconds from the rally start,
+  ``object`` is ``"ball"`` or a player id; players are 2-D (z = 0), the ball is 3-D. The shot
+  labels (``stroke``, ``direction``, ``outcome``, ``error_kind``) are those of the shot in
+  progress at that frame.
+- ``rallies``: one row per rally. A rally is one serve and what follows it, so a point played on
+  a second serve has two rallies: the first-serve fault (``end_reason == "fault"``, no winner)
+  and the second-serve rally. ``point`` numbers points within a match (1-based).
+- ``shots``: one row per racket contact.
+
+Reading validates every table and raises `TrackingDataError` naming the rally and the row;
+nothing is dropped unless `repair=True`, which drops the offending rallies and reports them.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from sportsngen.data.points import as_points_table
+
+FPS_DEFAULT = 25.0
+MAX_ABS_X_M = 30.0  # anything further from the net is off any plausible court
+MAX_ABS_Y_M = 20.0
+MAX_Z_M = 30.0
+
+SURFACES = ("hard", "clay", "grass")
+STROKES = ("none", "serve", "forehand", "backhand", "forehand_volley", "backhand_volley",
+           "overhead")
+SPINS = ("none", "flat", "topspin", "slice", "kick")
+DIRECTIONS = ("none", "wide", "body", "T", "cross_court", "down_the_line", "middle",
+              "inside_out", "inside_in")
+OUTCOMES = ("none", "in_play", "winner", "error")
+ERROR_KINDS = ("none", "forced", "unforced", "fault")
+END_REASONS = ("fault", "ace", "double_fault", "winner", "forced_error", "unforced_error")
+END_DETAILS = ("none", "net", "out", "unreached")
+
+FRAME_COLUMNS: dict[str, str] = {
+    "rally_id": "int64", "frame": "int64", "t": "float64", "object": "string",
+    "x": "float64", "y": "float64", "z": "float64",
+    "stroke": "string", "direction": "string", "outcome": "string", "error_kind": "string",
+}
+RALLY_COLUMNS: dict[str, str] = {
+    "rally_id": "int64", "match_id": "string", "point": "int64",
+    "server": "string", "receiver": "string", "serve_number": "int64",
+    "side": "string",            # "deuce" or "ad": the server's side of the centre mark
+    "server_end": "int64",       # sign of x of the server's baseline (+1 or -1)
+    "surface": "string", "tournament": "string",
+    "set_no": "int64", "server_sets": "int64", "receiver_sets": "int64",
+    "server_games": "int64", "receiver_games": "int64",
+    "server_points": "int64", "receiver_points": "int64",  # points won in the game/tie-break
+    "in_tiebreak": "bool", "score": "string",               # score string before the point
+    "winner": "string",          # player id; "" for a first-serve fault
+    "end_reason": "string", "end_detail": "string",
+    "serve_kmh": "float64",      # speed of this rally's serve at contact
+    "rally_length": "int64",     # slam definition: shots that landed in (0 on a double fault)
+}
+SHOT_COLUMNS: dict[str, str] = {
+    "rally_id": "int64", "shot_index": "int64", "frame": "int64", "hitter": "string",
+    "stroke": "string", "spin": "string", "direction": "string", "outcome": "string",
+    "error_kind": "string",
+    "contact_x": "float64", "contact_y": "float64", "contact_z": "float64",
+    "speed_mps": "float64",
+    "bounce_x": "float64", "bounce_y": "float64",  # NaN where the ball never bounced
+}
+
+_CATEGORIES: dict[str, dict[str, tuple[str, ...]]] = {
+    "frames": {"stroke": STROKES, "direction": DIRECTIONS, "outcome": OUTCOMES,
+               "error_kind": ERROR_KINDS},
+    "rallies": {"surface": SURFACES, "end_reason": END_REASONS, "end_detail": END_DETAILS,
+                "side": ("deuce", "ad")},
+    "shots": {"stroke": STROKES, "spin": SPINS, "direction": DIRECTIONS, "outcome": OUTCOMES,
+              "error_kind": ERROR_KINDS},
+}
+
+
+class TrackingDataError(ValueError):
+    """Tracking data that breaks the schema; the message names the table, rally and row."""
+
+
+def _cast(df: pd.DataFrame, columns: dict[str, str], table: str) -> pd.DataFrame:
+    missing = [c for c in columns if c not in df.columns]
+    if missing:
+        raise TrackingDataError(f"{table}: missing columns {missing}")
+    out = df.loc[:, list(columns)].copy()
+    for col, dtype in columns.items():
+        try:
+            out[col] = out[col].astype(dtype)
+        except (TypeError, ValueError) as exc:
+            raise TrackingDataError(
+                f"{table}: column {col!r} cannot be read as {dtype}: {exc}") from exc
+    return out.reset_index(drop=True)
+
+
+def _problems(frames: pd.DataFrame, rallies: pd.DataFrame, shots: pd.DataFrame,
+              fps: float) -> list[tuple[int, str]]:
+    """Every schema violation as (rally_id, message)."""
+    found: list[tuple[int, str]] = []
+
+    def flag(table: str, df: pd.DataFrame, bad: np.ndarray, what: str) -> None:
+        for idx in np.flatnonzero(bad):
+            found.append((int(df["rally_id"].iat[idx]),
+                          f"{table} row {idx} (rally {int(df['rally_id'].iat[idx])}): {what}"))
+
+    for name, df in (("frames", frames), ("rallies", rallies), ("shots", shots)):
+        for col, allowed in _CATEGORIES[name].items():
+            bad = ~df[col].isin(allowed).to_numpy()
+            if bad.any():
+                vals = sorted(set(df.loc[bad, col].astype(str)))
+                flag(name, df, bad, f"unknown {col} {vals[:5]}; allowed: {list(allowed)}")
+
+    dup = rallies["rally_id"].duplicated().to_numpy()
+    flag("rallies", rallies, dup, "duplicate rally_id")
+    for name, df in (("frames", frames), ("shots", shots)):
+        orphan = ~df["rally_id"].isin(rallies["rally_id"]).to_numpy()
+        flag(name, df, orphan, "rally_id not in the rallies table")
+
+    xyz = frames[["x", "y", "z"]].to_numpy()
+    flag("frames", frames, ~np.isfinite(xyz).all(axis=1), "NaN or infinite coordinate")
+    with np.errstate(invalid="ignore"):
+        off = (np.abs(xyz[:, 0]) > MAX_ABS_X_M) | (np.abs(xyz[:, 1]) > MAX_ABS_Y_M) | \
+              (xyz[:, 2] > MAX_Z_M) | (xyz[:, 2] < -0.5)
+    flag("frames", frames, off, f"object off any plausible court (|x| > {MAX_ABS_X_M} m, "
+                                f"|y| > {MAX_ABS_Y_M} m or z outside [-0.5, {MAX_Z_M}] m)")
+
+    # Time and frame order, per (rally, object): frames consecutive, t increasing at 1/fps.
+    f = frames.sort_values(["rally_id", "object"], kind="stable")
+    same = (f["rally_id"].to_numpy()[1:] == f["rally_id"].to_numpy()[:-1]) & \
+           (f["object"].to_numpy()[1:] == f["object"].to_numpy()[:-1])
+    dframe = np.diff(f["frame"].to_numpy())
+    dt = np.diff(f["t"].to_numpy())
+    idx = f.index.to_numpy()[1:]
+    gap = same & (dframe != 1)
+    back = same & (dt <= 0)
+    for mask, what in ((gap, "frame gap or repeated frame"), (back, "time not increasing")):
+        for i in np.flatnonzero(mask):
+            found.append((int(frames["rally_id"].iat[idx[i]]),
+                          f"frames row {idx[i]} (rally {int(frames['rally_id'].iat[idx[i]])}, "
+                          f"object {frames['object'].iat[idx[i]]}): {what}"))
+    # Every rally has a ball track.
+    with_ball = set(frames.loc[frames["object"] == "ball", "rally_id"].tolist())
+    for i, rid in enumerate(rallies["rally_id"].tolist()):
+        if rid not in with_ball:
+            found.append((rid, f"rallies row {i} (rally {rid}): no ball frames"))
+    return found
+
+
+@dataclass
+class RallyData:
+    """Tracking of many rallies: ``frames``, ``rallies`` and ``shots`` tables (see module doc)."""
+
+    frames: pd.DataFrame
+    rallies: pd.DataFrame
+    shots: pd.DataFrame
+    fps: float = FPS_DEFAULT
+    meta: dict = field(default_factory=dict)
+
+    @classmethod
+    def from_tables(cls, frames: pd.DataFrame, rallies: pd.DataFrame, shots: pd.DataFrame,
+                    fps: float = FPS_DEFAULT, meta: dict | None = None,
+                    repair: bool = False) -> RallyData:
+        """Build and validate. With `repair=True`, rallies with problems are dropped and listed
+        in ``meta["repaired"]``; otherwise the first problems raise `TrackingDataError`."""
+        if not np.isfinite(fps) or fps <= 0:
+            raise TrackingDataError(f"fps must be positive, got {fps}")
+        frames = _cast(frames, FRAME_COLUMNS, "frames")
+        rallies = _cast(rallies, RALLY_COLUMNS, "rallies")
+        shots = _cast(shots, SHOT_COLUMNS, "shots")
+        problems = _problems(frames, rallies, shots, fps)
+        meta = dict(meta or {})
+        if problems and not repair:
+            head = "\n  ".join(msg for _, msg in problems[:10])
+            more = f"\n  ... and {len(problems) - 10} more" if len(problems) > 10 else ""
+            raise TrackingDataError(f"{len(problems)} problem(s) in tracking data:\n  {head}{more}")
+        if problems:
+            bad = sorted({rid for rid, _ in problems})
+            meta["repaired"] = {"dropped_rallies": bad, "problems": [m for _, m in problems]}
+            frames = frames[~frames["rally_id"].isin(bad)].reset_index(drop=True)
+            rallies = rallies[~rallies["rally_id"].isin(bad)].reset_index(drop=True)
+            shots = shots[~shots["rally_id"].isin(bad)].reset_index(drop=True)
+        return cls(frames=frames, rallies=rallies, shots=shots, fps=float(fps), meta=meta)
+
+    def __len__(self) -> int:
+        return len(self.rallies)
+
+    def __repr__(self) -> str:
+        n_points = self.rallies.groupby(["match_id", "point"]).ngroups if len(self.rallies) else 0
+        return (f"RallyData({len(self.rallies)} rallies, {n_points} points, "
+                f"{len(self.frames)} frame rows, {len(self.shots)} shots, fps={self.fps:g})")
+
+    def subset(self, rally_ids) -> RallyData:
+        """The rallies with these ids (order of the tables kept)."""
+        keep = set(int(r) for r in rally_ids)
+        sel = lambda df: df[df["rally_id"].isin(keep)].reset_index(drop=True)  # noqa: E731
+        return RallyData(sel(self.frames), sel(self.rallies), sel(self.shots), self.fps,
+                         dict(self.meta))
+
+    @staticmethod
+    def concat(parts: list[RallyData]) -> RallyData:
+        """Concatenate; rally ids must already be unique across parts."""
+        if not parts:
+            raise ValueError("concat needs at least one RallyData")
+        fps = {p.fps for p in parts}
+        if len(fps) != 1:
+            raise ValueError(f"cannot concatenate RallyData with different fps {sorted(fps)}")
+        cat = lambda name: pd.concat([getattr(p, name) for p in parts], ignore_index=True)  # noqa: E731
+        return RallyData(cat("frames"), cat("rallies"), cat("shots"), parts[0].fps,
+                         dict(parts[0].meta))
+
+    def points(self) -> pd.DataFrame:
+        """The points table (`sportsngen.data.points`) of these rallies, one row a point.
+
+        A point's first_serve_in is False when it has a first-serve fault rally; its serve speed,
+        rally length and end come from its last rally.
+        """
+        r = self.rallies.sort_values(["match_id", "point", "serve_number"], kind="stable")
+        g = r.groupby(["match_id", "point"], sort=False)
+        last = g.tail(1).set_index(["match_id", "point"])
+        first = g.head(1).set_index(["match_id", "point"])
+        complete = last["end_reason"] != "fault"  # a point cut short after a fault is not a point
+        last, first = last[complete], first[complete]
+        reason = last["end_reason"]
+        out = pd.DataFrame({
+            "match_id": last.index.get_level_values(0),
+            "point": last.index.get_level_values(1),
+            "server": last["server"].to_numpy(),
+            "receiver": last["receiver"].to_numpy(),
+            "winner": last["winner"].to_numpy(),
+            "surface": last["surface"].to_numpy(),
+            "event": last["tournament"].to_numpy(),
+            "serve_number": last["serve_number"].to_numpy(),
+            "first_serve_in": (first["end_reason"] != "fault").to_numpy(),
+            "ace": (reason == "ace").to_numpy(),
+            "double_fault": (reason == "double_fault").to_numpy(),
+            "serve_kmh": np.where(reason == "double_fault", np.nan, last["serve_kmh"]),
+            "rally": last["rally_length"].to_numpy(),
+            "set_no": last["set_no"].to_numpy(),
+            "server_games": last["server_games"].to_numpy(),
+            "receiver_games": last["receiver_games"].to_numpy(),
+            "server_score": [_point_label(a, b, tb) for a, b, tb in zip(
+                last["server_points"], last["receiver_points"], last["in_tiebreak"])],
+            "receiver_score": [_point_label(b, a, tb) for a, b, tb in zip(
+                last["server_points"], last["receiver_points"], last["in_tiebreak"])],
+        })
+        return as_points_table(out)
+
+    def save(self, folder: str | Path) -> Path:
+        """Write frames/rallies/shots Parquet files and meta.json into `folder`."""
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        self.frames.to_parquet(folder / "frames.parquet", index=False)
+        self.rallies.to_parquet(folder / "rallies.parquet", index=False)
+        self.shots.to_parquet(folder / "shots.parquet", index=False)
+        (folder / "meta.json").write_text(json.dumps({"fps": self.fps, **self.meta},
+                                                     indent=2, default=str))
+        return folder
+
+    @classmethod
+    def load(cls, folder: str | Path, repair: bool = False) -> RallyData:
+        """Read a folder written by `save` (or by hand in the same layout) and validate it."""
+        folder = Path(folder)
+        if not folder.is_dir():
+            raise FileNotFoundError(f"no tracking folder at {folder}")
+        paths = {n: folder / f"{n}.parquet" for n in ("frames", "rallies", "shots")}
+        absent = [str(p) for p in paths.values() if not p.exists()]
+        if absent:
+            raise FileNotFoundError(f"tracking folder {folder} lacks {absent}")
+        meta_path = folder / "meta.json"
+        meta = json.loads(meta_path.read_text()) if meta_path.exists() else {}
+        fps = float(meta.pop("fps", FPS_DEFAULT))
+        return cls.from_tables(*(pd.read_parquet(p) for p in paths.values()), fps=fps,
+                               meta=meta, repair=repair)
+
+
+_GAME_POINTS = ("0", "15", "30", "40")
+
+
+def _point_label(mine: int, theirs: int, tiebreak: bool) -> str:
+    """Point score label of one player before a point: "0".."40", "AD", or a tie-break count."""
+    if tiebreak:
+        return str(int(mine))
+    if mine >= 3 and theirs >= 3:
+        return "AD" if mine > theirs else "40"
+    return _GAME_POINTS[min(int(mine), 3)]
