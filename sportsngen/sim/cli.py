@@ -1,0 +1,139 @@
+"""What `python simulate.py` does: play matches with the chosen engine, print and save them.
+
+Engines:
+- ``markov``: the i.i.d.-point baseline (`sportsngen.baselines.markov`), one serve model per
+  player derived from the real 2011 Grand Slam data (bundled as derived figures, so it runs on
+  a clone without ../shared/data).
+- ``sportsngen``: the learned engine; not bundled yet (the simulation issue adds it).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+from dataclasses import fields
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from omegaconf import DictConfig, OmegaConf
+from tqdm.auto import tqdm
+
+from sportsngen.baselines.markov import ServeModel, match_win_probability, simulate_match_points
+from sportsngen.eval.stats import serve_stats, serve_stats_table
+from sportsngen.tennis.scoring import MatchFormat, MatchState
+
+log = logging.getLogger(__name__)
+
+SERVE_MODELS_PATH = Path(__file__).resolve().parents[1] / "baselines/data/serve_models_2011.json"
+ENGINES = ("markov", "sportsngen")
+
+
+@lru_cache(maxsize=1)
+def bundled_serve_models() -> dict[str, ServeModel]:
+    """Serve models of every player with enough 2011 slam service points (name -> model)."""
+    doc = json.loads(SERVE_MODELS_PATH.read_text())
+    names = {f.name for f in fields(ServeModel)}
+    out = {}
+    for player, params in doc["players"].items():
+        kw = {k: (tuple(v) if isinstance(v, list) else v) for k, v in params.items() if k in names}
+        kw = {k: (math.nan if v is None else v) for k, v in kw.items()}
+        out[player] = ServeModel(**kw)
+    return out
+
+
+def serve_model(player: str) -> ServeModel:
+    """The bundled serve model of `player`; ValueError listing the known players otherwise."""
+    models = bundled_serve_models()
+    if player not in models:
+        raise ValueError(f"no serve model for player {player!r}; known players: "
+                         f"{', '.join(sorted(models))}")
+    return models[player]
+
+
+def win_probability_path(points: pd.DataFrame, pa: float, pb: float, fmt: MatchFormat,
+                         player1: str, first_server: int) -> np.ndarray:
+    """Player 1's match-win probability before each point and after the last (Markov, exact)."""
+    state = MatchState.new(fmt, first_server=first_server)
+    probs = [match_win_probability(pa, pb, fmt, state)]
+    for winner in points["winner"]:
+        state = state.point_won(0 if winner == player1 else 1)
+        probs.append(1.0 if state.is_over and state.winner == 0 else
+                     0.0 if state.is_over else match_win_probability(pa, pb, fmt, state))
+    return np.asarray(probs)
+
+
+def _plot_win_probability(probs: np.ndarray, names: tuple[str, str], title: str,
+                          path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(9, 3.5))
+    ax.plot(np.arange(len(probs)), probs, color="tab:blue", lw=1.5)
+    ax.axhline(0.5, color="grey", lw=0.8, ls="--")
+    ax.set_ylim(0, 1)
+    ax.set_xlabel("point")
+    ax.set_ylabel(f"P({names[0]} wins)")
+    ax.set_title(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def run_markov(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFrame:
+    """Play `cfg.n_matches` matches with the Markov engine; print, plot, return the points."""
+    names = (str(cfg.player1), str(cfg.player2))
+    models = (serve_model(names[0]), serve_model(names[1]))
+    pa = models[0].adjusted_against(models[1]).serve_points_won
+    pb = models[1].adjusted_against(models[0]).serve_points_won
+    tables = []
+    for i in tqdm(range(int(cfg.n_matches)), desc="matches", disable=cfg.n_matches < 2):
+        points, final = simulate_match_points(
+            models[0], models[1], names=names, fmt=fmt, surface=str(cfg.surface),
+            seed=int(cfg.seed) + i, match_id=f"sim-{i + 1}", first_server=int(cfg.first_server))
+        tables.append(points)
+        print(f"match {i + 1}: {names[final.winner]} d. {names[1 - final.winner]}  "
+              f"{_winner_view(final)}  ({len(points)} points)")
+        if i == 0:
+            probs = win_probability_path(points, pa, pb, fmt, names[0], int(cfg.first_server))
+            _plot_win_probability(probs, names, f"{names[0]} v {names[1]}: "
+                                  f"{final.score_str()}", out_dir / "win_probability.png")
+    return pd.concat(tables, ignore_index=True)
+
+
+def _winner_view(state: MatchState) -> str:
+    """Score line from the winner's side, as tennis reports it ("7-6(5) 6-4")."""
+    if state.winner == 0:
+        return state.score_str()
+    parts = []
+    for (a, b), tb in zip(state.sets, state.tiebreaks):
+        s = f"{b}-{a}"
+        if tb is not None and max(a, b) - min(a, b) == 1 and min(a, b) >= 6:
+            s += f"({min(tb)})"
+        parts.append(s)
+    return " ".join(parts)
+
+
+def run_simulation(cfg: DictConfig) -> pd.DataFrame:
+    """Entry point of `simulate.py`: returns the points table of every simulated match."""
+    if cfg.engine not in ENGINES:
+        raise ValueError(f"engine must be one of {ENGINES}, got {cfg.engine!r}")
+    if int(cfg.n_matches) < 1:
+        raise ValueError(f"n_matches must be >= 1, got {cfg.n_matches}")
+    fmt = MatchFormat(**OmegaConf.to_container(cfg.format, resolve=True))
+    out_dir = Path(str(cfg.output_dir))
+    out_dir.mkdir(parents=True, exist_ok=True)
+    if cfg.engine == "sportsngen":
+        raise NotImplementedError("the learned engine is not bundled yet; use engine=markov")
+    print(f"{cfg.player1} v {cfg.player2}, {cfg.surface}, best of {fmt.best_of}, "
+          f"engine={cfg.engine}, seed={cfg.seed}")
+    points = run_markov(cfg, fmt, out_dir)
+    print()
+    print(serve_stats_table(serve_stats(points)))
+    points.to_parquet(out_dir / "points.parquet", index=False)
+    print(f"\nwrote {out_dir / 'points.parquet'} and {out_dir / 'win_probability.png'}")
+    return points

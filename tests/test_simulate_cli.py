@@ -1,0 +1,48 @@
+"""simulate.py's engine glue: a whole Markov match through the Hydra config."""
+
+from pathlib import Path
+
+import pytest
+from hydra import compose, initialize_config_dir
+
+from sportsngen.sim.cli import run_simulation, serve_model
+from sportsngen.tennis.scoring import MatchFormat, MatchState
+
+CONF = str(Path(__file__).resolve().parents[1] / "conf")
+
+
+def _cfg(tmp_path, *overrides):
+    with initialize_config_dir(config_dir=CONF, version_base=None):
+        return compose("simulate", overrides=[f"output_dir={tmp_path}", *overrides])
+
+
+def test_markov_match_replays_to_a_finished_match(tmp_path, capsys):
+    points = run_simulation(_cfg(tmp_path, "seed=3"))
+    # The points table must itself be a legal match: replaying its winners ends it exactly.
+    names = ("Roger Federer", "Rafael Nadal")
+    state = MatchState.new(MatchFormat(best_of=3), first_server=0)
+    for server, winner in zip(points["server"], points["winner"]):
+        assert names[state.server] == server
+        state = state.point_won(names.index(winner))
+    assert state.is_over
+    assert (tmp_path / "points.parquet").exists() and (tmp_path / "win_probability.png").exists()
+    out = capsys.readouterr().out
+    assert "Roger Federer" in out and "1st in" in out
+
+
+def test_same_seed_same_match(tmp_path):
+    a = run_simulation(_cfg(tmp_path / "a", "seed=5"))
+    b = run_simulation(_cfg(tmp_path / "b", "seed=5"))
+    assert a.equals(b)
+
+
+def test_unknown_player_lists_known_ones():
+    with pytest.raises(ValueError, match="known players: .*Novak Djokovic"):
+        serve_model("Nobody Atall")
+
+
+def test_bad_engine_and_format(tmp_path):
+    with pytest.raises(ValueError, match="engine must be one of"):
+        run_simulation(_cfg(tmp_path, "engine=magic"))
+    with pytest.raises(ValueError):
+        run_simulation(_cfg(tmp_path, "format.best_of=4"))
