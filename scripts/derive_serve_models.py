@@ -15,7 +15,7 @@ import dataclasses
 import json
 from pathlib import Path
 
-from sportsngen.baselines.markov import ServeModel
+from sportsngen.baselines.serve_model import ServeModel
 from sportsngen.data.paths import SHARED_DATA_MISSING, slam_dir
 from sportsngen.data.slam import read_slam_events
 

@@ -1,9 +1,9 @@
 """What `python simulate.py` does: play matches with the chosen engine, print and save them.
 
 Engines:
-- ``markov``: the i.i.d.-point baseline (`sportsngen.baselines.markov`), one serve model per
-  player derived from the real 2011 Grand Slam data (bundled as derived figures, so it runs on
-  a clone without ../shared/data).
+- ``markov``: the i.i.d.-point baseline (`sportsngen.baselines.markov`), one serve model
+  (`sportsngen.baselines.serve_model`) per player derived from the real 2011 Grand Slam data
+  (bundled as derived figures, so it runs on a clone without ../shared/data).
 - ``sportsngen``: the learned engine; not bundled yet (the simulation issue adds it).
 """
 
@@ -21,7 +21,8 @@ import pandas as pd
 from omegaconf import DictConfig, OmegaConf
 from tqdm.auto import tqdm
 
-from sportsngen.baselines.markov import ServeModel, match_win_probability, simulate_match_points
+from sportsngen.baselines.markov import match_win_probability
+from sportsngen.baselines.serve_model import ServeModel, simulate_match_points
 from sportsngen.eval.stats import serve_stats, serve_stats_table
 from sportsngen.tennis.scoring import MatchFormat, MatchState
 

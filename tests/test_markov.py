@@ -1,0 +1,219 @@
+"""The i.i.d.-point Markov model: closed forms, exact recursion, Monte Carlo."""
+
+import numpy as np
+import pytest
+
+from sportsngen.baselines.markov import (
+    game_probability_from,
+    hold_probability,
+    match_win_probability,
+    monte_carlo_match_win,
+    set_probability,
+    simulate_match,
+    tiebreak_probability,
+)
+from sportsngen.tennis.scoring import MatchFormat, MatchState
+
+BO3 = MatchFormat()
+BO5_ADV = MatchFormat(best_of=5, final_set="advantage")
+NO_AD = MatchFormat(no_ad=True)
+MATCH_TB = MatchFormat(match_tiebreak_points=10)
+
+
+def dp_match_probability(pa, pb, start, cap=70):
+    """Independent exact answer by backward induction over every `MatchState` reachable from
+    `start`, built only from `MatchState.point_won` (no closed forms). States with more than
+    `cap` points in a game or games in a set count as a coin flip; reaching them is so
+    unlikely (< 1e-10 here) that the answer is exact to the tolerances used. Best of 1 only.
+    """
+    def cut(s):
+        return max(s.points) > cap or max(s.games) > cap
+
+    seen, stack, kids = {start}, [start], {}
+    while stack:
+        s = stack.pop()
+        kids[s] = [s.point_won(s.server), s.point_won(s.receiver)]
+        for t in kids[s]:
+            if not t.is_over and not cut(t) and t not in seen:
+                seen.add(t)
+                stack.append(t)
+    # Every point raises (sets, games, points played in the game), so this is a valid order.
+    order = sorted(seen, key=lambda s: (len(s.sets), sum(s.games), sum(s.points)), reverse=True)
+    value = {}
+    for s in order:
+        p = pa if s.server == 0 else pb
+        v = [float(t.winner == 0) if t.is_over else 0.5 if cut(t) else value[t] for t in kids[s]]
+        value[s] = v[0] * p + v[1] * (1.0 - p)  # the server wins the point w.p. p
+    return value[start]
+
+
+# --- game -------------------------------------------------------------------------------
+
+def test_hold_probability_known_value_and_symmetry():
+    assert round(hold_probability(0.6), 4) == 0.7357
+    assert hold_probability(0.5) == pytest.approx(0.5, abs=1e-15)
+    for p in (0.1, 0.35, 0.62, 0.9):
+        assert hold_probability(p) + hold_probability(1 - p) == pytest.approx(1.0, abs=1e-12)
+    assert hold_probability(0.0) == 0.0 and hold_probability(1.0) == 1.0
+    # No-ad: p^4 (1 + 4q + 10q^2 + 20q^3) = 0.1296 * 5.48
+    assert hold_probability(0.6, no_ad=True) == pytest.approx(0.710208, abs=1e-12)
+
+
+def test_game_probability_from_scores():
+    p = 0.6
+    deuce = p * p / (p * p + 0.16)
+    assert game_probability_from(p, 0, 0) == pytest.approx(hold_probability(p))
+    assert game_probability_from(p, 3, 3) == pytest.approx(deuce)
+    assert game_probability_from(p, 9, 9) == pytest.approx(deuce)
+    assert game_probability_from(p, 4, 3) == pytest.approx(p + (1 - p) * deuce)  # AD-40
+    assert game_probability_from(p, 2, 3) == pytest.approx(p * deuce)  # 30-40
+    assert game_probability_from(p, 3, 0) == pytest.approx(1 - 0.4**3 * (1 - deuce))
+    assert game_probability_from(p, 3, 3, no_ad=True) == p
+    assert game_probability_from(p, 4, 2) == 1.0 and game_probability_from(p, 5, 7) == 0.0
+    for bad in ((5, 1), (6, 3), (-1, 0)):
+        with pytest.raises(ValueError):
+            game_probability_from(p, *bad)
+    with pytest.raises(ValueError):
+        game_probability_from(p, 4, 4, no_ad=True)
+    with pytest.raises(ValueError, match="p must be"):
+        game_probability_from(1.2, 0, 0)
+
+
+# --- tie-break and set ----------------------------------------------------------------------
+
+def test_tiebreak_probability_symmetry_and_tail():
+    assert tiebreak_probability(0.5, 0.5) == pytest.approx(0.5, abs=1e-15)
+    assert tiebreak_probability(0.7, 0.7, points_to_win=10) == pytest.approx(0.5, abs=1e-12)
+    tail = 0.7 * 0.4 / (0.7 * 0.4 + 0.3 * 0.6)
+    for score in ((6, 6), (20, 20), (9, 9)):
+        assert tiebreak_probability(0.7, 0.6, 1, 7, score) == pytest.approx(tail)
+    # Who serves first does not change a tie-break's odds from 0-0 (Newton & Keller).
+    assert tiebreak_probability(0.7, 0.6, 0) == pytest.approx(tiebreak_probability(0.7, 0.6, 1))
+    # Points 1, 4-5, 8-9, 12-13 go to the first server (player 0): he serves at 6-5.
+    assert tiebreak_probability(0.7, 0.6, 0, 7, (6, 5)) == pytest.approx(0.7 + 0.3 * tail)
+    assert tiebreak_probability(0.7, 0.6, 0, 7, (7, 5)) == 1.0
+    with pytest.raises(ValueError):
+        tiebreak_probability(0.7, 0.6, 0, 7, (9, 5))
+
+
+@pytest.mark.parametrize("mode", ["tiebreak7", "tiebreak10", "advantage", "tiebreak7_at_12"])
+def test_set_probability_equal_players_and_against_dp(mode):
+    assert set_probability(0.62, 0.62, tiebreak=mode) == pytest.approx(0.5, abs=1e-12)
+    fmt = MatchFormat(best_of=1, final_set=mode)
+    exact = set_probability(0.66, 0.6, 0, tiebreak=mode)
+    assert exact == pytest.approx(dp_match_probability(0.66, 0.6, MatchState.new(fmt)), abs=1e-9)
+    # A mid-set state: 5-6, 30-40, player 1 serving.
+    state = MatchState.from_score(fmt, (), (5, 6), (3, 2), server=1)
+    mid = set_probability(0.66, 0.6, 1, (5, 6), mode, points=(3, 2))
+    assert mid == pytest.approx(dp_match_probability(0.66, 0.6, state), abs=1e-9)
+    assert mid == pytest.approx(match_win_probability(0.66, 0.6, state=state), abs=1e-12)
+
+
+@pytest.mark.parametrize("fmt,games", [
+    (MatchFormat(best_of=1), (6, 6)),
+    (MatchFormat(best_of=1, final_set="tiebreak10"), (6, 6)),
+    (MatchFormat(best_of=1, final_set="tiebreak7_at_12"), (12, 12)),
+    (MatchFormat(best_of=1, match_tiebreak_points=10), (0, 0)),
+])
+@pytest.mark.parametrize("server", [0, 1])
+def test_mid_tiebreak_against_dp(fmt, games, server):
+    """Mid-tie-break odds depend on who serves the remaining points (see the tie-break test
+    above for the serve order itself)."""
+    state = MatchState.from_score(fmt, (), games, (4, 3), server=server)
+    exact = match_win_probability(0.72, 0.6, state=state)
+    assert exact == pytest.approx(dp_match_probability(0.72, 0.6, state), abs=1e-12)
+
+
+def test_set_probability_no_ad_and_long_advantage_set():
+    fmt = MatchFormat(best_of=1, no_ad=True)
+    exact = set_probability(0.6, 0.64, 1, no_ad=True)
+    assert exact == pytest.approx(dp_match_probability(0.6, 0.64, MatchState.new(fmt, 1)))
+    # 68-68 in an advantage set is the same as 6-6 (only the lead and the server matter).
+    long = set_probability(0.6, 0.64, 0, (68, 67), "advantage")
+    assert long == pytest.approx(set_probability(0.6, 0.64, 0, (6, 5), "advantage"))
+    h0, h1 = hold_probability(0.6), hold_probability(0.64)
+    level = h0 * (1 - h1) / (h0 * (1 - h1) + (1 - h0) * h1)
+    assert set_probability(0.6, 0.64, 1, (70, 70), "advantage") == pytest.approx(level)
+
+
+def test_set_probability_errors():
+    with pytest.raises(ValueError, match="tiebreak must be"):
+        set_probability(0.6, 0.6, tiebreak="super")
+    with pytest.raises(ValueError, match="games"):
+        set_probability(0.6, 0.6, games=(7, 5))
+    with pytest.raises(ValueError, match="finished"):
+        set_probability(0.6, 0.6, games=(3, 3), points=(4, 0))
+    with pytest.raises(ValueError, match="never ends"):
+        set_probability(1.0, 1.0, games=(5, 5), tiebreak="advantage")
+
+
+# --- match ------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("fmt", [BO3, BO5_ADV, NO_AD, MATCH_TB])
+def test_match_identical_players_is_half(fmt):
+    assert match_win_probability(0.63, 0.63, fmt) == pytest.approx(0.5, abs=1e-12)
+
+
+def test_match_probability_from_set_probability_identity():
+    """Set odds do not depend on who serves first, so the match is a race of i.i.d. sets."""
+    ps = set_probability(0.65, 0.62)
+    assert match_win_probability(0.65, 0.62, BO3) == pytest.approx(ps**2 * (3 - 2 * ps))
+    pf = set_probability(0.65, 0.62, tiebreak="advantage")
+    want = ps**3 * (1 + 3 * (1 - ps)) + 6 * ps**2 * (1 - ps) ** 2 * pf
+    assert match_win_probability(0.65, 0.62, BO5_ADV) == pytest.approx(want)
+    pt = tiebreak_probability(0.65, 0.62, 0, 10)
+    want_tb = ps**2 + 2 * ps * (1 - ps) * pt
+    assert match_win_probability(0.65, 0.62, MATCH_TB) == pytest.approx(want_tb)
+
+
+def test_match_probability_monotone_in_pa():
+    pas = np.linspace(0.3, 0.9, 13)
+    for fmt in (BO3, BO5_ADV):
+        probs = [match_win_probability(pa, 0.6, fmt) for pa in pas]
+        assert np.all(np.diff(probs) > 0)
+
+
+def test_match_probability_finished_and_nearly_finished_states():
+    over = MatchState.from_score(BO3, ((6, 4), (6, 3)), (0, 0), (0, 0), server=0)
+    assert match_win_probability(0.3, 0.9, state=over) == 1.0
+    lost = MatchState.from_score(BO3, ((4, 6), (3, 6)), (0, 0), (0, 0), server=0)
+    assert match_win_probability(0.9, 0.3, state=lost) == 0.0
+    # Match point on player 0's serve at 6-4 5-4 40-0: he loses only by losing the game
+    # and then the set from 5-5.
+    mp = MatchState.from_score(BO3, ((6, 4),), (5, 4), (3, 0), server=0)
+    got = match_win_probability(0.6, 0.6, state=mp)
+    assert 1 - got == pytest.approx((1 - game_probability_from(0.6, 3, 0))
+                                    * (1 - set_probability(0.6, 0.6, 1, (5, 5)))
+                                    * (1 - set_probability(0.6, 0.6)), abs=1e-12)
+    with pytest.raises(ValueError, match="differs"):
+        match_win_probability(0.6, 0.6, BO5_ADV, state=mp)
+
+
+# One set all, 4-5, 30-40, player 0 serving.
+MID = MatchState.from_score(BO3, ((6, 3), (4, 6)), (4, 5), (2, 3), server=0)
+MC_CASES = [
+    (0.65, 0.60, BO3, None),
+    (0.62, 0.64, BO5_ADV, None),
+    (0.60, 0.55, NO_AD, None),
+    (0.58, 0.62, MATCH_TB, None),
+    (0.66, 0.62, BO3, MID),
+    (0.64, 0.66, BO5_ADV, MatchState.from_score(BO5_ADV, ((6, 4), (3, 6), (7, 6), (4, 6)),
+                                                (8, 8), (1, 2), server=1)),
+    (0.6, 0.6, MATCH_TB, MatchState.from_score(MATCH_TB, ((6, 4), (4, 6)), (0, 0), (6, 7),
+                                               server=1)),
+    (0.62, 0.6, BO3, MatchState.from_score(BO3, ((7, 6),), (6, 6), (5, 4), server=1)),
+]
+
+
+@pytest.mark.parametrize("pa,pb,fmt,state", MC_CASES)
+def test_exact_against_monte_carlo(pa, pb, fmt, state):
+    exact = match_win_probability(pa, pb, fmt, state)
+    p_hat, se = monte_carlo_match_win(pa, pb, fmt, n=1500, seed=11, state=state)
+    assert abs(p_hat - exact) < 3 * se, (exact, p_hat, se)
+
+
+def test_simulate_match_plays_to_the_end():
+    rng = np.random.default_rng(3)
+    final = simulate_match(0.6, 0.6, BO5_ADV, rng)
+    assert final.is_over and max(final.sets_won) == 3
+    assert simulate_match(1.0, 0.0, BO3, rng).score_str() == "6-0 6-0"
