@@ -1,0 +1,358 @@
+"""Windows of tracking frames -> model inputs (object tokens, context) and next-frame targets.
+
+Per frame there are three objects in a fixed order, [server, receiver, ball]. Each object token
+carries an identity index (a learned embedding in the model) and eight numbers normalised by
+constants of the sport: position (3), velocity (3, backward finite difference, so a token never
+sees the future), distance to the ball (0 for the ball) and time since the rally began. The
+context of a window is its rally's surface, tournament, first/second serve and a numeric score
+vector. The target of a frame is every object's position at the next frame; the model turns it
+into bin indices around a centre (`centre_m`) with `sportsngen.model.bins`.
+
+`rally_arrays` converts a `RallyData` once into flat numpy arrays; `WindowDataset` cuts windows
+from them (random crops and augmentation when training, a fixed tiling otherwise).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+import torch
+from torch.utils.data import Dataset, get_worker_info
+
+from sportsngen.data.tracking import DIRECTIONS, ERROR_KINDS, OUTCOMES, STROKES, SURFACES, RallyData
+from sportsngen.tennis.court import BASELINE_X_M, SINGLES_HALF_WIDTH_M
+
+OBJECTS = ("server", "receiver", "ball")
+N_OBJECTS = len(OBJECTS)
+BALL = 2                     # index of the ball among the objects of a frame
+BALL_ID, GENERIC_ID = 0, 1   # identity indices reserved before the named players
+N_SPECIAL_IDS = 2
+N_FEATURES = 8               # position 3, velocity 3, distance to ball 1, elapsed time 1
+
+# Normalising constants (sport scale, so features are O(1)).
+POS_SCALE_M = (BASELINE_X_M, SINGLES_HALF_WIDTH_M, 3.0)
+VEL_SCALE_MPS = 10.0
+DIST_SCALE_M = 10.0
+TIME_SCALE_S = 10.0
+
+SCORE_FIELDS = ("server_sets", "receiver_sets", "server_games", "receiver_games",
+                "server_points", "receiver_points", "in_tiebreak")
+SCORE_SCALE = (3.0, 3.0, 6.0, 6.0, 4.0, 4.0, 1.0)
+LABELS = {"stroke": STROKES, "direction": DIRECTIONS, "outcome": OUTCOMES,
+          "error_kind": ERROR_KINDS}
+
+# The paper's ball noise at 25 Hz: +-25 mm in x, +-12.5 mm in y and z.
+BALL_NOISE_M_AT_25HZ = (0.025, 0.0125, 0.0125)
+UNKNOWN_POLICIES = ("generic", "warn", "error")
+
+
+@dataclass
+class Vocab:
+    """Names -> indices for players (after the ball and generic ids), surfaces, tournaments.
+
+    Tournament index 0 is "unknown". A generic model has no players: everyone maps to the
+    generic identity.
+    """
+
+    players: tuple[str, ...] = ()
+    surfaces: tuple[str, ...] = SURFACES
+    tournaments: tuple[str, ...] = ()
+
+    @classmethod
+    def from_data(cls, data: RallyData, generic: bool = False) -> Vocab:
+        """Players and tournaments seen in `data` (sorted); no players when `generic`."""
+        r = data.rallies
+        players = () if generic else tuple(sorted(set(r["server"]) | set(r["receiver"])))
+        return cls(players=players, tournaments=tuple(sorted(set(r["tournament"]))))
+
+    @property
+    def n_ids(self) -> int:
+        return N_SPECIAL_IDS + len(self.players)
+
+    def _lookup(self, kind: str, name: str, names: tuple[str, ...], unknown: str,
+                fallback: int, offset: int) -> int:
+        if name in names:
+            return names.index(name) + offset
+        if unknown not in UNKNOWN_POLICIES:
+            raise ValueError(f"unknown policy must be one of {UNKNOWN_POLICIES}, got {unknown!r}")
+        if unknown == "error":
+            raise ValueError(f"unknown {kind} {name!r}; known: {list(names)}")
+        if unknown == "warn":
+            warnings.warn(f"unknown {kind} {name!r}: using the generic one", stacklevel=3)
+        return fallback
+
+    def player_index(self, name: str, unknown: str = "warn") -> int:
+        """Identity index of a player; unknown -> generic (silently, with a warning) or error."""
+        if not self.players:  # a generic model: everyone is the generic player, by design
+            return GENERIC_ID
+        return self._lookup("player", name, self.players, unknown, GENERIC_ID, N_SPECIAL_IDS)
+
+    def surface_index(self, name: str, unknown: str = "warn") -> int:
+        """Index of a surface; an unknown one -> the first ("hard") or error, by policy."""
+        return self._lookup("surface", name, self.surfaces, unknown, 0, 0)
+
+    def tournament_index(self, name: str, unknown: str = "generic") -> int:
+        """Index of a tournament, 0 for an unknown one."""
+        return self._lookup("tournament", name, self.tournaments, unknown, 0, 1)
+
+    def with_player(self, name: str) -> Vocab:
+        """A copy with `name` appended (existing indices unchanged)."""
+        if name in self.players:
+            raise ValueError(f"player {name!r} is already in the vocabulary")
+        return Vocab(self.players + (name,), self.surfaces, self.tournaments)
+
+    def to_dict(self) -> dict:
+        return {"players": list(self.players), "surfaces": list(self.surfaces),
+                "tournaments": list(self.tournaments)}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Vocab:
+        return cls(tuple(d["players"]), tuple(d["surfaces"]), tuple(d["tournaments"]))
+
+
+def score_vector(server_sets, receiver_sets, server_games, receiver_games, server_points,
+                 receiver_points, in_tiebreak) -> np.ndarray:
+    """Normalised score features (order `SCORE_FIELDS`, server's view); scalars or arrays.
+
+    The same quantities as the first seven of `MatchState.score_vector()` (see
+    `score_features`): points are deuce-reduced (a long deuce game maps onto 40-40 or
+    advantage, a long tie-break onto 6-6 or one point more) so they stay bounded.
+    """
+    sp = np.asarray(server_points, dtype=np.float32)
+    rp = np.asarray(receiver_points, dtype=np.float32)
+    tb = np.asarray(in_tiebreak, dtype=np.float32)
+    excess = np.maximum(np.minimum(sp, rp) - np.where(tb > 0, 6.0, 3.0), 0.0)
+    cols = [server_sets, receiver_sets, server_games, receiver_games, sp - excess, rp - excess, tb]
+    out = np.stack([np.asarray(c, dtype=np.float32) / s for c, s in zip(cols, SCORE_SCALE)],
+                   axis=-1)
+    return out.astype(np.float32)
+
+
+def score_features(match_score_vector) -> np.ndarray:
+    """Model score features from `MatchState.score_vector()` (its first seven fields, raw
+    counts from the server's view, already deuce-reduced): for the simulator."""
+    v = np.asarray(match_score_vector, dtype=np.float32)[..., :len(SCORE_FIELDS)]
+    return (v / np.asarray(SCORE_SCALE, dtype=np.float32)).astype(np.float32)
+
+
+@dataclass
+class RallyArrays:
+    """All rallies of a `RallyData` as flat arrays; rally i owns rows start[i]:+length[i]."""
+
+    pos_m: np.ndarray        # (n_rows, 3 objects, 3) float32
+    labels: np.ndarray       # (n_rows, 4) int64: stroke, direction, outcome, error_kind
+    start: np.ndarray        # (n_rallies,) int64
+    length: np.ndarray       # (n_rallies,) int64
+    rally_id: np.ndarray     # (n_rallies,) int64
+    ident: np.ndarray        # (n_rallies, 3) int64: server, receiver, ball identity indices
+    surface: np.ndarray      # (n_rallies,) int64
+    tournament: np.ndarray   # (n_rallies,) int64
+    serve: np.ndarray        # (n_rallies,) int64: 0 first serve, 1 second serve
+    score: np.ndarray        # (n_rallies, 7) float32
+    fps: float
+    meta: dict = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.rally_id)
+
+    def select(self, idx: np.ndarray) -> RallyArrays:
+        """The rallies at positions `idx`, re-packed."""
+        idx = np.asarray(idx, dtype=np.int64)
+        rows = np.concatenate([np.arange(s, s + n) for s, n in
+                               zip(self.start[idx], self.length[idx])]) if len(idx) else \
+            np.zeros(0, dtype=np.int64)
+        length = self.length[idx]
+        start = np.concatenate([[0], np.cumsum(length)[:-1]]).astype(np.int64)
+        return RallyArrays(self.pos_m[rows], self.labels[rows], start, length,
+                           self.rally_id[idx], self.ident[idx], self.surface[idx],
+                           self.tournament[idx], self.serve[idx], self.score[idx], self.fps,
+                           dict(self.meta))
+
+
+def rally_arrays(data: RallyData, vocab: Vocab, unknown: str = "warn") -> RallyArrays:
+    """Convert `data` once into `RallyArrays` (vectorised over frames).
+
+    Raises ValueError naming the rally when an object is missing at some frame, an object is
+    neither the server, the receiver nor the ball, or a coordinate is not finite.
+    """
+    r = data.rallies.reset_index(drop=True)
+    f = data.frames
+    if len(r) == 0:
+        raise ValueError("no rallies in the data")
+    rid_to_pos = {int(v): i for i, v in enumerate(r["rally_id"])}
+    ridx = f["rally_id"].map(rid_to_pos).to_numpy(dtype=np.int64)
+    obj = f["object"].to_numpy(dtype=object)
+    slot = np.full(len(f), -1, dtype=np.int64)
+    slot[obj == "ball"] = BALL
+    slot[obj == r["server"].to_numpy(dtype=object)[ridx]] = 0
+    slot[obj == r["receiver"].to_numpy(dtype=object)[ridx]] = 1
+    if (slot < 0).any():
+        i = int(np.flatnonzero(slot < 0)[0])
+        raise ValueError(f"rally {int(f['rally_id'].iat[i])}: object {obj[i]!r} is neither the "
+                         "server, the receiver nor the ball (only singles is supported)")
+    frame = f["frame"].to_numpy(dtype=np.int64)
+    first = np.full(len(r), np.iinfo(np.int64).max)
+    np.minimum.at(first, ridx, frame)
+    last = np.full(len(r), -1)
+    np.maximum.at(last, ridx, frame)
+    if (last < 0).any():
+        bad = int(r["rally_id"].iat[int(np.flatnonzero(last < 0)[0])])
+        raise ValueError(f"rally {bad}: no frames")
+    length = (last - first + 1).astype(np.int64)
+    start = np.concatenate([[0], np.cumsum(length)[:-1]]).astype(np.int64)
+    row = start[ridx] + frame - first[ridx]
+    n_rows = int(length.sum())
+    pos = np.full((n_rows, N_OBJECTS, 3), np.nan, dtype=np.float32)
+    pos[row, slot] = f[["x", "y", "z"]].to_numpy(dtype=np.float32)
+    count = np.zeros((n_rows, N_OBJECTS), dtype=np.int64)
+    np.add.at(count, (row, slot), 1)
+    bad_row = (count != 1).any(axis=1) | ~np.isfinite(pos).all(axis=(1, 2))
+    if bad_row.any():
+        ri = int(np.searchsorted(start, np.flatnonzero(bad_row)[0], side="right") - 1)
+        raise ValueError(f"rally {int(r['rally_id'].iat[ri])}: every frame needs exactly one "
+                         "finite server, receiver and ball position")
+    labels = np.zeros((n_rows, len(LABELS)), dtype=np.int64)
+    is_ball = slot == BALL
+    for j, (col, vocab_l) in enumerate(LABELS.items()):
+        codes = {v: i for i, v in enumerate(vocab_l)}
+        labels[row[is_ball], j] = f.loc[is_ball, col].map(codes).fillna(0).to_numpy(np.int64)
+    names = sorted(set(r["server"]) | set(r["receiver"]))  # one lookup (and warning) a name
+    pid = {name: vocab.player_index(name, unknown) for name in names}
+    ident = np.stack([r["server"].map(pid).to_numpy(np.int64),
+                      r["receiver"].map(pid).to_numpy(np.int64),
+                      np.full(len(r), BALL_ID, dtype=np.int64)], axis=1)
+    surf_idx = {s: vocab.surface_index(s, unknown) for s in set(r["surface"])}
+    tour_idx = {t: vocab.tournament_index(t) for t in set(r["tournament"])}
+    score = score_vector(*(r[c].to_numpy() for c in SCORE_FIELDS))
+    return RallyArrays(
+        pos_m=pos, labels=labels, start=start, length=length,
+        rally_id=r["rally_id"].to_numpy(np.int64), ident=ident,
+        surface=r["surface"].map(surf_idx).to_numpy(np.int64),
+        tournament=r["tournament"].map(tour_idx).to_numpy(np.int64),
+        serve=(r["serve_number"].to_numpy(np.int64) - 1).clip(0, 1), score=score,
+        fps=float(data.fps))
+
+
+def centre_m(pos_m: torch.Tensor, vel_mps: torch.Tensor, fps: float, mode: str) -> torch.Tensor:
+    """Where the bins of the next-frame offset are centred: the current position ("current",
+    the paper) or a constant-velocity extrapolation ("cv")."""
+    if mode == "current":
+        return pos_m
+    if mode == "cv":
+        return pos_m + vel_mps / fps
+    raise ValueError(f"bin centre must be 'current' or 'cv', got {mode!r}")
+
+
+def object_features(pos_m: torch.Tensor, vel_mps: torch.Tensor, t_s: torch.Tensor) -> torch.Tensor:
+    """(..., T, 3, 3) positions and velocities, (..., T) times -> (..., T, 3, N_FEATURES)."""
+    scale = torch.tensor(POS_SCALE_M, dtype=pos_m.dtype, device=pos_m.device)
+    dist = torch.linalg.vector_norm(pos_m - pos_m[..., BALL:BALL + 1, :], dim=-1, keepdim=True)
+    t = (t_s / TIME_SCALE_S)[..., None, None].expand(*pos_m.shape[:-1], 1)
+    return torch.cat([pos_m / scale, vel_mps / VEL_SCALE_MPS, dist / DIST_SCALE_M, t], dim=-1)
+
+
+def flip_xy(arr: np.ndarray) -> np.ndarray:
+    """Rotate by 180 degrees about the vertical through the net centre: (x, y) -> (-x, -y)."""
+    out = arr.copy()
+    out[..., :2] *= -1
+    return out
+
+
+def ball_noise_amplitudes(fps: float) -> tuple[np.ndarray, np.ndarray]:
+    """(position m, velocity m/s) half-widths of the uniform ball noise at frame rate `fps`.
+
+    The paper's values are per frame at 25 Hz; the position noise scales with the frame
+    interval so that it stays the same fraction of a frame's motion, and the velocity noise is
+    that position noise over one frame (the same in m/s at any rate).
+    """
+    pos = np.asarray(BALL_NOISE_M_AT_25HZ, dtype=np.float32) * (25.0 / fps)
+    return pos, pos * fps
+
+
+@dataclass
+class Augment:
+    """Training augmentation switches."""
+
+    flip: bool = True          # x-and-y flip with probability 1/2
+    ball_noise: bool = True    # uniform noise on the ball's input position and velocity
+    random_crop: bool = True   # random window starts (else a fixed tiling)
+
+
+class WindowDataset(Dataset):
+    """Windows of `window_frames` frames cut from `RallyArrays`.
+
+    Without `augment`, windows tile each rally from its start (the last one padded). With it,
+    each rally gives ceil(length / window) windows at random starts, flipped and noised.
+    """
+
+    def __init__(self, arrays: RallyArrays, window_frames: int, augment: Augment | None = None,
+                 seed: int = 0):
+        if window_frames < 2:
+            raise ValueError(f"window_frames must be at least 2, got {window_frames}")
+        self.a = arrays
+        self.window = int(window_frames)
+        self.augment = augment
+        self.seed = seed
+        self.rng = np.random.default_rng(seed)
+        self._worker: int | None = None
+        n_win = -(-arrays.length // self.window)
+        self.items = [(i, k * self.window) for i, n in enumerate(n_win) for k in range(n)]
+
+    def __len__(self) -> int:
+        return len(self.items)
+
+    def __getitem__(self, idx: int) -> dict:
+        info = get_worker_info()
+        if info is not None and info.id != self._worker:  # each loader worker its own stream
+            self.rng = np.random.default_rng([self.seed, info.seed % 2 ** 32])
+            self._worker = info.id
+        ri, s = self.items[idx]
+        a, w, aug = self.a, self.window, self.augment
+        n = int(a.length[ri])
+        if aug is not None and aug.random_crop:
+            s = int(self.rng.integers(0, max(n - w, 0) + 1))
+        rows = a.pos_m[a.start[ri]:a.start[ri] + n]
+        m = min(w, n - s)
+        pos = np.zeros((w, N_OBJECTS, 3), dtype=np.float32)
+        nxt = np.zeros_like(pos)
+        prev = np.zeros_like(pos)
+        pos[:m] = rows[s:s + m]
+        prev[:m] = rows[max(s - 1, 0):s + m - 1] if s > 0 else np.concatenate(
+            [rows[:1], rows[:m - 1]])
+        n_next = min(m, n - s - 1)
+        nxt[:n_next] = rows[s + 1:s + 1 + n_next]
+        vel = (pos - prev) * a.fps  # backward difference: 0 at the rally's first frame
+        valid = np.arange(w) < m
+        has_next = np.arange(w) < n_next
+        vel[~valid] = 0.0
+        labels = np.zeros((w, len(LABELS)), dtype=np.int64)
+        labels[:m] = a.labels[a.start[ri] + s:a.start[ri] + s + m]
+        if aug is not None:
+            if aug.ball_noise:
+                p_amp, v_amp = ball_noise_amplitudes(a.fps)
+                pos[:m, BALL] += self.rng.uniform(-1, 1, (m, 3)).astype(np.float32) * p_amp
+                vel[:m, BALL] += self.rng.uniform(-1, 1, (m, 3)).astype(np.float32) * v_amp
+                pos[:m, BALL, 2] = np.maximum(pos[:m, BALL, 2], 0.0)
+            if aug.flip and self.rng.random() < 0.5:
+                pos, vel, nxt = flip_xy(pos), flip_xy(vel), flip_xy(nxt)
+        return {
+            "rally_id": int(a.rally_id[ri]), "pos_m": pos, "vel_mps": vel, "next_pos_m": nxt,
+            "t_s": ((s + np.arange(w)) / a.fps).astype(np.float32), "valid": valid,
+            "has_next": has_next, "ident": a.ident[ri], "surface": int(a.surface[ri]),
+            "tournament": int(a.tournament[ri]), "serve": int(a.serve[ri]),
+            "score": a.score[ri], "labels": labels,
+        }
+
+
+def check_finite(batch: dict) -> None:
+    """Raise ValueError naming the rallies whose window holds NaN or infinite numbers."""
+    bad = torch.zeros(batch["pos_m"].shape[0], dtype=torch.bool, device=batch["pos_m"].device)
+    for key in ("pos_m", "vel_mps", "next_pos_m", "t_s", "score"):
+        x = batch[key]
+        bad |= ~torch.isfinite(x).reshape(x.shape[0], -1).all(dim=1)
+    if bad.any():
+        ids = [int(v) for v in batch["rally_id"][bad].tolist()]
+        raise ValueError(f"NaN or infinite value in the batch, rally {ids[0]}"
+                         + (f" (and rallies {ids[1:]})" if len(ids) > 1 else ""))

@@ -1,0 +1,85 @@
+"""Model hyper-parameters as one plain dataclass (what Hydra's `model` group fills in)."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields
+
+HEAD_KINDS = ("joint", "factorised")
+BIN_SPACINGS = ("uniform", "nonuniform")
+BIN_CENTRES = ("current", "cv")
+
+
+@dataclass
+class ModelConfig:
+    """Decoder f (and event classifier g) sizes, output bins and data conventions.
+
+    The vocabulary sizes (`n_ids`, `n_tournaments`) come from the data's `Vocab` at build time.
+    """
+
+    d_model: int = 128
+    n_layers: int = 4
+    n_heads: int = 4
+    ff_mult: int = 4
+    dropout: float = 0.1
+    id_dim: int = 22                     # identity size (22 + 8 features = the paper's 30)
+    embed_hidden: tuple[int, ...] = (256, 512)
+    score_hidden: int = 64
+    n_bins: int = 61                     # per dimension
+    head: str = "factorised"             # "joint" (paper) or "factorised" (x, y|x, z|x,y)
+    head_hidden: int = 128               # width of the factorised heads' conditional MLPs
+    bin_spacing: str = "uniform"         # "uniform" (paper) or "nonuniform" (finer near 0)
+    bin_centre: str = "current"          # "current" (paper) or "cv" (constant velocity)
+    player_max_speed_mps: float = 10.0   # bin range: offsets up to this speed over one frame
+    ball_max_speed_mps: tuple[float, float, float] = (80.0, 40.0, 40.0)
+    window_s: float = 6.0
+    fps: float = 25.0
+    generic_identity: bool = False       # every player shares one learned generic identity
+    unknown: str = "warn"                # unknown player/surface at inference: generic|warn|error
+    n_ids: int = 2                       # ball + generic + named players (set from the Vocab)
+    n_tournaments: int = 1               # unknown + named tournaments (set from the Vocab)
+    n_surfaces: int = 3
+    # Event classifier g (smaller, bidirectional).
+    event_d_model: int = 64
+    event_layers: int = 2
+    event_heads: int = 4
+
+    def __post_init__(self) -> None:
+        self.embed_hidden = tuple(int(v) for v in self.embed_hidden)
+        self.ball_max_speed_mps = tuple(float(v) for v in self.ball_max_speed_mps)
+        if self.head not in HEAD_KINDS:
+            raise ValueError(f"model.head must be one of {HEAD_KINDS}, got {self.head!r}")
+        if self.bin_spacing not in BIN_SPACINGS:
+            raise ValueError(f"model.bin_spacing must be one of {BIN_SPACINGS}, "
+                             f"got {self.bin_spacing!r}")
+        if self.bin_centre not in BIN_CENTRES:
+            raise ValueError(f"model.bin_centre must be one of {BIN_CENTRES}, "
+                             f"got {self.bin_centre!r}")
+        if self.d_model % self.n_heads or self.event_d_model % self.event_heads:
+            raise ValueError("model.d_model (event_d_model) must be divisible by n_heads "
+                             f"(event_heads): {self.d_model}/{self.n_heads}, "
+                             f"{self.event_d_model}/{self.event_heads}")
+        if self.n_bins < 3 or self.n_bins % 2 == 0:
+            raise ValueError(f"model.n_bins must be odd and >= 3 (a bin centred on 0), "
+                             f"got {self.n_bins}")
+        if len(self.ball_max_speed_mps) != 3:
+            raise ValueError("model.ball_max_speed_mps needs 3 values (x, y, z)")
+
+    @property
+    def window_frames(self) -> int:
+        return max(2, int(round(self.window_s * self.fps)))
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["embed_hidden"] = list(self.embed_hidden)
+        d["ball_max_speed_mps"] = list(self.ball_max_speed_mps)
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> ModelConfig:
+        """Build from a dict (or Hydra DictConfig); unknown keys are an error."""
+        d = dict(d)
+        known = {f.name for f in fields(cls)}
+        extra = sorted(set(d) - known)
+        if extra:
+            raise ValueError(f"unknown model config keys {extra}; known: {sorted(known)}")
+        return cls(**d)

@@ -1,0 +1,65 @@
+"""A self-contained model file: weights + config + vocabularies, loadable without Hydra.
+
+`save_model(path, model, vocab, event_classifier=None)` writes one `torch.save` file of plain
+types (dicts, lists, tensors), so `load_model` reads it with `weights_only=True`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import torch
+
+from sportsngen.data.tokens import Vocab
+from sportsngen.model.config import ModelConfig
+from sportsngen.model.decoder import SportsNGEN
+from sportsngen.model.event_classifier import EventClassifier
+
+FORMAT = "sportsngen-model"
+VERSION = 1
+
+
+def save_model(path: str | Path, model: SportsNGEN, vocab: Vocab,
+               event_classifier: EventClassifier | None = None, extra: dict | None = None) -> Path:
+    """Write the decoder (and optionally the event classifier) with config and vocab."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if model.cfg.n_ids != vocab.n_ids and not model.cfg.generic_identity:
+        raise ValueError(f"model has {model.cfg.n_ids} identities but the vocab {vocab.n_ids}")
+    blob = {
+        "format": FORMAT, "version": VERSION, "config": model.cfg.to_dict(),
+        "vocab": vocab.to_dict(),
+        "decoder": {k: v.detach().cpu() for k, v in model.state_dict().items()},
+        "event_classifier": None if event_classifier is None else
+        {k: v.detach().cpu() for k, v in event_classifier.state_dict().items()},
+        "extra": dict(extra or {}),
+    }
+    torch.save(blob, path)
+    return path
+
+
+def is_model_file(blob: dict) -> bool:
+    return isinstance(blob, dict) and blob.get("format") == FORMAT
+
+
+def load_model(path: str | Path, map_location: str | torch.device = "cpu"):
+    """-> (model in eval mode, event classifier or None, Vocab, ModelConfig)."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no model file at {path}")
+    blob = torch.load(path, map_location=map_location, weights_only=True)
+    if not is_model_file(blob):
+        raise ValueError(f"{path} is not a sportsngen model file (a Lightning checkpoint? "
+                         "export it with sportsngen.model.export.save_model)")
+    if blob["version"] > VERSION:
+        raise ValueError(f"{path} has format version {blob['version']}, newer than {VERSION}")
+    cfg = ModelConfig.from_dict(blob["config"])
+    model = SportsNGEN(cfg)
+    model.load_state_dict(blob["decoder"])
+    model.eval()
+    ec = None
+    if blob["event_classifier"] is not None:
+        ec = EventClassifier(cfg)
+        ec.load_state_dict(blob["event_classifier"])
+        ec.eval()
+    return model, ec, Vocab.from_dict(blob["vocab"]), cfg

@@ -1,0 +1,106 @@
+"""Output heads over binned offsets: joint (the paper) or an exact factorisation.
+
+Joint: one softmax over all n^dims cells (61^2 for a player, 61^3 = 226,981 for the ball).
+Factorised: p(x) p(y | x) p(z | x, y); each conditional is a small MLP over the hidden state and
+learned embeddings of the bins already chosen. It is exact (any joint distribution can be
+written so) and needs O(n) outputs instead of O(n^dims).
+
+Every head offers the same calls: `nll(h, idx)`, `top1(h)` and `sample(h, top_p, generator)`.
+"""
+
+from __future__ import annotations
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from sportsngen.model.sampling import sample_top_p
+
+
+class JointHead(nn.Module):
+    def __init__(self, d_model: int, n_bins: int, dims: int):
+        super().__init__()
+        self.n_bins, self.dims = n_bins, dims
+        self.proj = nn.Linear(d_model, n_bins ** dims)
+
+    def _unflat(self, flat: torch.Tensor) -> torch.Tensor:
+        out = []
+        for _ in range(self.dims):
+            out.append(flat % self.n_bins)
+            flat = flat // self.n_bins
+        return torch.stack(out[::-1], dim=-1)
+
+    def _flat(self, idx: torch.Tensor) -> torch.Tensor:
+        out = idx[..., 0]
+        for d in range(1, self.dims):
+            out = out * self.n_bins + idx[..., d]
+        return out
+
+    def logits(self, h: torch.Tensor) -> torch.Tensor:
+        return self.proj(h)
+
+    def nll(self, h: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:
+        """(..., d), (..., dims) -> (...) negative log-likelihood in nats."""
+        logits = self.proj(h)
+        return F.cross_entropy(logits.reshape(-1, logits.shape[-1]), self._flat(idx).reshape(-1),
+                               reduction="none").reshape(idx.shape[:-1])
+
+    def top1(self, h: torch.Tensor) -> torch.Tensor:
+        return self._unflat(self.proj(h).argmax(dim=-1))
+
+    def sample(self, h: torch.Tensor, top_p: float = 1.0,
+               generator: torch.Generator | None = None) -> torch.Tensor:
+        return self._unflat(sample_top_p(self.proj(h), top_p, generator))
+
+
+class FactorisedHead(nn.Module):
+    def __init__(self, d_model: int, n_bins: int, dims: int, hidden: int = 128,
+                 bin_emb: int = 32):
+        super().__init__()
+        self.n_bins, self.dims = n_bins, dims
+        self.first = nn.Linear(d_model, n_bins)
+        self.bin_emb = nn.ModuleList(nn.Embedding(n_bins, bin_emb) for _ in range(dims - 1))
+        self.cond = nn.ModuleList(
+            nn.Sequential(nn.Linear(d_model + (k + 1) * bin_emb, hidden), nn.GELU(),
+                          nn.Linear(hidden, n_bins))
+            for k in range(dims - 1))
+
+    def dim_logits(self, h: torch.Tensor, prev: torch.Tensor, k: int) -> torch.Tensor:
+        """Logits of dimension k given the bins `prev` (..., >= k) of dimensions 0..k-1."""
+        if k == 0:
+            return self.first(h)
+        embs = [self.bin_emb[j](prev[..., j]) for j in range(k)]
+        return self.cond[k - 1](torch.cat([h, *embs], dim=-1))
+
+    def nll(self, h: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:
+        """Teacher-forced: sum over dimensions of -log p(idx_k | h, idx_<k)."""
+        total = 0.0
+        for k in range(self.dims):
+            logits = self.dim_logits(h, idx, k)
+            total = total + F.cross_entropy(logits.reshape(-1, self.n_bins),
+                                            idx[..., k].reshape(-1),
+                                            reduction="none").reshape(idx.shape[:-1])
+        return total
+
+    def _decode(self, h: torch.Tensor, pick) -> torch.Tensor:
+        chosen = torch.zeros(*h.shape[:-1], self.dims, dtype=torch.long, device=h.device)
+        for k in range(self.dims):
+            chosen[..., k] = pick(self.dim_logits(h, chosen, k))
+        return chosen
+
+    def top1(self, h: torch.Tensor) -> torch.Tensor:
+        """Greedy, dimension by dimension (not always the joint argmax)."""
+        return self._decode(h, lambda lg: lg.argmax(dim=-1))
+
+    def sample(self, h: torch.Tensor, top_p: float = 1.0,
+               generator: torch.Generator | None = None) -> torch.Tensor:
+        """Dimension by dimension, each with its own nucleus."""
+        return self._decode(h, lambda lg: sample_top_p(lg, top_p, generator))
+
+
+def make_head(kind: str, d_model: int, n_bins: int, dims: int, hidden: int) -> nn.Module:
+    if kind == "joint":
+        return JointHead(d_model, n_bins, dims)
+    if kind == "factorised":
+        return FactorisedHead(d_model, n_bins, dims, hidden)
+    raise ValueError(f"head kind must be 'joint' or 'factorised', got {kind!r}")

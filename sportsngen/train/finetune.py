@@ -1,0 +1,102 @@
+"""Fine-tuning player identities: add a player to a trained model and learn only their row.
+
+A generic model (``model.generic_identity: true``, its Vocab has no players) maps every player to
+one learned generic identity. `add_player` appends a new identity row, initialised from the
+generic one, without touching the others; `freeze_except_identity` then leaves only chosen rows
+trainable (a gradient hook zeroes the other rows' gradients, and the optimiser gives embeddings
+no weight decay, so the other rows stay bit-identical).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import torch
+from torch import nn
+
+from sportsngen.data.tokens import GENERIC_ID, Vocab
+from sportsngen.data.tracking import RallyData
+from sportsngen.model.config import ModelConfig
+from sportsngen.model.decoder import SportsNGEN
+from sportsngen.model.export import is_model_file, load_model
+
+
+def load_pretrained(path: str | Path):
+    """A model file (`save_model`) or a Lightning checkpoint of `DecoderModule` ->
+    (model, event classifier or None, Vocab, ModelConfig)."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no model file or checkpoint at {path}")
+    blob = torch.load(path, map_location="cpu", weights_only=False)
+    if is_model_file(blob):
+        return load_model(path)
+    hp = blob.get("hyper_parameters", {}) if isinstance(blob, dict) else {}
+    if "model_cfg" not in hp or "vocab" not in hp:
+        raise ValueError(f"{path} is neither a sportsngen model file nor a DecoderModule "
+                         "checkpoint (no model_cfg/vocab hyper-parameters)")
+    cfg = ModelConfig.from_dict(hp["model_cfg"])
+    model = SportsNGEN(cfg)
+    state = {k[len("model."):]: v for k, v in blob["state_dict"].items()
+             if k.startswith("model.")}
+    model.load_state_dict(state)
+    return model, None, Vocab.from_dict(hp["vocab"]), cfg
+
+
+def check_data_matches(cfg: ModelConfig, vocab: Vocab, data: RallyData) -> None:
+    """Raise ValueError when the data cannot be fed to a model of this config/vocab."""
+    if abs(float(data.fps) - float(cfg.fps)) > 1e-9:
+        raise ValueError(f"the model was trained at {cfg.fps:g} Hz but the data is "
+                         f"{data.fps:g} Hz; resample the data or train a new model")
+    if cfg.n_ids != vocab.n_ids and not cfg.generic_identity:
+        raise ValueError(f"model config has {cfg.n_ids} identities but its vocabulary "
+                         f"{vocab.n_ids}: config and vocabulary do not belong together")
+    if cfg.n_tournaments != len(vocab.tournaments) + 1:
+        raise ValueError(f"model config has {cfg.n_tournaments} tournaments but its "
+                         f"vocabulary {len(vocab.tournaments) + 1}")
+    unknown = sorted(set(data.rallies["surface"]) - set(vocab.surfaces))
+    if unknown:
+        raise ValueError(f"surfaces {unknown} are not in the model's {list(vocab.surfaces)}")
+
+
+def add_player(model: SportsNGEN, vocab: Vocab, name: str):
+    """-> (new model, new Vocab, identity index of `name`). Existing rows are copied unchanged;
+    the new row starts from the generic identity. A player already known keeps their row."""
+    if name in vocab.players:
+        return model, vocab, vocab.player_index(name)
+    new_vocab = vocab.with_player(name)
+    # A generic model's other players stay generic (silently): they are unknown by design.
+    unknown = "generic" if model.cfg.generic_identity or not vocab.players else model.cfg.unknown
+    cfg = dataclasses.replace(model.cfg, n_ids=new_vocab.n_ids, generic_identity=False,
+                              unknown=unknown)
+    new = SportsNGEN(cfg)
+    state = model.state_dict()
+    old_w = state["embed.identity.weight"]
+    state["embed.identity.weight"] = torch.cat([old_w, old_w[GENERIC_ID:GENERIC_ID + 1]])
+    new.load_state_dict(state)
+    return new, new_vocab, new_vocab.player_index(name)
+
+
+def freeze_except_identity(model: SportsNGEN, rows: list[int]) -> None:
+    """Freeze everything but the identity rows `rows` (gradients of other rows are zeroed)."""
+    for p in model.parameters():
+        p.requires_grad_(False)
+    emb: nn.Embedding = model.embed.identity
+    emb.weight.requires_grad_(True)
+    keep = torch.zeros(emb.weight.shape[0], 1, dtype=emb.weight.dtype)
+    keep[list(rows)] = 1.0
+    emb.weight.register_hook(lambda g: g * keep.to(g.device))
+
+
+def player_rallies(data: RallyData, player: str, n_sequences: int | None) -> RallyData:
+    """The first `n_sequences` rallies (in table order) in which `player` serves or receives."""
+    r = data.rallies
+    ids = r.loc[(r["server"] == player) | (r["receiver"] == player), "rally_id"].tolist()
+    if not ids:
+        known = sorted(set(r["server"]) | set(r["receiver"]))
+        raise ValueError(f"player {player!r} plays no rally in the data; players: {known[:20]}")
+    return data.subset(ids[:n_sequences] if n_sequences else ids)
+
+
+__all__ = ["add_player", "check_data_matches", "freeze_except_identity",
+           "load_pretrained", "player_rallies"]

@@ -1,0 +1,181 @@
+"""LightningModules: the decoder f (`DecoderModule`) and the event classifier g
+(`EventModule`). The plain torch models live in `sportsngen.model`."""
+
+from __future__ import annotations
+
+import time
+
+import lightning as L
+import torch
+
+from sportsngen.data.tokens import BALL, Vocab, centre_m, check_finite, object_features
+from sportsngen.model.config import ModelConfig
+from sportsngen.model.decoder import SportsNGEN
+from sportsngen.model.event_classifier import EventClassifier
+
+# Candidate standard deviations (m) of the constant-velocity reference; the best per dimension
+# on each batch is used, so the reference is fitted in-sample (favourable to it).
+_CV_SIGMAS_M = torch.logspace(-3.5, 0.5, 25)
+
+
+def _masked_mean(x: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    m = mask.to(x.dtype)
+    return (x * m).sum() / m.sum().clamp_min(1.0)
+
+
+def cv_reference_nll(bins, offset_m: torch.Tensor, cv_mean_m: torch.Tensor,
+                     mask: torch.Tensor) -> torch.Tensor:
+    """Mean NLL (nats) over masked tokens of the best constant-velocity Gaussian predictor
+    (per-dimension sigma picked from `_CV_SIGMAS_M`), discretised onto `bins`."""
+    per_sigma = []
+    for s in _CV_SIGMAS_M.tolist():
+        nll = bins.gaussian_nll(offset_m, cv_mean_m, offset_m.new_full((bins.dims,), s))
+        m = mask[..., None].expand_as(nll).to(nll.dtype)
+        per_sigma.append((nll * m).sum(dim=tuple(range(nll.ndim - 1))) / m[..., 0].sum()
+                         .clamp_min(1.0))
+    return torch.stack(per_sigma).min(dim=0).values.sum()
+
+
+def batch_inputs(model_cfg: ModelConfig, batch: dict):
+    """Object features of a batch (raises naming the rally on NaN)."""
+    check_finite(batch)
+    return object_features(batch["pos_m"], batch["vel_mps"], batch["t_s"])
+
+
+class DecoderModule(L.LightningModule):
+    """Trains `SportsNGEN` on next-frame bins; validation reports per object kind NLL, top-1
+    bin accuracy and the constant-velocity reference NLL on the same frames."""
+
+    def __init__(self, model_cfg: dict, vocab: dict, lr: float = 3e-4,
+                 weight_decay: float = 0.01, warmup_steps: int = 50,
+                 trainable_id_rows: list[int] | None = None):
+        super().__init__()
+        self.save_hyperparameters()
+        self.cfg = ModelConfig.from_dict(model_cfg)
+        self.vocab = Vocab.from_dict(vocab)
+        self.model = SportsNGEN(self.cfg)
+        self.trainable_id_rows = trainable_id_rows
+        if trainable_id_rows is not None:
+            from sportsngen.train.finetune import freeze_except_identity
+
+            freeze_except_identity(self.model, trainable_id_rows)
+        self._t0: float | None = None
+        self._elapsed = 0.0
+        self._n_frames = 0
+        self._n_tokens = 0
+        self._steps_timed = 0
+
+    def _forward(self, batch: dict):
+        feats = batch_inputs(self.cfg, batch)
+        ctx = self.model.context_tokens(batch["surface"], batch["tournament"], batch["serve"],
+                                        batch["score"])
+        h = self.model(feats, batch["ident"], ctx)
+        p_idx, b_idx = self.model.target_bins(batch["pos_m"], batch["vel_mps"],
+                                              batch["next_pos_m"])
+        p_nll, b_nll = self.model.nll(h, p_idx, b_idx)
+        return h, p_idx, b_idx, p_nll, b_nll
+
+    def training_step(self, batch: dict, batch_idx: int) -> torch.Tensor:
+        _, _, _, p_nll, b_nll = self._forward(batch)
+        m = batch["has_next"]
+        # Mean over object tokens (2 players + 1 ball a frame).
+        loss = (_masked_mean(p_nll.sum(-1), m) + _masked_mean(b_nll, m)) / 3.0
+        self.log("train/loss", loss, prog_bar=True)
+        self._n_frames += int(batch["valid"].sum())
+        self._n_tokens += int(batch["valid"].sum()) * 3 + 4 * batch["valid"].shape[0]
+        return loss
+
+    # Throughput: wall time of training batches (data loading included), from the third step
+    # on, with validation runs left out.
+    def on_train_batch_start(self, batch, batch_idx):
+        if self._t0 is None and self.global_step >= 2:
+            self._t0 = time.perf_counter()
+            self._elapsed = 0.0
+            self._n_frames = self._n_tokens = 0
+
+    def on_validation_start(self):
+        if self._t0 is not None:
+            self._elapsed += time.perf_counter() - self._t0
+
+    def on_validation_end(self):
+        if self._t0 is not None:
+            self._t0 = time.perf_counter()
+
+    def throughput(self) -> dict:
+        """Training frames/s and tokens/s (forward, backward, optimiser, data loading)."""
+        if self._t0 is None:
+            return {}
+        dt = self._elapsed + (time.perf_counter() - self._t0)
+        return {"frames_per_s": self._n_frames / dt, "tokens_per_s": self._n_tokens / dt}
+
+    @torch.no_grad()
+    def validation_step(self, batch: dict, batch_idx: int) -> None:
+        h, p_idx, b_idx, p_nll, b_nll = self._forward(batch)
+        m = batch["has_next"]
+        mp = m[..., None].expand_as(p_nll)
+        p_top = self.model.player_head.top1(h[..., :BALL, :])
+        b_top = self.model.ball_head.top1(h[..., BALL, :])
+        pos, vel, nxt = batch["pos_m"], batch["vel_mps"], batch["next_pos_m"]
+        centre = centre_m(pos, vel, self.cfg.fps, self.cfg.bin_centre)
+        cv = pos + vel / self.cfg.fps
+        off = nxt - centre
+        cv_mean = cv - centre
+        stats = {
+            "nll_player": _masked_mean(p_nll, mp), "nll_ball": _masked_mean(b_nll, m),
+            "acc_player": _masked_mean((p_top == p_idx).all(-1).float(), mp),
+            "acc_ball": _masked_mean((b_top == b_idx).all(-1).float(), m),
+            "cv_nll_player": cv_reference_nll(self.model.player_bins, off[..., :BALL, :2],
+                                              cv_mean[..., :BALL, :2], mp),
+            "cv_nll_ball": cv_reference_nll(self.model.ball_bins, off[..., BALL, :],
+                                            cv_mean[..., BALL, :], m),
+        }
+        stats["loss"] = (2 * stats["nll_player"] + stats["nll_ball"]) / 3.0
+        for k, v in stats.items():
+            self.log(f"val/{k}", v, prog_bar=k in ("loss",), sync_dist=True,
+                     batch_size=batch["pos_m"].shape[0])
+
+    def configure_optimizers(self):
+        decay, no_decay = [], []
+        for name, p in self.model.named_parameters():
+            if not p.requires_grad:
+                continue
+            # No weight decay on embeddings (frozen fine-tuning must not move other players'
+            # rows), norms and biases.
+            (no_decay if p.ndim < 2 or "identity" in name or "Embedding" in name
+             or ".context." in name or name.startswith("context.") else decay).append(p)
+        opt = torch.optim.AdamW([{"params": decay, "weight_decay": self.hparams.weight_decay},
+                                 {"params": no_decay, "weight_decay": 0.0}],
+                                lr=self.hparams.lr)
+        warm = max(1, int(self.hparams.warmup_steps))
+        sched = torch.optim.lr_scheduler.LambdaLR(opt, lambda s: min(1.0, (s + 1) / warm))
+        return {"optimizer": opt, "lr_scheduler": {"scheduler": sched, "interval": "step"}}
+
+
+class EventModule(L.LightningModule):
+    """Trains the event classifier g on the per-frame shot labels."""
+
+    def __init__(self, model_cfg: dict, lr: float = 1e-3, weight_decay: float = 0.01):
+        super().__init__()
+        self.save_hyperparameters()
+        self.cfg = ModelConfig.from_dict(model_cfg)
+        self.model = EventClassifier(self.cfg)
+
+    def _step(self, batch: dict, stage: str):
+        feats = batch_inputs(self.cfg, batch)
+        loss, acc = self.model.loss(feats, batch["labels"], batch["valid"])
+        bs = feats.shape[0]
+        self.log(f"{stage}/event_loss", loss, prog_bar=True, sync_dist=stage == "val",
+                 batch_size=bs)
+        for name, a in acc.items():
+            self.log(f"{stage}/acc_{name}", a, sync_dist=stage == "val", batch_size=bs)
+        return loss
+
+    def training_step(self, batch, batch_idx):
+        return self._step(batch, "train")
+
+    def validation_step(self, batch, batch_idx):
+        self._step(batch, "val")
+
+    def configure_optimizers(self):
+        return torch.optim.AdamW(self.model.parameters(), lr=self.hparams.lr,
+                                 weight_decay=self.hparams.weight_decay)

@@ -1,0 +1,146 @@
+"""`train_from_config(cfg)`: what `python train.py` does, callable from Python and tests.
+
+Steps: seed; load rallies (`data.source`); build or load the model (fine-tuning when `init` is
+set); fit the decoder with Lightning (checkpoints, resume, CSV/TensorBoard logs, progress bar);
+optionally fit the event classifier; export a self-contained model file.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from pathlib import Path
+
+import lightning as L
+import torch
+from lightning.pytorch.callbacks import ModelCheckpoint
+from lightning.pytorch.loggers import CSVLogger
+from omegaconf import DictConfig, OmegaConf
+
+from sportsngen.data.tokens import Augment, Vocab
+from sportsngen.model.config import ModelConfig
+from sportsngen.model.export import save_model
+from sportsngen.train.datamodule import TrackingDataModule, load_rally_data
+from sportsngen.train.finetune import (
+    add_player,
+    check_data_matches,
+    load_pretrained,
+    player_rallies,
+)
+from sportsngen.train.module import DecoderModule, EventModule
+
+log = logging.getLogger(__name__)
+
+
+def _loggers(out_dir: Path, name: str) -> list:
+    loggers = [CSVLogger(str(out_dir), name=name, version="")]
+    try:
+        import tensorboard  # noqa: F401
+        from lightning.pytorch.loggers import TensorBoardLogger
+
+        loggers.append(TensorBoardLogger(str(out_dir), name=f"tb_{name}", version=""))
+    except ImportError:
+        pass
+    return loggers
+
+
+def _trainer(cfg: DictConfig, out_dir: Path, name: str, max_steps: int, **extra) -> L.Trainer:
+    kw = OmegaConf.to_container(cfg.trainer, resolve=True)
+    kw["max_steps"] = max_steps
+    kw.update(extra)
+    ckpt = ModelCheckpoint(dirpath=str(out_dir / f"checkpoints_{name}"), save_last=True,
+                           save_top_k=1, monitor="val/loss" if name == "decoder" else None)
+    return L.Trainer(default_root_dir=str(out_dir), logger=_loggers(out_dir, name),
+                     callbacks=[ckpt], **kw)
+
+
+def _check_resume(path: str, model_cfg: ModelConfig, vocab: Vocab) -> None:
+    """A resumed checkpoint must have been made with this model config and vocabulary."""
+    hp = torch.load(path, map_location="cpu", weights_only=False).get("hyper_parameters", {})
+    old = hp.get("model_cfg", {})
+    diff = sorted(k for k in set(old) | set(model_cfg.to_dict())
+                  if old.get(k) != model_cfg.to_dict().get(k))
+    if diff:
+        raise ValueError(f"checkpoint {path} was trained with a different model config "
+                         f"(differs in {diff}); it cannot be resumed on this data/config")
+    if hp.get("vocab") != vocab.to_dict():
+        raise ValueError(f"checkpoint {path} has a different vocabulary of players/surfaces/"
+                         "tournaments than this data")
+
+
+def build_model_config(model: dict, data_fps: float, vocab: Vocab) -> ModelConfig:
+    """The ModelConfig from the Hydra `model` node, the data's frame rate and the vocab."""
+    d = dict(model)
+    if d.get("fps") is None:
+        d["fps"] = data_fps
+    elif abs(float(d["fps"]) - data_fps) > 1e-9:
+        raise ValueError(f"model.fps is {d['fps']} Hz but the data is {data_fps:g} Hz")
+    d["n_ids"] = vocab.n_ids
+    d["n_tournaments"] = len(vocab.tournaments) + 1
+    d["n_surfaces"] = len(vocab.surfaces)
+    return ModelConfig.from_dict(d)
+
+
+def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
+    """Train (or fine-tune) as `cfg` says; write checkpoints, logs and `model.pt` in out_dir.
+    Returns a summary dict (also written as summary.json)."""
+    out_dir = Path(out_dir)
+    L.seed_everything(int(cfg.seed), workers=True)
+    torch.set_num_threads(int(cfg.get("threads") or torch.get_num_threads()))
+    data = load_rally_data(OmegaConf.to_container(cfg.data, resolve=True))
+    ft = cfg.get("finetune") or {}
+    trainable_rows = None
+    init_state = None
+    event_model = None
+    if cfg.get("init"):
+        model, event_model, vocab, model_cfg = load_pretrained(cfg.init)
+        if cfg.get("player"):
+            data = player_rallies(data, cfg.player, ft.get("n_sequences"))
+            model, vocab, row = add_player(model, vocab, cfg.player)
+            model_cfg = model.cfg
+            trainable_rows = [row] if ft.get("freeze", True) else None
+        check_data_matches(model_cfg, vocab, data)
+        init_state = model.state_dict()
+    else:
+        if cfg.get("player"):
+            raise ValueError("player=... fine-tunes an existing model: also set init=<model "
+                             "file or checkpoint>")
+        generic = bool(cfg.model.get("generic_identity", False))
+        vocab = Vocab.from_data(data, generic=generic)
+        model_cfg = build_model_config(OmegaConf.to_container(cfg.model, resolve=True),
+                                       data.fps, vocab)
+    w = cfg.windows
+    dm = TrackingDataModule(
+        data, vocab, model_cfg.window_frames, batch_size=int(w.batch_size),
+        val_fraction=float(w.val_fraction), seed=int(cfg.seed),
+        augment=Augment(**OmegaConf.to_container(w.augment, resolve=True)),
+        num_workers=int(w.num_workers), unknown=model_cfg.unknown)
+    opt = cfg.optim
+    module = DecoderModule(model_cfg.to_dict(), vocab.to_dict(), lr=float(opt.lr),
+                           weight_decay=float(opt.weight_decay),
+                           warmup_steps=int(opt.warmup_steps), trainable_id_rows=trainable_rows)
+    if init_state is not None:
+        module.model.load_state_dict(init_state)
+    resume = cfg.get("resume")
+    if resume:
+        _check_resume(resume, model_cfg, vocab)
+    trainer = _trainer(cfg, out_dir, "decoder", int(cfg.trainer.max_steps))
+    trainer.fit(module, dm, ckpt_path=resume or None)
+    summary = {"decoder": {k: float(v) for k, v in trainer.callback_metrics.items()},
+               "throughput": module.throughput(), "n_rallies": len(data),
+               "n_params": sum(p.numel() for p in module.model.parameters()),
+               "out_dir": str(out_dir)}
+    ev = cfg.get("events") or {}
+    if ev.get("enabled", False) and not cfg.get("init"):
+        em = EventModule(model_cfg.to_dict(), lr=float(ev.get("lr", 1e-3)))
+        et = _trainer(cfg, out_dir, "events", int(ev.get("max_steps", 100)))
+        et.fit(em, dm)
+        event_model = em.model
+        summary["events"] = {k: float(v) for k, v in et.callback_metrics.items()}
+    if trainer.is_global_zero:
+        path = save_model(out_dir / "model.pt", module.model.cpu(), vocab, event_model,
+                          extra={"summary": summary})
+        summary["model_file"] = str(path)
+        (out_dir / "summary.json").write_text(json.dumps(summary, indent=2))
+        log.info("summary: %s", json.dumps(summary, indent=2))
+    return summary

@@ -1,0 +1,256 @@
+"""Decoder f, mask, KV cache, bins, heads, top-p sampling, event classifier, export."""
+
+import math
+
+import pytest
+import torch
+
+from sportsngen.data.tokens import N_FEATURES
+from sportsngen.model import (
+    EventClassifier,
+    ModelConfig,
+    SportsNGEN,
+    baller2vec_mask,
+    load_model,
+    sample_top_p,
+    save_model,
+    top_p_filter,
+)
+from sportsngen.model.bins import Bins
+from sportsngen.model.heads import FactorisedHead, JointHead
+
+torch.set_num_threads(1)
+
+
+def tiny_cfg(**kw) -> ModelConfig:
+    base = dict(d_model=32, n_layers=2, n_heads=2, ff_mult=2, dropout=0.0, id_dim=8,
+                embed_hidden=(32,), score_hidden=16, n_bins=9, head="factorised",
+                head_hidden=16, window_s=0.4, fps=25.0, n_ids=5, n_tournaments=3,
+                event_d_model=16, event_layers=1, event_heads=2)
+    base.update(kw)
+    return ModelConfig(**base)
+
+
+def inputs(cfg: ModelConfig, b: int = 2, t: int = 6, seed: int = 0):
+    g = torch.Generator().manual_seed(seed)
+    feats = torch.randn(b, t, 3, N_FEATURES, generator=g)
+    ident = torch.tensor([[2, 3, 0], [4, 1, 0]])[:b]
+    ctx = (torch.tensor([0, 2])[:b], torch.tensor([1, 0])[:b], torch.tensor([0, 1])[:b],
+           torch.rand(b, 7, generator=g))
+    return feats, ident, ctx
+
+
+def make_model(**kw) -> SportsNGEN:
+    torch.manual_seed(0)
+    return SportsNGEN(tiny_cfg(**kw)).eval()
+
+
+def test_mask_small_case_exact():
+    m = baller2vec_mask(n_ctx=1, n_frames=2, n_objects=2)
+    expected = torch.tensor([[1, 0, 0, 0, 0],
+                             [1, 1, 1, 0, 0],
+                             [1, 1, 1, 0, 0],
+                             [1, 1, 1, 1, 1],
+                             [1, 1, 1, 1, 1]], dtype=torch.bool)
+    assert torch.equal(m, expected)
+
+
+@pytest.mark.parametrize("head", ["joint", "factorised"])
+def test_mask_hides_the_future(head):
+    model = make_model(head=head)
+    feats, ident, ctx = inputs(model.cfg)
+    c = model.context_tokens(*ctx)
+    with torch.no_grad():
+        h = model(feats, ident, c)
+        changed = feats.clone()
+        changed[:, 3] += 5.0  # a later frame
+        h2 = model(changed, ident, c)
+    assert torch.equal(h[:, :3], h2[:, :3])  # earlier frames exactly unchanged
+    assert (h[:, 3:] - h2[:, 3:]).abs().max() > 1e-3
+
+
+@pytest.mark.parametrize("spacing", ["uniform", "nonuniform"])
+def test_bins_round_trip_within_half_a_bin(spacing):
+    bins = Bins((0.4, 0.4, 1.6), 61, spacing)
+    g = torch.Generator().manual_seed(1)
+    off = (torch.rand(5000, 3, generator=g) * 2 - 1) * torch.tensor([0.4, 0.4, 1.6]) * 0.999
+    idx = bins.index(off)
+    assert idx.min() >= 0 and idx.max() <= 60
+    back = bins.value(idx)
+    assert ((back - off).abs() <= bins.width(idx) / 2 + 1e-7).all()
+    assert torch.equal(bins.index(torch.zeros(1, 3)), torch.full((1, 3), 30))  # 0 in the middle
+    far = bins.index(torch.tensor([[9.0, -9.0, 0.0]]))  # beyond the range: outer bins
+    assert far.tolist() == [[60, 0, 30]]
+    flat = bins.flat(idx)
+    assert torch.equal(bins.unflat(flat), idx) and flat.max() < 61 ** 3
+
+
+def test_nonuniform_bins_are_finer_near_zero():
+    w = Bins((1.0,), 21, "nonuniform").width(torch.arange(21)[:, None])[:, 0]
+    assert w[10] < w[5] < w[0]
+    assert w.sum().item() == pytest.approx(2.0, rel=1e-6)
+
+
+@pytest.mark.parametrize("head", ["joint", "factorised"])
+def test_heads_are_normalised_distributions(head):
+    torch.manual_seed(0)
+    n = 5
+    h = torch.randn(4, 16)
+    m = JointHead(16, n, 3) if head == "joint" else FactorisedHead(16, n, 3, hidden=8)
+    grid = torch.cartesian_prod(torch.arange(n), torch.arange(n), torch.arange(n))
+    with torch.no_grad():
+        nll = m.nll(h[:, None].expand(4, len(grid), 16), grid[None].expand(4, -1, -1))
+    total = torch.exp(-nll).sum(dim=1)
+    torch.testing.assert_close(total, torch.ones(4), atol=1e-5, rtol=0)
+
+
+def test_top_p_keeps_only_the_nucleus():
+    probs = torch.tensor([0.05, 0.5, 0.15, 0.3])
+    logits = probs.log()
+    keep = lambda p: torch.isfinite(top_p_filter(logits, p)).nonzero().flatten().tolist()  # noqa: E731
+    assert keep(0.5) == [1]
+    assert keep(0.8) == [1, 3]
+    assert keep(0.81) == [1, 2, 3]
+    assert keep(1.0) == [0, 1, 2, 3]
+    g = torch.Generator().manual_seed(0)
+    draws = sample_top_p(logits.expand(4000, 4), 0.8, g)
+    assert set(draws.tolist()) == {1, 3}
+    assert (draws == 1).float().mean().item() == pytest.approx(0.5 / 0.8, abs=0.03)
+    again = sample_top_p(logits.expand(4000, 4), 0.8, torch.Generator().manual_seed(0))
+    assert torch.equal(draws, again)  # seeded
+    with pytest.raises(ValueError, match="top_p"):
+        top_p_filter(logits, 0.0)
+
+
+def test_factorised_sampling_tiny_nucleus_is_greedy():
+    torch.manual_seed(0)
+    m = FactorisedHead(16, 7, 3, hidden=8)
+    h = torch.randn(10, 16)
+    with torch.no_grad():
+        assert torch.equal(m.sample(h, 1e-6, torch.Generator().manual_seed(0)), m.top1(h))
+
+
+@pytest.mark.parametrize("head", ["joint", "factorised"])
+def test_cache_step_equals_full_window(head):
+    model = make_model(head=head)
+    cfg = model.cfg
+    t = cfg.window_frames  # 10 frames
+    feats, ident, ctx = inputs(cfg, t=t)
+    c = model.context_tokens(*ctx)
+    with torch.no_grad():
+        full = model(feats, ident, c)
+        cache = model.init_cache(ident, c)
+        for k in range(t):
+            h, cache = model.forward_step(feats[:, k], cache)
+            assert (h - full[:, k]).abs().max().item() < 1e-4
+        # Prefill half the window, then step: the same again.
+        _, cache = model(feats[:, :4], ident, c, return_cache=True)
+        for k in range(4, t):
+            h, cache = model.forward_step(feats[:, k], cache)
+            assert (h - full[:, k]).abs().max().item() < 1e-4
+        if head == "joint":
+            lg = model.ball_head.logits(h[:, 2])
+            assert (lg - model.ball_head.logits(full[:, -1, 2])).abs().max().item() < 1e-4
+    assert cache.n_frames == t
+
+
+def test_rolling_cache_exact_for_one_layer():
+    """With one layer, keys/values depend on the token alone, so dropping the oldest frame
+    equals recomputing the shifted window (deeper models: see the decoder's docstring)."""
+    model = make_model(n_layers=1)
+    w = model.cfg.window_frames
+    feats, ident, ctx = inputs(model.cfg, t=w + 4)
+    c = model.context_tokens(*ctx)
+    with torch.no_grad():
+        cache = model.init_cache(ident, c)
+        for k in range(w + 4):
+            h, cache = model.forward_step(feats[:, k], cache)
+        full = model(feats[:, 4:], ident, c)
+    assert cache.n_frames == w
+    assert (h - full[:, -1]).abs().max().item() < 1e-4
+
+
+def test_generic_identity_shares_one_embedding():
+    model = make_model(generic_identity=True)
+    feats, _, ctx = inputs(model.cfg, b=1)
+    c = model.context_tokens(*(x[:1] for x in ctx))
+    with torch.no_grad():
+        a = model(feats, torch.tensor([[2, 3, 0]]), c)
+        b = model(feats, torch.tensor([[4, 2, 0]]), c)
+    assert torch.equal(a, b)
+    with pytest.raises(ValueError, match="identity index out of range"):
+        make_model()(feats, torch.tensor([[9, 3, 0]]), c)
+
+
+def test_sample_next_players_on_ground_and_reproducible():
+    model = make_model(bin_centre="cv")
+    feats, ident, ctx = inputs(model.cfg)
+    pos = torch.rand(2, 6, 3, 3)
+    pos[..., :2, 2] = 0
+    vel = torch.randn(2, 6, 3, 3)
+    with torch.no_grad():
+        h = model(feats, ident, model.context_tokens(*ctx))
+        a = model.sample_next(h, pos, vel, 0.9, 0.9, torch.Generator().manual_seed(3))
+        b = model.sample_next(h, pos, vel, 0.9, 0.9, torch.Generator().manual_seed(3))
+    assert torch.equal(a, b)
+    assert (a[..., :2, 2] == 0).all()
+    cv = pos + vel / 25.0
+    lim = torch.tensor([80.0, 40.0, 40.0]) / 25.0
+    assert ((a[..., 2, :] - cv[..., 2, :]).abs() <= lim + 1e-6).all()
+
+
+def test_event_classifier_sees_the_whole_window():
+    torch.manual_seed(0)
+    cfg = tiny_cfg()
+    ec = EventClassifier(cfg).eval()
+    feats, _, _ = inputs(cfg)
+    with torch.no_grad():
+        out = ec(feats)
+        changed = feats.clone()
+        changed[:, 5] += 3.0
+        out2 = ec(changed)
+    assert {k: v.shape[-1] for k, v in out.items()} == {
+        "stroke": 7, "direction": 9, "outcome": 4, "error_kind": 4}
+    assert (out["stroke"][:, 0] - out2["stroke"][:, 0]).abs().max() > 1e-4  # no causal mask
+
+
+@pytest.mark.parametrize("head", ["joint", "factorised"])
+def test_export_reload_identical(tmp_path, head):
+    from sportsngen.data.tokens import Vocab
+
+    model = make_model(head=head)
+    torch.manual_seed(1)
+    ec = EventClassifier(model.cfg).eval()
+    vocab = Vocab(("A", "B", "C"), tournaments=("X", "Y"))
+    path = save_model(tmp_path / "m.pt", model, vocab, ec)
+    m2, ec2, v2, cfg2 = load_model(path)
+    assert v2 == vocab and cfg2 == model.cfg
+    feats, ident, ctx = inputs(model.cfg)
+    with torch.no_grad():
+        a = model(feats, ident, model.context_tokens(*ctx))
+        b = m2(feats, ident, m2.context_tokens(*ctx))
+        assert torch.equal(a, b)
+        idx = torch.zeros(2, 6, 3, dtype=torch.long)
+        assert torch.equal(model.ball_head.nll(a[..., 2, :], idx), m2.ball_head.nll(b[..., 2, :],
+                                                                                  idx))
+        assert torch.equal(ec(feats)["outcome"], ec2(feats)["outcome"])
+    with pytest.raises(ValueError, match="not a sportsngen model file"):
+        torch.save({"state_dict": {}}, tmp_path / "x.pt")
+        load_model(tmp_path / "x.pt")
+
+
+def test_config_errors():
+    with pytest.raises(ValueError, match="model.head"):
+        tiny_cfg(head="huge")
+    with pytest.raises(ValueError, match="unknown model config keys"):
+        ModelConfig.from_dict({"d_model": 8, "bogus": 1})
+    with pytest.raises(ValueError, match="n_bins"):
+        tiny_cfg(n_bins=10)
+
+
+def test_paper_joint_heads_size():
+    """The paper's joint heads: 61^2 player and 61^3 ball classes (checked on a narrow d)."""
+    m = SportsNGEN(tiny_cfg(head="joint", n_bins=61, d_model=8, n_heads=2))
+    assert m.player_head.proj.out_features == 61 ** 2
+    assert m.ball_head.proj.out_features == 61 ** 3 == 226981
+    assert math.isclose(m.ball_bins.edges[0, -1].item(), 80.0 / 25.0, rel_tol=1e-6)

@@ -1,0 +1,193 @@
+"""Training: loss goes down, frozen fine-tuning, NaN errors, data sources, train.py via Hydra
+(checkpoint, resume, config mismatch, fine-tune a player) and one DDP run on 2 CPU processes."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import torch
+from hydra import compose, initialize_config_dir
+from torch.utils.data import default_collate
+
+from sportsngen.data.tokens import GENERIC_ID, Vocab, WindowDataset, rally_arrays
+from sportsngen.data.toy import make_toy_rallies
+from sportsngen.model import load_model
+from sportsngen.model.config import ModelConfig
+from sportsngen.train.datamodule import load_rally_data
+from sportsngen.train.finetune import add_player, check_data_matches, player_rallies
+from sportsngen.train.module import DecoderModule
+from sportsngen.train.run import build_model_config, train_from_config
+
+torch.set_num_threads(1)
+REPO = Path(__file__).resolve().parents[1]
+TINY = dict(d_model=32, n_layers=2, n_heads=2, ff_mult=2, dropout=0.0, id_dim=8,
+            embed_hidden=(32,), score_hidden=16, n_bins=11, head="factorised", head_hidden=16,
+            bin_centre="cv", window_s=1.0)
+
+
+@pytest.fixture(scope="module")
+def toy():
+    return make_toy_rallies(10, seed=1)
+
+
+def module_and_batch(toy, generic=False, **kw):
+    vocab = Vocab.from_data(toy, generic=generic)
+    cfg = build_model_config({**TINY, "generic_identity": generic}, toy.fps, vocab)
+    torch.manual_seed(0)
+    mod = DecoderModule(cfg.to_dict(), vocab.to_dict(), lr=3e-3, warmup_steps=1, **kw)
+    arrays = rally_arrays(toy, vocab)
+    batch = default_collate([WindowDataset(arrays, cfg.window_frames)[i] for i in range(8)])
+    return mod, batch, vocab
+
+
+def test_a_few_steps_reduce_the_loss_on_a_fixed_batch(toy):
+    mod, batch, _ = module_and_batch(toy)
+    opt = mod.configure_optimizers()["optimizer"]
+    losses = []
+    for _ in range(25):
+        opt.zero_grad()
+        loss = mod.training_step(batch, 0)
+        loss.backward()
+        opt.step()
+        losses.append(loss.item())
+    assert losses[-1] < 0.6 * losses[0], losses
+
+
+def test_frozen_finetuning_changes_only_the_new_identity(toy):
+    base, batch, vocab = module_and_batch(toy, generic=True)
+    model, vocab2, row = add_player(base.model, vocab, "Toy Alpha")
+    assert row == 2 and vocab2.players == ("Toy Alpha",)
+    old = model.embed.identity.weight.detach().clone()
+    assert torch.equal(old[row], old[GENERIC_ID])  # starts from the generic identity
+    mod = DecoderModule(model.cfg.to_dict(), vocab2.to_dict(), lr=1e-2, warmup_steps=1,
+                        trainable_id_rows=[row])
+    mod.model.load_state_dict(model.state_dict())
+    before = {k: v.clone() for k, v in mod.model.state_dict().items()}
+    mine = rally_arrays(player_rallies(toy, "Toy Alpha", 4), vocab2, unknown="generic")
+    batch = default_collate([WindowDataset(mine, 25)[i] for i in range(6)])
+    assert (batch["ident"][:, :2] == row).any()
+    opt = mod.configure_optimizers()["optimizer"]
+    for _ in range(3):
+        opt.zero_grad()
+        mod.training_step(batch, 0).backward()
+        opt.step()
+    after = mod.model.state_dict()
+    changed = [k for k in before if not torch.equal(before[k], after[k])]
+    assert changed == ["embed.identity.weight"]
+    w0, w1 = before["embed.identity.weight"], after["embed.identity.weight"]
+    moved = (w0 != w1).any(dim=1).nonzero().flatten().tolist()
+    assert moved == [row]
+
+
+def test_nan_in_a_batch_raises_naming_the_rally(toy):
+    mod, batch, _ = module_and_batch(toy)
+    batch["vel_mps"][3, 2, 1, 0] = float("nan")
+    with pytest.raises(ValueError, match=f"rally {int(batch['rally_id'][3])}"):
+        mod.training_step(batch, 0)
+
+
+def test_data_sources(tmp_path, toy):
+    assert len(load_rally_data({"source": "toy", "n_rallies": 3, "seed": 0})) == 3
+    toy.save(tmp_path / "tr")
+    back = load_rally_data({"source": "folder", "path": str(tmp_path / "tr")})
+    assert back.frames.equals(toy.frames)
+    with pytest.raises(ValueError, match="data.source must be one of"):
+        load_rally_data({"source": "csv"})
+    with pytest.raises(ValueError, match="set data.source=synthetic"):
+        load_rally_data({"source": "toy", "n_rallies": 3, "players": ["x"]})
+
+
+def test_data_mismatch_is_a_clear_error(toy):
+    vocab = Vocab.from_data(toy)
+    cfg = build_model_config(TINY, toy.fps, vocab)
+    check_data_matches(cfg, vocab, toy)
+    with pytest.raises(ValueError, match="trained at 25 Hz but the data is 50 Hz"):
+        check_data_matches(cfg, vocab, make_toy_rallies(2, 0, fps=50.0))
+    with pytest.raises(ValueError, match="model.fps is 50"):
+        build_model_config({**TINY, "fps": 50.0}, 25.0, vocab)
+    with pytest.raises(ValueError, match="unknown model config keys"):
+        ModelConfig.from_dict({**TINY, "layers": 3})
+
+
+def _compose(overrides):
+    with initialize_config_dir(config_dir=str(REPO / "conf"), version_base=None):
+        return compose(config_name="train", overrides=overrides)
+
+
+def test_train_py_through_hydra_resume_mismatch_and_finetune(tmp_path):
+    fast = ["experiment=tiny", "data.n_rallies=16", "trainer.max_steps=4",
+            "trainer.val_check_interval=2", "trainer.limit_val_batches=1",
+            "trainer.enable_progress_bar=false", "events.max_steps=2",
+            "model.generic_identity=true"]
+    out = tmp_path / "run"
+    summary = train_from_config(_compose(fast), out)
+    assert {"val/nll_ball", "val/cv_nll_ball", "val/acc_player"} <= set(summary["decoder"])
+    assert (out / "decoder" / "metrics.csv").exists() and (out / "summary.json").exists()
+    model, ec, vocab, cfg = load_model(out / "model.pt")
+    assert ec is not None and vocab.players == () and cfg.generic_identity
+    last = out / "checkpoints_decoder" / "last.ckpt"
+    assert last.exists()
+
+    # Resume to more steps from the last checkpoint.
+    summary2 = train_from_config(
+        _compose([*fast, "trainer.max_steps=6", f"resume={last}", "events.enabled=false"]),
+        tmp_path / "resumed")
+    assert "val/loss" in summary2["decoder"]
+    # A checkpoint made with another config cannot be resumed.
+    with pytest.raises(ValueError, match=r"different model config \(differs in \['d_model'"):
+        train_from_config(_compose([*fast, "model.d_model=16", f"resume={last}"]),
+                          tmp_path / "bad")
+
+    # Fine-tune a player's identity on the generic model (everything else frozen).
+    ft = train_from_config(_compose([
+        "experiment=finetune_player", "player=Toy Alpha", f"init={out / 'model.pt'}",
+        "data.n_rallies=16", "finetune.n_sequences=4", "trainer.max_steps=3",
+        "trainer.val_check_interval=3", "trainer.limit_val_batches=1",
+        "trainer.enable_progress_bar=false", "windows.val_fraction=0.25"]), tmp_path / "ft")
+    m2, ec2, vocab2, cfg2 = load_model(ft["model_file"])
+    assert vocab2.players == ("Toy Alpha",) and cfg2.n_ids == 3 and not cfg2.generic_identity
+    assert ec2 is not None  # the event classifier of `init` is carried over
+    w_old, w_new = model.embed.identity.weight, m2.embed.identity.weight
+    assert torch.equal(w_old, w_new[:2]) and not torch.equal(w_new[2], w_old[GENERIC_ID])
+    for k, v in model.state_dict().items():
+        if k != "embed.identity.weight":
+            assert torch.equal(v, m2.state_dict()[k]), k
+    # Without freezing, the rest of the model trains too.
+    ft3 = train_from_config(_compose([
+        "experiment=finetune_player", "player=Toy Alpha", f"init={out / 'model.pt'}",
+        "data.n_rallies=16", "finetune.n_sequences=4", "finetune.freeze=false",
+        "trainer.max_steps=2", "trainer.val_check_interval=2", "trainer.limit_val_batches=1",
+        "trainer.enable_progress_bar=false", "windows.val_fraction=0.25"]), tmp_path / "ft3")
+    m3 = load_model(ft3["model_file"])[0]
+    assert not torch.equal(m3.ln_f.weight, model.ln_f.weight)
+
+
+def test_same_seed_same_weights(tmp_path):
+    over = ["experiment=tiny", "data.n_rallies=12", "trainer.max_steps=3",
+            "trainer.val_check_interval=3", "trainer.limit_val_batches=1",
+            "trainer.enable_progress_bar=false", "events.enabled=false", "seed=7"]
+    a = train_from_config(_compose(over), tmp_path / "a")
+    b = train_from_config(_compose(over), tmp_path / "b")
+    wa = load_model(a["model_file"])[0].state_dict()
+    wb = load_model(b["model_file"])[0].state_dict()
+    assert all(torch.equal(wa[k], wb[k]) for k in wa)
+    c = train_from_config(_compose([*over[:-1], "seed=8"]), tmp_path / "c")
+    wc = load_model(c["model_file"])[0].state_dict()
+    assert not all(torch.equal(wa[k], wc[k]) for k in wa)
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="gloo DDP test on POSIX only")
+def test_ddp_two_cpu_processes_slow(tmp_path):
+    """SLOW (~20-30 s): trainer=ddp runs Lightning's DDP (gloo) on 2 CPU processes."""
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    cmd = [sys.executable, str(REPO / "train.py"), "experiment=tiny", "trainer=ddp",
+           "trainer.max_steps=3", "trainer.val_check_interval=3", "trainer.limit_val_batches=1",
+           "trainer.enable_progress_bar=false", "events.enabled=false", "data.n_rallies=16",
+           "windows.batch_size=4", "model.window_s=1.0", f"hydra.run.dir={tmp_path}"]
+    res = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, timeout=180)
+    assert res.returncode == 0, res.stderr[-3000:]
+    assert "distributed_backend=gloo" in res.stderr + res.stdout
+    assert "All distributed processes registered" in res.stderr + res.stdout
+    assert (tmp_path / "model.pt").exists()
