@@ -62,8 +62,12 @@ def test_draw_court_views():
 
 
 def test_bounce_detection():
-    z = np.array([1.0, 0.5, 0.04, 0.4, 0.8, 0.5, 0.2, 0.5, 0.03, 0.03, 0.2])
-    np.testing.assert_array_equal(_bounce_indices(z), [2, 9])  # last frame of a flat minimum
+    z = np.array([1.0, 0.5, 0.04, 0.4, 0.8, 0.5, 0.2, 0.5, 0.03, 0.03, 0.2, 0.9, 0.6, 0.7])
+    frame = np.arange(z.size) + 100
+    # minima at 2, 6 (0.2 m: a bounce seen between frames), 9 (last frame of a flat minimum);
+    # the minimum at 12 is too high, and 6 is dropped when a racket contact is one frame away
+    np.testing.assert_array_equal(_bounce_indices(z, frame, np.array([], int)), [2, 6, 9])
+    np.testing.assert_array_equal(_bounce_indices(z, frame, np.array([107])), [2, 9])
 
 
 def test_plot_rally_writes_a_png(tmp_path):

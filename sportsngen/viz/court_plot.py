@@ -29,7 +29,10 @@ from sportsngen.tennis.court import (
 COURT_COLOURS = {"hard": "#3a6ea5", "clay": "#c8643c", "grass": "#4f8f3a"}
 LINE_KW = {"color": "white", "lw": 1.2, "zorder": 1}
 PLAYER_COLOURS = ("tab:red", "tab:blue", "tab:purple", "tab:orange")
-BOUNCE_MAX_Z_M = 0.15  # a local minimum of ball height below this is drawn as a bounce
+# A local minimum of sampled ball height below this is drawn as a bounce: at 25 Hz the frame
+# nearest a bounce can sit ~0.3 m above the ground, so the threshold is loose, and minima at a
+# racket contact (a low half-volley) are excluded by frame.
+BOUNCE_MAX_Z_M = 0.5
 
 
 def draw_court(ax, view: str = "top", surface: str = "hard") -> None:
@@ -84,12 +87,14 @@ def _rally_tables(rally_data, rally_id: int):
     return rallies[sel].iloc[0], frames, shots
 
 
-def _bounce_indices(z: np.ndarray) -> np.ndarray:
-    """Frames where the ball height has a local minimum close to the ground."""
+def _bounce_indices(z: np.ndarray, frame: np.ndarray, contact_frames: np.ndarray) -> np.ndarray:
+    """Indices where the ball height has a local minimum near the ground away from a contact."""
     if z.size < 3:
         return np.array([], dtype=int)
-    i = np.flatnonzero((z[1:-1] <= z[:-2]) & (z[1:-1] < z[2:]) & (z[1:-1] < BOUNCE_MAX_Z_M))
-    return i + 1
+    i = np.flatnonzero((z[1:-1] <= z[:-2]) & (z[1:-1] < z[2:]) & (z[1:-1] < BOUNCE_MAX_Z_M)) + 1
+    near_contact = np.isin(frame[i], contact_frames) | np.isin(frame[i] - 1, contact_frames) \
+        | np.isin(frame[i] + 1, contact_frames)
+    return i[~near_contact]
 
 
 def _title(row) -> str:
@@ -117,7 +122,7 @@ def plot_rally(rally_data, rally_id: int, path: str | Path | None = None) -> Fig
         top.plot(tr["x"], tr["y"], color=col, lw=1.6, label=str(pid), zorder=3)
         top.plot(tr["x"].iat[0], tr["y"].iat[0], "o", color=col, ms=6, zorder=4)
     top.plot(bx, by, color="yellow", lw=1.0, zorder=3, label="ball")
-    bounce = _bounce_indices(bz)
+    bounce = _bounce_indices(bz, ball["frame"].to_numpy(), shots["frame"].to_numpy())
     top.plot(bx[bounce], by[bounce], "x", color="black", ms=7, mew=2, zorder=5,
              label="bounce")
     top.plot(shots["contact_x"], shots["contact_y"], "*", color="gold", mec="black", ms=11,
