@@ -239,6 +239,22 @@ def test_export_reload_identical(tmp_path, head):
         load_model(tmp_path / "x.pt")
 
 
+def test_attention_dropout_is_its_own_setting():
+    """attn_dropout drops attention probabilities in training only; dropout=0 with
+    attn_dropout=0 is deterministic in training mode too."""
+    feats, ident, ctx = inputs(tiny_cfg())
+    for p, random in ((0.0, False), (0.5, True)):
+        model = make_model(attn_dropout=p).train()
+        c = model.context_tokens(*ctx)
+        with torch.no_grad():
+            a, b = model(feats, ident, c), model(feats, ident, c)
+            assert torch.equal(a, b) != random
+            model.eval()
+            assert torch.equal(model(feats, ident, c), model(feats, ident, c))
+    with pytest.raises(ValueError, match="model.attn_dropout"):
+        tiny_cfg(attn_dropout=1.0)
+
+
 def test_config_errors():
     with pytest.raises(ValueError, match="model.head"):
         tiny_cfg(head="huge")

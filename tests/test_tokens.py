@@ -189,3 +189,26 @@ def test_missing_object_is_an_error_naming_the_rally(toy):
     sub = RallyData(f.drop(drop).reset_index(drop=True), toy.rallies, toy.shots, toy.fps)
     with pytest.raises(ValueError, match=f"rally {rid}"):
         rally_arrays(sub, Vocab.from_data(toy))
+
+
+def test_near_contact_flags_frames_around_each_shot(toy, arrays):
+    """A frame is near contact exactly when it is within one frame of a shot's frame (clipped
+    to the rally), and the flag follows rallies through select() and into windows."""
+    for i, rid in enumerate(toy.rallies["rally_id"]):
+        n = int(arrays.length[i])
+        expected = np.zeros(n, dtype=bool)
+        for f in toy.shots.loc[toy.shots["rally_id"] == rid, "frame"]:
+            expected[max(f - 1, 0):min(f + 2, n)] = True
+        got = arrays.near_contact[arrays.start[i]:arrays.start[i] + n]
+        np.testing.assert_array_equal(got, expected)
+    sub = arrays.select(np.array([3, 1]))
+    np.testing.assert_array_equal(
+        sub.near_contact[:sub.length[0]],
+        arrays.near_contact[arrays.start[3]:arrays.start[3] + arrays.length[3]])
+    ds = WindowDataset(arrays, 30)
+    assert ds.items[1] == (0, 30)
+    win = ds[1]  # rally 0, frames 30..59
+    n0 = int(arrays.length[0])
+    np.testing.assert_array_equal(win["near_contact"][:min(30, n0 - 30)],
+                                  arrays.near_contact[30:min(60, n0)])
+    assert not win["near_contact"][win["valid"] == 0].any()

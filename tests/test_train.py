@@ -6,6 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 import torch
 from hydra import compose, initialize_config_dir
@@ -15,8 +16,11 @@ from sportsngen.data.tokens import GENERIC_ID, Vocab, WindowDataset, rally_array
 from sportsngen.data.toy import make_toy_rallies
 from sportsngen.model import load_model
 from sportsngen.model.config import ModelConfig
+from sportsngen.model.decoder import SportsNGEN
 from sportsngen.train.datamodule import load_rally_data
+from sportsngen.train.evaluate import data_config, evaluate_held_out, metrics_table
 from sportsngen.train.finetune import add_player, check_data_matches, player_rallies
+from sportsngen.train.metrics import NextFrameMetrics
 from sportsngen.train.module import DecoderModule
 from sportsngen.train.run import build_model_config, train_from_config
 
@@ -25,6 +29,12 @@ REPO = Path(__file__).resolve().parents[1]
 TINY = dict(d_model=32, n_layers=2, n_heads=2, ff_mult=2, dropout=0.0, id_dim=8,
             embed_hidden=(32,), score_hidden=16, n_bins=11, head="factorised", head_hidden=16,
             bin_centre="cv", window_s=1.0)
+
+
+@pytest.fixture(autouse=True)
+def _no_user_cache(tmp_path, monkeypatch):
+    """Nothing here may read or write the user's synthetic-data cache."""
+    monkeypatch.setenv("SPORTSNGEN_CACHE", str(tmp_path / "cache"))
 
 
 @pytest.fixture(scope="module")
@@ -116,17 +126,32 @@ def _compose(overrides):
         return compose(config_name="train", overrides=overrides)
 
 
-def test_train_py_through_hydra_resume_mismatch_and_finetune(tmp_path):
-    fast = ["experiment=tiny", "data.n_rallies=16", "trainer.max_steps=4",
+def test_train_py_through_hydra_resume_mismatch_and_finetune(tmp_path, monkeypatch):
+    fast = ["experiment=tiny", "data=toy", "data.n_rallies=16", "trainer.max_steps=4",
             "trainer.val_check_interval=2", "trainer.limit_val_batches=1",
             "trainer.enable_progress_bar=false", "events.max_steps=2",
             "model.generic_identity=true"]
     out = tmp_path / "run"
-    summary = train_from_config(_compose(fast), out)
-    assert {"val/nll_ball", "val/cv_nll_ball", "val/acc_player"} <= set(summary["decoder"])
+    summary = train_from_config(_compose([*fast, "trainer.limit_val_batches=1.0"]), out)
+    assert {"val/nll_ball", "val/cv_nll_ball", "val/acc_player", "val/acc_ball_flight",
+            "val/acc_ball_contact", "val/cv_nll_ball_contact"} <= set(summary["decoder"])
+    # The evaluation script's held-out rallies are the validation split: same figures.
+    held = evaluate_held_out(out / "model.pt", batch_size=5)
+    assert held["n_rallies"] == 2 and held["data"] == "toy"  # round(16 * 0.1)
+    for k in ("nll_ball", "nll_player", "acc_ball_flight", "cv_nll_ball", "loss"):
+        assert held[k] == pytest.approx(summary["decoder"][f"val/{k}"], rel=1e-5, abs=1e-6), k
+    assert len(metrics_table(held)) == 6
+    with pytest.warns(UserWarning, match="differ from the data the model was trained on"):
+        evaluate_held_out(out / "model.pt", {"source": "toy", "n_rallies": 16, "seed": 5})
     assert (out / "decoder" / "metrics.csv").exists() and (out / "summary.json").exists()
     model, ec, vocab, cfg = load_model(out / "model.pt")
     assert ec is not None and vocab.players == () and cfg.generic_identity
+    import sportsngen.train.evaluate as evaluate
+
+    with monkeypatch.context() as mp:  # regenerated data that changed: refuse, say why
+        mp.setattr(evaluate, "data_fingerprint", lambda data: "0" * 16)
+        with pytest.raises(ValueError, match="differ from the data the model was trained on"):
+            evaluate_held_out(out / "model.pt")
     last = out / "checkpoints_decoder" / "last.ckpt"
     assert last.exists()
 
@@ -143,7 +168,7 @@ def test_train_py_through_hydra_resume_mismatch_and_finetune(tmp_path):
     # Fine-tune a player's identity on the generic model (everything else frozen).
     ft = train_from_config(_compose([
         "experiment=finetune_player", "player=Toy Alpha", f"init={out / 'model.pt'}",
-        "data.n_rallies=16", "finetune.n_sequences=4", "trainer.max_steps=3",
+        "data=toy", "data.n_rallies=16", "finetune.n_sequences=4", "trainer.max_steps=3",
         "trainer.val_check_interval=3", "trainer.limit_val_batches=1",
         "trainer.enable_progress_bar=false", "windows.val_fraction=0.25"]), tmp_path / "ft")
     m2, ec2, vocab2, cfg2 = load_model(ft["model_file"])
@@ -157,7 +182,7 @@ def test_train_py_through_hydra_resume_mismatch_and_finetune(tmp_path):
     # Without freezing, the rest of the model trains too.
     ft3 = train_from_config(_compose([
         "experiment=finetune_player", "player=Toy Alpha", f"init={out / 'model.pt'}",
-        "data.n_rallies=16", "finetune.n_sequences=4", "finetune.freeze=false",
+        "data=toy", "data.n_rallies=16", "finetune.n_sequences=4", "finetune.freeze=false",
         "trainer.max_steps=2", "trainer.val_check_interval=2", "trainer.limit_val_batches=1",
         "trainer.enable_progress_bar=false", "windows.val_fraction=0.25"]), tmp_path / "ft3")
     m3 = load_model(ft3["model_file"])[0]
@@ -165,7 +190,7 @@ def test_train_py_through_hydra_resume_mismatch_and_finetune(tmp_path):
 
 
 def test_same_seed_same_weights(tmp_path):
-    over = ["experiment=tiny", "data.n_rallies=12", "trainer.max_steps=3",
+    over = ["experiment=tiny", "data=toy", "data.n_rallies=12", "trainer.max_steps=3",
             "trainer.val_check_interval=3", "trainer.limit_val_batches=1",
             "trainer.enable_progress_bar=false", "events.enabled=false", "seed=7"]
     a = train_from_config(_compose(over), tmp_path / "a")
@@ -184,10 +209,71 @@ def test_ddp_two_cpu_processes_slow(tmp_path):
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     cmd = [sys.executable, str(REPO / "train.py"), "experiment=tiny", "trainer=ddp",
            "trainer.max_steps=3", "trainer.val_check_interval=3", "trainer.limit_val_batches=1",
-           "trainer.enable_progress_bar=false", "events.enabled=false", "data.n_rallies=16",
-           "windows.batch_size=4", "model.window_s=1.0", f"hydra.run.dir={tmp_path}"]
+           "trainer.enable_progress_bar=false", "events.enabled=false", "data=toy",
+           "data.n_rallies=16", "windows.batch_size=4", "model.window_s=1.0",
+           f"hydra.run.dir={tmp_path}"]
     res = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, timeout=180)
     assert res.returncode == 0, res.stderr[-3000:]
     assert "distributed_backend=gloo" in res.stderr + res.stdout
     assert "All distributed processes registered" in res.stderr + res.stdout
     assert (tmp_path / "model.pt").exists()
+
+
+def test_metrics_are_token_sums_not_means_of_batch_means(toy):
+    """Two batches' metrics equal those of the two concatenated; the ball splits into flight
+    and contact tokens; `vector()` round-trips (the all-reduce layout)."""
+    mod, batch, _ = module_and_batch(toy)
+    model = mod.model.eval()
+    assert batch["near_contact"].any()
+    a, b = {k: v[:3] for k, v in batch.items()}, {k: v[3:] for k, v in batch.items()}
+    split, whole = NextFrameMetrics(), NextFrameMetrics()
+    split.update(model, a)
+    split.update(model, b)
+    whole.update(model, batch)
+    s, w = split.compute(), whole.compute()
+    for k, v in w.items():
+        assert s[k] == pytest.approx(v, rel=1e-6), k  # float32 forward, batch shapes differ
+    m, near = batch["has_next"], batch["near_contact"]
+    assert w["n_ball_contact"] == int((m & near).sum())
+    assert w["n_ball_flight"] == int((m & ~near).sum())
+    assert w["n_player_tokens"] == 2 * int(m.sum())
+    with torch.no_grad():
+        _, _, _, p_nll, b_nll = mod._forward(batch)
+    assert w["nll_ball"] == pytest.approx(float(b_nll[m].double().mean()), rel=1e-6)
+    assert w["nll_ball_contact"] == pytest.approx(float(b_nll[m & near].double().mean()),
+                                                  rel=1e-6)
+    assert w["nll_player"] == pytest.approx(float(p_nll[m].double().mean()), rel=1e-6)
+    assert whole.from_vector(whole.vector()).compute() == w
+
+
+def test_cv_reference_on_constant_velocity_tracks():
+    """Players walking at constant velocity: the CV bin is right at every frame but a rally's
+    first (whose backward-difference velocity is 0), and nowhere else."""
+    data = make_toy_rallies(3, seed=2)
+    vocab = Vocab.from_data(data)
+    cfg = build_model_config(TINY, data.fps, vocab)
+    arrays = rally_arrays(data, vocab)
+    t = arrays.pos_m.shape[0]
+    arrays.pos_m[:, :2, 0] = (np.arange(t) * 0.1)[:, None]  # 2.5 m/s along x, every rally
+    arrays.pos_m[:, :2, 1] = 1.0
+    batch = default_collate([WindowDataset(arrays, 25)[i] for i in range(6)])
+    torch.manual_seed(0)
+    met = NextFrameMetrics()
+    met.update(SportsNGEN(cfg).eval(), batch)
+    out = met.compute()
+    m = batch["has_next"]
+    first = int((m & (batch["t_s"] == 0)).sum())
+    assert first >= 1
+    assert out["cv_acc_player"] == pytest.approx(1 - first / int(m.sum()), abs=1e-12)
+
+
+def test_data_configs_of_train_yaml_and_evaluate():
+    assert _compose([]).data.name == "synthetic_small"  # the default is the generator's data
+    tiny = _compose(["experiment=tiny"])
+    assert tiny.data.name == "synthetic_tiny" and tiny.data.source == "synthetic"
+    assert _compose(["experiment=tiny", "data=toy"]).data.source == "toy"
+    assert data_config("synthetic_tiny")["n_points"] == 300
+    assert data_config("toy") == {"source": "toy", "n_rallies": 300, "seed": 0, "fps": 25.0}
+    assert data_config(str(REPO / "tests"))["source"] == "folder"
+    with pytest.raises(ValueError, match="neither a config in conf/data"):
+        data_config("no_such_data")

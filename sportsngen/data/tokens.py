@@ -9,7 +9,9 @@ vector. The target of a frame is every object's position at the next frame; the 
 into bin indices around a centre (`centre_m`) with `sportsngen.model.bins`.
 
 `rally_arrays` converts a `RallyData` once into flat numpy arrays; `WindowDataset` cuts windows
-from them (random crops and augmentation when training, a fixed tiling otherwise).
+from them (random crops and augmentation when training, a fixed tiling otherwise). Each frame also
+carries a "near contact" flag (within `CONTACT_TOL_FRAMES` of a racket contact in the shots
+table), so that validation can score the ball in flight and at the racket separately.
 """
 
 from __future__ import annotations
@@ -46,6 +48,7 @@ LABELS = {"stroke": STROKES, "direction": DIRECTIONS, "outcome": OUTCOMES,
 # The paper's ball noise at 25 Hz: +-25 mm in x, +-12.5 mm in y and z.
 BALL_NOISE_M_AT_25HZ = (0.025, 0.0125, 0.0125)
 UNKNOWN_POLICIES = ("generic", "warn", "error")
+CONTACT_TOL_FRAMES = 1       # a frame is "near contact" within this many frames of a shot's frame
 
 
 @dataclass
@@ -143,6 +146,7 @@ class RallyArrays:
 
     pos_m: np.ndarray        # (n_rows, 3 objects, 3) float32
     labels: np.ndarray       # (n_rows, 4) int64: stroke, direction, outcome, error_kind
+    near_contact: np.ndarray  # (n_rows,) bool: within CONTACT_TOL_FRAMES of a racket contact
     start: np.ndarray        # (n_rallies,) int64
     length: np.ndarray       # (n_rallies,) int64
     rally_id: np.ndarray     # (n_rallies,) int64
@@ -165,7 +169,8 @@ class RallyArrays:
             np.zeros(0, dtype=np.int64)
         length = self.length[idx]
         start = np.concatenate([[0], np.cumsum(length)[:-1]]).astype(np.int64)
-        return RallyArrays(self.pos_m[rows], self.labels[rows], start, length,
+        return RallyArrays(self.pos_m[rows], self.labels[rows], self.near_contact[rows], start,
+                           length,
                            self.rally_id[idx], self.ident[idx], self.surface[idx],
                            self.tournament[idx], self.serve[idx], self.score[idx], self.fps,
                            dict(self.meta))
@@ -227,12 +232,33 @@ def rally_arrays(data: RallyData, vocab: Vocab, unknown: str = "warn") -> RallyA
     tour_idx = {t: vocab.tournament_index(t) for t in set(r["tournament"])}
     score = score_vector(*(r[c].to_numpy() for c in SCORE_FIELDS))
     return RallyArrays(
-        pos_m=pos, labels=labels, start=start, length=length,
+        pos_m=pos, labels=labels, near_contact=_near_contact(data.shots, rid_to_pos, first, start,
+                                                            length),
+        start=start, length=length,
         rally_id=r["rally_id"].to_numpy(np.int64), ident=ident,
         surface=r["surface"].map(surf_idx).to_numpy(np.int64),
         tournament=r["tournament"].map(tour_idx).to_numpy(np.int64),
         serve=(r["serve_number"].to_numpy(np.int64) - 1).clip(0, 1), score=score,
         fps=float(data.fps))
+
+
+def _near_contact(shots, rid_to_pos: dict, first: np.ndarray, start: np.ndarray,
+                  length: np.ndarray) -> np.ndarray:
+    """(n_rows,) bool: rows within CONTACT_TOL_FRAMES frames of a shot's contact frame. Shots
+    of rallies not in `rid_to_pos` are ignored; contacts near a rally's ends are clipped to it."""
+    n_rows = int(length.sum())
+    near = np.zeros(n_rows, dtype=bool)
+    if shots is None or len(shots) == 0:
+        return near
+    ri = shots["rally_id"].map(rid_to_pos)
+    keep = ri.notna().to_numpy()
+    ri = ri.to_numpy()[keep].astype(np.int64)
+    local = shots["frame"].to_numpy(np.int64)[keep] - first[ri]
+    for d in range(-CONTACT_TOL_FRAMES, CONTACT_TOL_FRAMES + 1):
+        k = local + d
+        ok = (k >= 0) & (k < length[ri])
+        near[start[ri[ok]] + k[ok]] = True
+    return near
 
 
 def centre_m(pos_m: torch.Tensor, vel_mps: torch.Tensor, fps: float, mode: str) -> torch.Tensor:
@@ -329,6 +355,8 @@ class WindowDataset(Dataset):
         vel[~valid] = 0.0
         labels = np.zeros((w, len(LABELS)), dtype=np.int64)
         labels[:m] = a.labels[a.start[ri] + s:a.start[ri] + s + m]
+        near = np.zeros(w, dtype=bool)
+        near[:m] = a.near_contact[a.start[ri] + s:a.start[ri] + s + m]
         if aug is not None:
             if aug.ball_noise:
                 p_amp, v_amp = ball_noise_amplitudes(a.fps)
@@ -342,7 +370,7 @@ class WindowDataset(Dataset):
             "t_s": ((s + np.arange(w)) / a.fps).astype(np.float32), "valid": valid,
             "has_next": has_next, "ident": a.ident[ri], "surface": int(a.surface[ri]),
             "tournament": int(a.tournament[ri]), "serve": int(a.serve[ri]),
-            "score": a.score[ri], "labels": labels,
+            "score": a.score[ri], "labels": labels, "near_contact": near,
         }
 
 

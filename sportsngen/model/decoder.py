@@ -54,10 +54,11 @@ class Attention(nn.Module):
 class Block(nn.Module):
     """Pre-norm transformer block."""
 
-    def __init__(self, d_model: int, n_heads: int, ff_mult: int, dropout: float):
+    def __init__(self, d_model: int, n_heads: int, ff_mult: int, dropout: float,
+                 attn_dropout: float = 0.0):
         super().__init__()
         self.ln1 = nn.LayerNorm(d_model)
-        self.attn = Attention(d_model, n_heads, dropout)
+        self.attn = Attention(d_model, n_heads, attn_dropout)
         self.ln2 = nn.LayerNorm(d_model)
         self.ff = nn.Sequential(nn.Linear(d_model, ff_mult * d_model), nn.GELU(),
                                 nn.Linear(ff_mult * d_model, d_model), nn.Dropout(dropout))
@@ -105,7 +106,8 @@ class SportsNGEN(nn.Module):
         self.cfg = cfg
         self.embed = ObjectEmbedding(cfg)
         self.context = ContextEmbedding(cfg)
-        self.blocks = nn.ModuleList(Block(cfg.d_model, cfg.n_heads, cfg.ff_mult, cfg.dropout)
+        self.blocks = nn.ModuleList(Block(cfg.d_model, cfg.n_heads, cfg.ff_mult, cfg.dropout,
+                                          cfg.attn_dropout)
                                     for _ in range(cfg.n_layers))
         self.ln_f = nn.LayerNorm(cfg.d_model)
         dt = 1.0 / cfg.fps

@@ -25,7 +25,8 @@ class EventClassifier(nn.Module):
         self.cfg = cfg
         d = cfg.event_d_model
         self.embed = ObjectEmbedding(cfg, with_identity=False, d_model=d)
-        self.blocks = nn.ModuleList(Block(d, cfg.event_heads, cfg.ff_mult, cfg.dropout)
+        self.blocks = nn.ModuleList(Block(d, cfg.event_heads, cfg.ff_mult, cfg.dropout,
+                                          cfg.attn_dropout)
                                     for _ in range(cfg.event_layers))
         self.ln_f = nn.LayerNorm(N_OBJECTS * d)
         self.heads = nn.ModuleDict({name: nn.Linear(N_OBJECTS * d, len(vocab))

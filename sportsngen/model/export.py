@@ -42,6 +42,17 @@ def is_model_file(blob: dict) -> bool:
     return isinstance(blob, dict) and blob.get("format") == FORMAT
 
 
+def read_extra(path: str | Path) -> dict:
+    """The `extra` dict saved with a model file (e.g. the training summary and data split)."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no model file at {path}")
+    blob = torch.load(path, map_location="cpu", weights_only=True)
+    if not is_model_file(blob):
+        raise ValueError(f"{path} is not a sportsngen model file")
+    return dict(blob.get("extra") or {})
+
+
 def load_model(path: str | Path, map_location: str | torch.device = "cpu"):
     """-> (model in eval mode, event classifier or None, Vocab, ModelConfig)."""
     path = Path(path)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import importlib
 from collections.abc import Mapping
 from pathlib import Path
@@ -46,6 +47,15 @@ def load_rally_data(cfg: Mapping) -> RallyData:
             raise ValueError("data.source=folder needs data.path (a RallyData folder)")
         return RallyData.load(Path(cfg["path"]).expanduser())
     raise ValueError(f"data.source must be one of {DATA_SOURCES}, got {source!r}")
+
+
+def data_fingerprint(data: RallyData) -> str:
+    """A short hash of the rallies' ids and every coordinate: tells whether data loaded again
+    (e.g. regenerated after the generator's profiles changed) are the data a model saw."""
+    h = hashlib.sha256()
+    h.update(np.ascontiguousarray(data.rallies["rally_id"].to_numpy(np.int64)).tobytes())
+    h.update(np.ascontiguousarray(data.frames[["x", "y", "z"]].to_numpy(np.float32)).tobytes())
+    return h.hexdigest()[:16]
 
 
 def split_rallies(arrays: RallyArrays, val_fraction: float, seed: int):

@@ -20,7 +20,7 @@ from omegaconf import DictConfig, OmegaConf
 from sportsngen.data.tokens import Augment, Vocab
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.export import save_model
-from sportsngen.train.datamodule import TrackingDataModule, load_rally_data
+from sportsngen.train.datamodule import TrackingDataModule, data_fingerprint, load_rally_data
 from sportsngen.train.finetune import (
     add_player,
     check_data_matches,
@@ -138,8 +138,14 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
         event_model = em.model
         summary["events"] = {k: float(v) for k, v in et.callback_metrics.items()}
     if trainer.is_global_zero:
+        # The split is recorded so that scripts/evaluate_model.py scores the same held-out
+        # rallies (split_rallies(arrays, val_fraction, seed) on the same data).
+        split = {"seed": int(cfg.seed), "val_fraction": float(w.val_fraction),
+                 "data": OmegaConf.to_container(cfg.data, resolve=True),
+                 "player": cfg.get("player"), "n_sequences": ft.get("n_sequences"),
+                 "fingerprint": data_fingerprint(data)}
         path = save_model(out_dir / "model.pt", module.model.cpu(), vocab, event_model,
-                          extra={"summary": summary})
+                          extra={"summary": summary, "split": split})
         summary["model_file"] = str(path)
         (out_dir / "summary.json").write_text(json.dumps(summary, indent=2))
         log.info("summary: %s", json.dumps(summary, indent=2))

@@ -1,0 +1,154 @@
+"""Config-driven synthetic datasets: generate on first use, then load from a disk cache.
+
+`load_synthetic(cfg)` reads a ``conf/data/synthetic_*.yaml`` config (a dict or an OmegaConf
+node), and returns a `RallyData`. The first call generates the data (tqdm progress bar) and
+writes it under ``$SPORTSNGEN_CACHE`` (default ``~/.cache/sportsngen``) in a folder keyed by a
+hash of the config, of the generator version and of the calibrated profiles; later calls load
+it. Matches are streamed to Parquet one at a time, so generating uses memory flat in the number
+of points (loading the finished dataset of course needs room for it).
+
+Config fields (see ``conf/data/synthetic_small.yaml``):
+
+- ``source: synthetic``, ``name``
+- ``players.named``: named players (`named_profiles()`); ``players.population``: how many
+  population players per gender (``{men: 20, women: 8}``); ``players.population_seed``
+- ``surfaces``: list of surfaces, cycled over matches
+- ``n_points``, ``seed``, ``workers`` (null: 1 process), ``fps``
+- ``format``: `MatchFormat` fields (``best_of``, ``final_set``, ...)
+
+Matchups: a round robin within each gender (named and population players together), in an
+order shuffled by the seed, cycled.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from sportsngen.data.tracking import FRAME_COLUMNS, RALLY_COLUMNS, SHOT_COLUMNS, RallyData
+from sportsngen.synth.generate import _check_n_points, _workers, iter_match_tables, match_specs
+from sportsngen.synth.profiles import (
+    GENDERS,
+    PROFILES_JSON,
+    PlayerProfile,
+    get_profile,
+    sample_population,
+)
+from sportsngen.tennis.scoring import MatchFormat
+
+GENERATOR_VERSION = "1"
+_ARROW = {"int64": pa.int64(), "float64": pa.float64(), "string": pa.string(), "bool": pa.bool_()}
+
+
+def _plain(cfg) -> dict:
+    """A plain dict from a dict or an OmegaConf node."""
+    try:
+        from omegaconf import DictConfig, OmegaConf
+        if isinstance(cfg, DictConfig):
+            return OmegaConf.to_container(cfg, resolve=True)
+    except ImportError:  # pragma: no cover - hydra-core is a dependency
+        pass
+    if not isinstance(cfg, dict):
+        raise ValueError(f"synthetic data config must be a mapping, got {type(cfg).__name__}")
+    return json.loads(json.dumps(cfg))
+
+
+def cache_root() -> Path:
+    """``$SPORTSNGEN_CACHE`` or ``~/.cache/sportsngen``."""
+    env = os.environ.get("SPORTSNGEN_CACHE")
+    return Path(env) if env else Path.home() / ".cache" / "sportsngen"
+
+
+def config_key(cfg) -> str:
+    """Hash of what determines the data: the config (minus workers), the generator version and
+    the calibrated profiles."""
+    c = _plain(cfg)
+    c.pop("workers", None)
+    c.pop("cache_dir", None)
+    blob = json.dumps(c, sort_keys=True) + GENERATOR_VERSION + PROFILES_JSON.read_text()
+    return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+def matchups(cfg) -> list[tuple[PlayerProfile, PlayerProfile]]:
+    """The config's matchups: a round robin within each gender, shuffled by the seed."""
+    c = _plain(cfg)
+    players = c.get("players") or {}
+    named = [get_profile(n) for n in players.get("named") or []]
+    population = players.get("population") or {}
+    if isinstance(population, int):
+        population = {"men": population}
+    unknown = sorted(set(population) - set(GENDERS))
+    if unknown:
+        raise ValueError(f"players.population genders {unknown} unknown; use {list(GENDERS)}")
+    pop_seed = int(players.get("population_seed", 0))
+    pairs = []
+    for k, gender in enumerate(GENDERS):
+        group = [p for p in named if p.gender == gender]
+        n_pop = int(population.get(gender, 0))
+        if n_pop:
+            group += sample_population(n_pop, seed=pop_seed + k, gender=gender)
+        pairs += list(itertools.combinations(group, 2))
+    if not pairs:
+        raise ValueError("the config's players give no matchup: list at least two named players "
+                         "of one gender or ask for population players")
+    order = np.random.default_rng(int(c.get("seed", 0))).permutation(len(pairs))
+    return [pairs[i] for i in order]
+
+
+def _writer_schema(columns: dict[str, str]) -> pa.Schema:
+    return pa.schema([(name, _ARROW[dtype]) for name, dtype in columns.items()])
+
+
+def generate_to_folder(cfg, folder: str | Path, progress: bool = True) -> Path:
+    """Generate the dataset of `cfg` into `folder` (Parquet, the `RallyData.save` layout),
+    streaming match by match."""
+    c = _plain(cfg)
+    n_points = c.get("n_points")
+    _check_n_points(n_points)
+    fmt = MatchFormat(**(c.get("format") or {}))
+    fps = float(c.get("fps", 25.0))
+    specs = match_specs(matchups(c), c.get("surfaces", "hard"), int(n_points),
+                        int(c.get("seed", 0)), fmt, fps, render=True)
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    tables = {"frames": FRAME_COLUMNS, "rallies": RALLY_COLUMNS, "shots": SHOT_COLUMNS}
+    writers = {name: pq.ParquetWriter(folder / f"{name}.parquet", _writer_schema(cols))
+               for name, cols in tables.items()}
+    try:
+        for t in iter_match_tables(specs, int(n_points), _workers(c.get("workers")), progress):
+            for name, df in (("frames", t.frames), ("rallies", t.rallies), ("shots", t.shots)):
+                df = df.astype(tables[name])
+                writers[name].write_table(pa.Table.from_pandas(df, schema=writers[name].schema,
+                                                               preserve_index=False))
+    finally:
+        for w in writers.values():
+            w.close()
+    meta = {"fps": fps, "generator": "sportsngen.synth", "config": c,
+            "generator_version": GENERATOR_VERSION}
+    (folder / "meta.json").write_text(json.dumps(meta, indent=2, default=str))
+    return folder
+
+
+def load_synthetic(cfg, progress: bool = True) -> RallyData:
+    """The synthetic dataset of `cfg`, generated on first use and cached on disk."""
+    c = _plain(cfg)
+    if c.get("source", "synthetic") != "synthetic":
+        raise ValueError(f"load_synthetic needs a config with source: synthetic, "
+                         f"got {c.get('source')!r}")
+    root = Path(c["cache_dir"]).expanduser() if c.get("cache_dir") else cache_root()
+    folder = root / "synthetic" / f"{c.get('name', 'synthetic')}-{config_key(c)}"
+    if not (folder / "meta.json").exists():
+        tmp = folder.with_name(folder.name + f".tmp{os.getpid()}")
+        shutil.rmtree(tmp, ignore_errors=True)
+        generate_to_folder(c, tmp, progress=progress)
+        shutil.rmtree(folder, ignore_errors=True)
+        tmp.rename(folder)  # atomic: a half-written cache is never picked up
+    return RallyData.load(folder)

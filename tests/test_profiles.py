@@ -1,0 +1,126 @@
+"""Player profiles: validation, the named players, the population sampler, the kinematics."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections import Counter
+
+import numpy as np
+import pytest
+
+from sportsngen.synth.players import Mover, max_distance_m, min_time_s
+from sportsngen.synth.profiles import (
+    STYLES,
+    PlayerProfile,
+    average_profile,
+    get_profile,
+    named_profiles,
+    sample_population,
+)
+
+NAMED = ("Roger Federer", "Rafael Nadal", "Novak Djokovic", "Andy Murray", "John Isner",
+         "Serena Williams", "Maria Sharapova")
+
+
+def test_named_players_present_and_plausible():
+    named = named_profiles()
+    assert set(NAMED) <= set(named)
+    assert named["Rafael Nadal"].handedness == "left"
+    assert named["Serena Williams"].gender == "women"
+    for p in named.values():
+        assert 0.15 <= p.reaction_s <= 0.25
+        assert p.max_speed_mps <= 7.0 and p.max_accel_mps2 <= 6.0
+        assert 2.5 <= p.contact_height_m <= 3.1
+        assert p.second_serve_kmh < p.first_serve_kmh
+
+
+def test_get_profile_unknown_lists_known():
+    with pytest.raises(ValueError, match="known players: .*Roger Federer"):
+        get_profile("Bjorn Borg")
+    p = PlayerProfile(name="X")
+    assert get_profile(p) is p
+
+
+@pytest.mark.parametrize("field, value, match", [
+    ("aggression", -0.1, "aggression is a probability"),
+    ("serve_wide", 1.5, "serve_wide is a probability"),
+    ("first_serve_kmh", -10.0, "first_serve_kmh must be >= 0"),
+    ("reaction_s", float("nan"), "reaction_s must be a finite number"),
+    ("contact_height_m", 4.0, "contact_height_m must lie in"),
+    ("gender", "mixed", "gender must be one of"),
+    ("style", "moonballer", "style must be one of"),
+])
+def test_profile_validation(field, value, match):
+    with pytest.raises(ValueError, match=match):
+        PlayerProfile(name="X", **{field: value})
+
+
+def test_profile_dict_round_trip_and_unknown_fields():
+    p = get_profile("Roger Federer")
+    assert PlayerProfile.from_dict(p.to_dict()) == p
+    with pytest.raises(ValueError, match="unknown profile fields \\['backhand_grip'\\]"):
+        PlayerProfile.from_dict({**p.to_dict(), "backhand_grip": 1.0})
+    mix = p.serve_mix
+    assert mix.sum() == pytest.approx(1.0) and (mix >= 0).all()
+
+
+def test_average_profile_is_the_mean_of_named_men():
+    men = [p for p in named_profiles().values() if p.gender == "men"]
+    avg = average_profile("men")
+    assert avg.first_serve_kmh == pytest.approx(np.mean([p.first_serve_kmh for p in men]))
+    assert avg.rally_noise_deg == pytest.approx(np.mean([p.rally_noise_deg for p in men]))
+    with pytest.raises(ValueError, match="gender"):
+        average_profile("juniors")
+
+
+def test_population_sampler_deterministic_varied_and_plausible():
+    a = sample_population(200, seed=7)
+    assert a == sample_population(200, seed=7)
+    assert a != sample_population(200, seed=8)
+    assert len({p.name for p in a}) == 200
+    lefties = sum(p.handedness == "left" for p in a) / len(a)
+    assert 0.08 <= lefties <= 0.22
+    styles = Counter(p.style for p in a)
+    assert set(styles) == set(STYLES)
+    for p in a:
+        assert 0.15 <= p.reaction_s <= 0.28
+        assert p.max_speed_mps <= 7.0 and p.max_accel_mps2 <= 6.0
+        assert 2.5 <= p.contact_height_m <= 3.1
+        assert p.second_serve_kmh <= p.first_serve_kmh - 15.0 + 1e-9
+    # Styles show: serve-volleyers come in, counter-punchers stay back.
+    sv = np.mean([p.net_approach for p in a if p.style == "serve_volleyer"])
+    cp = np.mean([p.net_approach for p in a if p.style == "counter_puncher"])
+    assert sv > cp + 0.2
+    women = sample_population(5, seed=1, gender="women")
+    assert all(p.gender == "women" and p.name.startswith("Pop W") for p in women)
+    with pytest.raises(ValueError, match="n must be a positive integer"):
+        sample_population(0)
+
+
+def test_min_time_and_max_distance_are_inverse():
+    d = np.array([0.0, 0.5, 2.0, 4.0, 8.0])
+    t = min_time_s(d, 7.0, 6.0)
+    assert t[0] == 0.0
+    assert t[1] == pytest.approx(np.sqrt(2 * 0.5 / 6.0))
+    assert t[4] == pytest.approx(8.0 / 7.0 + 7.0 / 12.0)  # past v^2 / 2a = 4.08 m: cruising
+    assert np.allclose(max_distance_m(t, 7.0, 6.0), d)
+
+
+def test_mover_obeys_limits_and_arrives():
+    m = Mover(0.0, 0.0, max_speed_mps=6.5, max_accel_mps2=5.5, dt_s=0.04)
+    m.run_to(60, 5.0, -3.0)
+    m.run_to(160, -4.0, 2.0)
+    xy = m.as_array()
+    assert len(xy) == 161
+    v = np.diff(xy, axis=0) / 0.04
+    a = np.diff(v, axis=0) / 0.04
+    assert np.linalg.norm(v, axis=1).max() <= 6.5 + 1e-9
+    assert np.linalg.norm(a, axis=1).max() <= 5.5 + 1e-9
+    assert np.hypot(xy[60, 0] - 5.0, xy[60, 1] + 3.0) < 0.05
+    assert np.hypot(xy[-1, 0] + 4.0, xy[-1, 1] - 2.0) < 0.05
+
+
+def test_profile_is_frozen():
+    p = get_profile("Rafael Nadal")
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        p.aggression = 0.9  # type: ignore[misc]
