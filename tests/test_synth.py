@@ -236,3 +236,25 @@ def test_load_synthetic_generates_once_then_caches(tmp_path, monkeypatch):
     assert first.rallies["serve_kmh"].tolist() == direct.rallies["serve_kmh"].tolist()
     with pytest.raises(ValueError, match="source: synthetic"):
         load_synthetic({**cfg, "source": "toy"})
+
+
+def test_wide_run_past_the_fence_keeps_the_acceleration_limit():
+    # Regression: this sample has a forced error run down beyond |y| = 9.5 m (rally 128), where
+    # clipping tracks at the fence once stopped the player dead (57 m/s^2).
+    d = generate_matches(["Roger Federer", "Rafael Nadal", "Novak Djokovic"], "hard", 95, seed=5)
+    f = d.frames[d.frames["object"] != "ball"].sort_values(["rally_id", "object", "frame"])
+    assert f["y"].abs().max() > 9.5
+    for (_, name), g in f.groupby(["rally_id", "object"]):
+        v = np.diff(g[["x", "y"]].to_numpy(), axis=0) * d.fps
+        a = np.diff(v, axis=0) * d.fps
+        assert np.linalg.norm(a, axis=1).max() <= get_profile(name).max_accel_mps2 + 1e-6
+
+
+def test_a_ball_rolling_into_the_net_stops_on_its_side():
+    from sportsngen.synth.rally import _stop_roll_at_net
+
+    roll = np.array([[-0.6, 1.0, BALL_RADIUS_M], [-0.2, 1.1, BALL_RADIUS_M],
+                     [0.1, 1.2, BALL_RADIUS_M], [0.3, 1.3, BALL_RADIUS_M]])
+    _stop_roll_at_net(roll, side=-1.0)
+    np.testing.assert_allclose(roll[:, 0], [-0.6, -0.2, -BALL_RADIUS_M, -BALL_RADIUS_M])
+    np.testing.assert_allclose(roll[:, 1], [1.0, 1.1, 1.1, 1.1])

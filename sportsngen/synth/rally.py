@@ -361,14 +361,25 @@ def play_rally(server: PlayerProfile, receiver: PlayerProfile, server_end: int,
     if not render:
         return result
     result.players_m = np.stack([m.as_array()[:n_frames] for m in movers])
-    np.clip(result.players_m[..., 0], -FENCE_X_M, FENCE_X_M, out=result.players_m[..., 0])
-    np.clip(result.players_m[..., 1], -FENCE_Y_M, FENCE_Y_M, out=result.players_m[..., 1])
+    # Player tracks are not clipped at the fence: a clip stops a running player dead, breaking
+    # the acceleration limit; a player braking after a wide ball stays well inside |y| < 20 m.
     t = np.arange(n_frames) * dt
     result.ball_m = _ball_track(t, stance, shots[0].contact_m, toss_vz, flights)
     contact_frames = np.array([s.t_s for s in shots]) * fps
     result.frame_shot = np.maximum(np.searchsorted(np.round(contact_frames), np.arange(n_frames),
                                                    side="right") - 1, 0)
     return result
+
+
+def _stop_roll_at_net(roll: np.ndarray, side: float) -> None:
+    """A ball rolling on the ground into the net stops against it (in place), on its side."""
+    if side == 0:
+        return
+    crossed = np.flatnonzero(np.sign(roll[:, 0]) != side)
+    if len(crossed):
+        k = crossed[0]
+        roll[k:, 0] = side * physics.BALL_RADIUS_M
+        roll[k:, 1] = roll[k - 1, 1] if k > 0 else roll[k, 1]
 
 
 def _ball_track(t: np.ndarray, stance: tuple[float, float], serve_contact: np.ndarray,
@@ -394,9 +405,12 @@ def _ball_track(t: np.ndarray, stance: tuple[float, float], serve_contact: np.nd
             p_end, v_end = flight.pos_m[-1], flight.vel_mps[-1]
             extra = tau[~inside] - t_last
             decay = 0.5 * (1.0 - np.exp(-extra / 0.5))
-            seg[~inside, 0] = p_end[0] + v_end[0] * decay
-            seg[~inside, 1] = p_end[1] + v_end[1] * decay
-            seg[~inside, 2] = max(physics.BALL_RADIUS_M, min(p_end[2], physics.BALL_RADIUS_M))
+            roll = np.empty((len(extra), 3))
+            roll[:, 0] = p_end[0] + v_end[0] * decay
+            roll[:, 1] = p_end[1] + v_end[1] * decay
+            roll[:, 2] = max(physics.BALL_RADIUS_M, min(p_end[2], physics.BALL_RADIUS_M))
+            _stop_roll_at_net(roll, side=np.sign(p_end[0]))
+            seg[~inside] = roll
         out[sel] = seg
     beyond = np.nonzero((np.abs(out[:, 0]) > FENCE_X_M) | (np.abs(out[:, 1]) > FENCE_Y_M))[0]
     if len(beyond):
