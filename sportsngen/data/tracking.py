@@ -56,7 +56,8 @@ RALLY_COLUMNS: dict[str, str] = {
     "set_no": "int64", "server_sets": "int64", "receiver_sets": "int64",
     "server_games": "int64", "receiver_games": "int64",
     "server_points": "int64", "receiver_points": "int64",  # points won in the game/tie-break
-    "in_tiebreak": "bool", "score": "string",               # score string before the point
+    "in_tiebreak": "bool",
+    "score": "string",           # score before the point, from the match's first player (score_str)
     "winner": "string",          # player id; "" for a first-serve fault
     "end_reason": "string", "end_detail": "string",
     "serve_kmh": "float64",      # speed of this rally's serve at contact
