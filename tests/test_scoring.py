@@ -458,3 +458,11 @@ def test_whole_random_matches_stay_valid_and_end(fmt_index, seed, p_player0):
     if fmt.final_set != "advantage":
         most = max(fmt.tiebreak_at, 12 if fmt.final_set == "tiebreak7_at_12" else 0)
         assert total_games <= fmt.best_of * (2 * most + 1)
+
+
+def test_point_label():
+    from sportsngen.tennis.scoring import point_label
+
+    assert [point_label(m, 0) for m in range(4)] == ["0", "15", "30", "40"]
+    assert (point_label(3, 3), point_label(4, 3), point_label(3, 4)) == ("40", "AD", "40")
+    assert point_label(6, 5, in_tiebreak=True) == "6"

@@ -22,7 +22,7 @@ import pandas as pd
 from sportsngen.baselines.markov import _check_p
 from sportsngen.data.points import as_points_table
 from sportsngen.data.tracking import SURFACES
-from sportsngen.tennis.scoring import MatchFormat, MatchState
+from sportsngen.tennis.scoring import MatchFormat, MatchState, point_label
 
 _IQR_TO_SD = 1.349  # a normal distribution's inter-quartile range is 1.349 sigma
 _SPEED_RANGE_KMH = (40.0, 265.0)  # keep sampled speeds physical (fastest recorded ~263)
@@ -219,12 +219,7 @@ def _play_point(m: ServeModel, rng: np.random.Generator) -> dict:
 def _score_strings(state: MatchState) -> tuple[str, str]:
     """Point score before the point, from the server's side ("AD", "40", ... or tie-break)."""
     a, b = state.points[state.server], state.points[state.receiver]
-    if state.in_tiebreak:
-        return str(a), str(b)
-    if a >= 3 and b >= 3:
-        return ("40", "40") if a == b else (("AD", "40") if a > b else ("40", "AD"))
-    names = ("0", "15", "30", "40")
-    return names[a], names[b]
+    return point_label(a, b, state.in_tiebreak), point_label(b, a, state.in_tiebreak)
 
 
 def simulate_match_points(model_a: ServeModel, model_b: ServeModel,

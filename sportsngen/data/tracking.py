@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 
 from sportsngen.data.points import as_points_table
+from sportsngen.tennis.scoring import point_label
 
 FPS_DEFAULT = 25.0
 MAX_ABS_X_M = 30.0  # anything further from the net is off any plausible court
@@ -245,9 +246,9 @@ class RallyData:
             "set_no": last["set_no"].to_numpy(),
             "server_games": last["server_games"].to_numpy(),
             "receiver_games": last["receiver_games"].to_numpy(),
-            "server_score": [_point_label(a, b, tb) for a, b, tb in zip(
+            "server_score": [point_label(a, b, tb) for a, b, tb in zip(
                 last["server_points"], last["receiver_points"], last["in_tiebreak"])],
-            "receiver_score": [_point_label(b, a, tb) for a, b, tb in zip(
+            "receiver_score": [point_label(b, a, tb) for a, b, tb in zip(
                 last["server_points"], last["receiver_points"], last["in_tiebreak"])],
         })
         return as_points_table(out)
@@ -278,15 +279,3 @@ class RallyData:
         fps = float(meta.pop("fps", FPS_DEFAULT))
         return cls.from_tables(*(pd.read_parquet(p) for p in paths.values()), fps=fps,
                                meta=meta, repair=repair)
-
-
-_GAME_POINTS = ("0", "15", "30", "40")
-
-
-def _point_label(mine: int, theirs: int, tiebreak: bool) -> str:
-    """Point score label of one player before a point: "0".."40", "AD", or a tie-break count."""
-    if tiebreak:
-        return str(int(mine))
-    if mine >= 3 and theirs >= 3:
-        return "AD" if mine > theirs else "40"
-    return _GAME_POINTS[min(int(mine), 3)]

@@ -14,6 +14,23 @@ import torch
 from torch import nn
 
 
+def flat_index(idx: torch.Tensor, n_bins: int) -> torch.Tensor:
+    """(..., dims) per-dimension bin indices -> (...) joint class index (first dimension major)."""
+    out = idx[..., 0]
+    for d in range(1, idx.shape[-1]):
+        out = out * n_bins + idx[..., d]
+    return out
+
+
+def unflat_index(flat: torch.Tensor, n_bins: int, dims: int) -> torch.Tensor:
+    """(...) joint class index -> (..., dims) per-dimension bin indices; inverse of flat_index."""
+    out = []
+    for _ in range(dims):
+        out.append(flat % n_bins)
+        flat = flat // n_bins
+    return torch.stack(out[::-1], dim=-1)
+
+
 def bin_edges(half_range_m: float, n_bins: int, spacing: str) -> torch.Tensor:
     """The n_bins + 1 edges of one dimension, from -half_range_m to +half_range_m."""
     if half_range_m <= 0:
@@ -57,21 +74,6 @@ class Bins(nn.Module):
         """(..., dims) widths of the bins."""
         return self.value(idx, torch.ones(*idx.shape, device=idx.device)) - \
             self.value(idx, torch.zeros(*idx.shape, device=idx.device))
-
-    def flat(self, idx: torch.Tensor) -> torch.Tensor:
-        """(..., dims) -> (...) joint class index (x major)."""
-        out = idx[..., 0]
-        for d in range(1, self.dims):
-            out = out * self.n_bins + idx[..., d]
-        return out
-
-    def unflat(self, flat: torch.Tensor) -> torch.Tensor:
-        """(...) joint class index -> (..., dims)."""
-        out = []
-        for _ in range(self.dims):
-            out.append(flat % self.n_bins)
-            flat = flat // self.n_bins
-        return torch.stack(out[::-1], dim=-1)
 
     def gaussian_nll(self, offset_m: torch.Tensor, mean_m: torch.Tensor,
                      sigma_m: torch.Tensor) -> torch.Tensor:

@@ -14,6 +14,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from sportsngen.model.bins import flat_index, unflat_index
 from sportsngen.model.sampling import sample_top_p
 
 
@@ -24,17 +25,7 @@ class JointHead(nn.Module):
         self.proj = nn.Linear(d_model, n_bins ** dims)
 
     def _unflat(self, flat: torch.Tensor) -> torch.Tensor:
-        out = []
-        for _ in range(self.dims):
-            out.append(flat % self.n_bins)
-            flat = flat // self.n_bins
-        return torch.stack(out[::-1], dim=-1)
-
-    def _flat(self, idx: torch.Tensor) -> torch.Tensor:
-        out = idx[..., 0]
-        for d in range(1, self.dims):
-            out = out * self.n_bins + idx[..., d]
-        return out
+        return unflat_index(flat, self.n_bins, self.dims)
 
     def logits(self, h: torch.Tensor) -> torch.Tensor:
         return self.proj(h)
@@ -42,7 +33,8 @@ class JointHead(nn.Module):
     def nll(self, h: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:
         """(..., d), (..., dims) -> (...) negative log-likelihood in nats."""
         logits = self.proj(h)
-        return F.cross_entropy(logits.reshape(-1, logits.shape[-1]), self._flat(idx).reshape(-1),
+        target = flat_index(idx, self.n_bins).reshape(-1)
+        return F.cross_entropy(logits.reshape(-1, logits.shape[-1]), target,
                                reduction="none").reshape(idx.shape[:-1])
 
     def top1(self, h: torch.Tensor) -> torch.Tensor:

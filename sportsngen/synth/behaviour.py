@@ -43,11 +43,6 @@ class ShotPlan:
     lob: bool = False
 
 
-def forehand_sign(end: int, handedness: str) -> int:
-    """Sign of y of the forehand side of a player whose baseline is at x sign `end`."""
-    return int(court.forehand_side_sign(end, handedness))
-
-
 def deuce_sign(server_end: int, serving_side: str) -> int:
     """Sign of y of the server's half of the court (the side he serves from)."""
     if serving_side not in ("deuce", "ad"):
@@ -104,7 +99,7 @@ def choose_stroke(p: PlayerProfile, end: int, player_y: float, ball_y: float,
     according to `forehand_preference`), volley before the bounce, overhead when high."""
     if volley and ball_z > 2.3:
         return "overhead"
-    f = forehand_sign(end, p.handedness)
+    f = int(court.forehand_side_sign(end, p.handedness))
     forehand = (ball_y - player_y) * f > -0.6 * p.forehand_preference
     if volley:
         return "forehand_volley" if forehand else "backhand_volley"
@@ -130,7 +125,7 @@ def plan_rally_shot(p: PlayerProfile, end: int, stroke: str, contact_xyz: np.nda
     # A short ball taken comfortably is attacked: nearer the lines and faster (the noise
     # follows the player's style, not the attack).
     aggr = min(max(style + (0.3 if short_ball else 0.0), 0.0), 1.0)
-    f = forehand_sign(end, p.handedness)
+    f = int(court.forehand_side_sign(end, p.handedness))
 
     # Direction, relative to the hitter's lateral position (the stroke side near the middle).
     ref = np.sign(cy) if abs(cy) > 1.0 else (f if stroke.startswith("forehand") else -f)
@@ -210,7 +205,7 @@ def recovery_target(p: PlayerProfile, end: int, shot_target_y_m: float,
     """Where the hitter recovers after his shot: behind his baseline (or at the net after an
     approach), shaded toward his own target (the bisector of the reply angles) and offset toward
     the backhand side by the player's habit."""
-    backhand = -forehand_sign(end, p.handedness)
+    backhand = -int(court.forehand_side_sign(end, p.handedness))
     if at_net:
         return end * 2.6, 0.45 * shot_target_y_m
     y = 0.35 * shot_target_y_m + backhand * p.recovery_backhand_offset_m

@@ -159,6 +159,16 @@ class MatchFormat:
 # --- small pure helpers ------------------------------------------------------------------
 
 
+def point_label(mine: int, theirs: int, in_tiebreak: bool = False) -> str:
+    """One player's point score from raw counts: "0", "15", "30", "40" or "AD" in a game (deuce
+    is "40" for both), the count as digits in a tie-break."""
+    if in_tiebreak:
+        return str(int(mine))
+    if mine >= 3 and theirs >= 3:
+        return "AD" if mine > theirs else "40"
+    return _POINT_NAMES[min(int(mine), 3)]
+
+
 def _game_won(points: tuple[int, int] | list[int], p: int, no_ad: bool) -> bool:
     """Has player p won a regular game at this point count?"""
     mine, theirs = points[p], points[1 - p]
@@ -439,11 +449,7 @@ class MatchState:
     def point_score_str(self) -> str:
         """Current game score, player 0 first: "0-15", "40-40", "AD-40"; tie-break "5-3"."""
         a, b = self.points
-        if self.in_tiebreak:
-            return f"{a}-{b}"
-        if a >= 3 and b >= 3:
-            return "40-40" if a == b else ("AD-40" if a > b else "40-AD")
-        return f"{_POINT_NAMES[a]}-{_POINT_NAMES[b]}"
+        return f"{point_label(a, b, self.in_tiebreak)}-{point_label(b, a, self.in_tiebreak)}"
 
     def score_str(self) -> str:
         """Score from player 0's view, space separated.
