@@ -34,8 +34,8 @@ def tiny_cfg(**kw) -> ModelConfig:
 def inputs(cfg: ModelConfig, b: int = 2, t: int = 6, seed: int = 0):
     g = torch.Generator().manual_seed(seed)
     feats = torch.randn(b, t, 3, N_FEATURES, generator=g)
-    ident = torch.tensor([[2, 3, 0], [4, 1, 0]])[:b]
-    ctx = (torch.tensor([0, 2])[:b], torch.tensor([1, 0])[:b], torch.tensor([0, 1])[:b],
+    ident = torch.tensor([[2, 3, 0], [4, 1, 0], [3, 4, 0]])[:b]
+    ctx = (torch.tensor([0, 2, 1])[:b], torch.tensor([1, 0, 1])[:b], torch.tensor([0, 1, 1])[:b],
            torch.rand(b, 7, generator=g))
     return feats, ident, ctx
 
@@ -154,20 +154,44 @@ def test_cache_step_equals_full_window(head):
     assert cache.n_frames == t
 
 
-def test_rolling_cache_exact_for_one_layer():
-    """With one layer, keys/values depend on the token alone, so dropping the oldest frame
-    equals recomputing the shifted window (deeper models: see the decoder's docstring)."""
-    model = make_model(n_layers=1)
+@pytest.mark.parametrize("prefill", [0, 7, 13])
+def test_ring_cache_equals_band_recompute_beyond_the_window(prefill):
+    """Past the window, stepping the ring cache equals `forward` on the whole rally with the
+    band mask (every layer sees at most window_frames frames), for a deep model."""
+    model = make_model(n_layers=3)
     w = model.cfg.window_frames
-    feats, ident, ctx = inputs(model.cfg, t=w + 4)
+    t = 2 * w + 5
+    feats, ident, ctx = inputs(model.cfg, t=t)
     c = model.context_tokens(*ctx)
     with torch.no_grad():
-        cache = model.init_cache(ident, c)
-        for k in range(w + 4):
+        full = model(feats, ident, c)
+        if prefill:
+            _, cache = model(feats[:, :prefill], ident, c, return_cache=True)
+        else:
+            cache = model.init_cache(ident, c)
+        for k in range(prefill, t):
             h, cache = model.forward_step(feats[:, k], cache)
-        full = model(feats[:, 4:], ident, c)
-    assert cache.n_frames == w
-    assert (h - full[:, -1]).abs().max().item() < 1e-4
+            assert (h - full[:, k]).abs().max().item() < 1e-4
+    assert cache.n_frames == t and cache.n_keys == 4 + 3 * w
+
+
+def test_band_mask_hides_frames_older_than_the_window():
+    m = baller2vec_mask(n_ctx=1, n_frames=4, n_objects=1, window_frames=2)
+    assert m[:, 0].all()                                   # context visible to all
+    assert m[3, 3] and m[3, 2] and not m[3, 1]             # frame 2 sees frames 1, 2 only
+    assert torch.equal(baller2vec_mask(1, 4, 1, window_frames=4), baller2vec_mask(1, 4, 1))
+
+
+def test_cache_select_keeps_rows():
+    model = make_model()
+    feats, ident, ctx = inputs(model.cfg, b=3, t=5)
+    c = model.context_tokens(*ctx)
+    with torch.no_grad():
+        full = model(feats, ident, c)
+        _, cache = model(feats[:, :3], ident, c, return_cache=True)
+        cache = cache.select(torch.tensor([2, 0]))
+        h, _ = model.forward_step(feats[[2, 0], 3], cache)
+    assert (h - full[[2, 0], 3]).abs().max().item() < 1e-4
 
 
 def test_generic_identity_shares_one_embedding():

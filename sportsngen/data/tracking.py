@@ -87,11 +87,13 @@ class TrackingDataError(ValueError):
     """Tracking data that breaks the schema; the message names the table, rally and row."""
 
 
-def _cast(df: pd.DataFrame, columns: dict[str, str], table: str) -> pd.DataFrame:
+def _cast(df: pd.DataFrame, columns: dict[str, str], table: str,
+          keep_extra: bool = False) -> pd.DataFrame:
     missing = [c for c in columns if c not in df.columns]
     if missing:
         raise TrackingDataError(f"{table}: missing columns {missing}")
-    out = df.loc[:, list(columns)].copy()
+    extra = [c for c in df.columns if c not in columns] if keep_extra else []
+    out = df.loc[:, list(columns) + extra].copy()
     for col, dtype in columns.items():
         try:
             out[col] = out[col].astype(dtype)
@@ -167,15 +169,18 @@ class RallyData:
     @classmethod
     def from_tables(cls, frames: pd.DataFrame, rallies: pd.DataFrame, shots: pd.DataFrame,
                     fps: float = FPS_DEFAULT, meta: dict | None = None,
-                    repair: bool = False) -> RallyData:
+                    repair: bool = False, validate: bool = True) -> RallyData:
         """Build and validate. With `repair=True`, rallies with problems are dropped and listed
-        in ``meta["repaired"]``; otherwise the first problems raise `TrackingDataError`."""
+        in ``meta["repaired"]``; otherwise the first problems raise `TrackingDataError`.
+        Columns of the rallies table beyond the schema are kept (e.g. the simulator's
+        ``realistic`` flag). `validate=False` only casts the columns: for simulated rallies,
+        which may break physics and are flagged rather than refused."""
         if not np.isfinite(fps) or fps <= 0:
             raise TrackingDataError(f"fps must be positive, got {fps}")
         frames = _cast(frames, FRAME_COLUMNS, "frames")
-        rallies = _cast(rallies, RALLY_COLUMNS, "rallies")
+        rallies = _cast(rallies, RALLY_COLUMNS, "rallies", keep_extra=True)
         shots = _cast(shots, SHOT_COLUMNS, "shots")
-        problems = _problems(frames, rallies, shots, fps)
+        problems = _problems(frames, rallies, shots, fps) if validate else []
         meta = dict(meta or {})
         if problems and not repair:
             head = "\n  ".join(msg for _, msg in problems[:10])

@@ -2,15 +2,18 @@
 
 Token order: the 4 context tokens, then frame-major object tokens (frame 0: server, receiver,
 ball; frame 1: ...). Mask: context attends to context only; an object token attends to the
-context and to every object token up to and including its own frame. There is no positional
-encoding (time is a token feature), so a token's keys and values do not depend on where it sits
-in the sequence; that is what makes the key/value cache (`init_cache`, `forward_step`) exact.
+context and to the object tokens of its own frame and of the `window_frames - 1` frames before
+it (a band: sliding-window attention at every layer). Training windows are never longer than
+`window_frames`, so there the band is the plain causal baller2vec mask.
 
-On the rolling window: while a rally has at most `window_frames` frames, `forward_step` equals
-recomputing the whole window (tested to 1e-4). Once the oldest frame is dropped, the kept frames'
-cached keys/values of layers >= 2 were computed while older frames were still visible, so the
-cache then differs from recomputing the truncated window unless n_layers == 1 (the usual
-sliding-window-attention behaviour); use `forward` on the window when that exactness matters.
+There is no positional encoding (time is a token feature), so a token's keys and values do not
+depend on where it sits in the sequence, and attention does not depend on the order of the keys.
+That makes the key/value cache (`init_cache`, `forward_step`) a ring buffer: each frame's keys
+and values go to slot `frame % window_frames` of every layer, overwriting the frame that just
+left the band. It is exact at any rally length: `forward_step` frame by frame equals `forward`
+on the whole rally so far with the band mask (tested to 1e-4). It is not the same as re-running
+only the last `window_frames` frames from scratch (a truncated history, whose first frames see
+nothing before them) once a rally outgrows the window; `sportsngen.sim.rollout` measures both.
 """
 
 from __future__ import annotations
@@ -24,7 +27,7 @@ from torch import nn
 from sportsngen.data.tokens import BALL, GENERIC_ID, N_OBJECTS, N_SPECIAL_IDS, centre_m
 from sportsngen.model.bins import Bins
 from sportsngen.model.config import ModelConfig
-from sportsngen.model.embedding import N_CONTEXT, ContextEmbedding, ObjectEmbedding
+from sportsngen.model.embedding import ContextEmbedding, ObjectEmbedding
 from sportsngen.model.heads import make_head
 from sportsngen.model.sampling import uniform_in_bin
 
@@ -50,6 +53,18 @@ class Attention(nn.Module):
                                            dropout_p=self.dropout if self.training else 0.0)
         return self.out(y.transpose(1, 2).reshape(b, n, d)), (k, v)
 
+    def step(self, x: torch.Tensor, k_ring: torch.Tensor, v_ring: torch.Tensor, lo: int,
+             n_keys: int) -> torch.Tensor:
+        """One frame's tokens x (B, 3, d): write their keys/values into ring slots lo:lo+3, then
+        attend to the first n_keys slots (no mask: every filled slot is visible)."""
+        b, n, d = x.shape
+        q, k, v = self.qkv(x).view(b, n, 3, self.n_heads, d // self.n_heads).permute(
+            2, 0, 3, 1, 4)
+        k_ring[:, :, lo:lo + n] = k
+        v_ring[:, :, lo:lo + n] = v
+        y = F.scaled_dot_product_attention(q, k_ring[:, :, :n_keys], v_ring[:, :, :n_keys])
+        return self.out(y.transpose(1, 2).reshape(b, n, d))
+
 
 class Block(nn.Module):
     """Pre-norm transformer block."""
@@ -69,33 +84,55 @@ class Block(nn.Module):
         x = x + self.drop(a)
         return x + self.ff(self.ln2(x)), kv
 
+    def step(self, x, k_ring, v_ring, lo: int, n_keys: int):
+        x = x + self.drop(self.attn.step(self.ln1(x), k_ring, v_ring, lo, n_keys))
+        return x + self.ff(self.ln2(x))
+
 
 def baller2vec_mask(n_ctx: int, n_frames: int, n_objects: int = N_OBJECTS,
-                    device: torch.device | str = "cpu") -> torch.Tensor:
-    """(L, L) bool, True where query row may attend to key column; L = n_ctx + frames*objects."""
+                    device: torch.device | str = "cpu",
+                    window_frames: int | None = None) -> torch.Tensor:
+    """(L, L) bool, True where query row may attend to key column; L = n_ctx + frames*objects.
+    With `window_frames`, an object token sees object tokens of at most that many frames
+    (its own included); context tokens stay visible to all."""
     frame = torch.cat([torch.full((n_ctx,), -1, device=device),
                        torch.arange(n_frames, device=device).repeat_interleave(n_objects)])
     is_ctx = frame < 0
     mask = frame[None, :] <= frame[:, None]           # keys of earlier frames (and context)
     mask &= ~(is_ctx[:, None] & ~is_ctx[None, :])     # context never attends to objects
+    if window_frames is not None and n_frames > window_frames:
+        mask &= is_ctx[None, :] | (frame[None, :] > frame[:, None] - window_frames)
     return mask
 
 
 @dataclass
 class KVCache:
-    """Per-layer keys/values of the context tokens and of the last `n_frames` frames."""
+    """Per-layer ring buffers of keys/values: the context tokens, then `max_frames` frame slots
+    of 3 object tokens each (frame f lives in slot f % max_frames)."""
 
-    k: list[torch.Tensor]     # per layer (B, heads, n_ctx + n_frames * 3, d_head)
+    k: list[torch.Tensor]     # per layer (B, heads, n_ctx + max_frames * 3, d_head)
     v: list[torch.Tensor]
     ident: torch.Tensor       # (B, 3) identity indices
-    n_frames: int
+    n_ctx: int
+    n_frames: int             # frames seen so far (the ring holds the last max_frames of them)
     max_frames: int
 
-    def drop_oldest(self) -> None:
-        lo, hi = N_CONTEXT, N_CONTEXT + N_OBJECTS
-        self.k = [torch.cat([k[:, :, :lo], k[:, :, hi:]], dim=2) for k in self.k]
-        self.v = [torch.cat([v[:, :, :lo], v[:, :, hi:]], dim=2) for v in self.v]
-        self.n_frames -= 1
+    @property
+    def n_keys(self) -> int:
+        """How many key slots are filled."""
+        return self.n_ctx + N_OBJECTS * min(self.n_frames, self.max_frames)
+
+    def select(self, idx: torch.Tensor) -> KVCache:
+        """The cache of the batch rows `idx` (the rollout compacts finished rallies away)."""
+        return KVCache([k[idx] for k in self.k], [v[idx] for v in self.v], self.ident[idx],
+                       self.n_ctx, self.n_frames, self.max_frames)
+
+
+def _empty_ring(ctx_kv: torch.Tensor, max_frames: int) -> torch.Tensor:
+    b, h, n_ctx, d = ctx_kv.shape
+    ring = ctx_kv.new_zeros(b, h, n_ctx + N_OBJECTS * max_frames, d)
+    ring[:, :, :n_ctx] = ctx_kv
+    return ring
 
 
 class SportsNGEN(nn.Module):
@@ -133,12 +170,13 @@ class SportsNGEN(nn.Module):
     # --- full window ----------------------------------------------------------------------
     def forward(self, feats: torch.Tensor, ident: torch.Tensor, ctx: torch.Tensor,
                 return_cache: bool = False):
-        """feats (B, T, 3, F) object features, ident (B, 3), ctx (B, 4, d) context tokens
-        -> h (B, T, 3, d) output states [, KVCache of the window]."""
+        """feats (B, T, 3, F) object features of frames 0..T-1 of the rally, ident (B, 3),
+        ctx (B, 4, d) context tokens -> h (B, T, 3, d) output states [, KVCache after them]."""
         b, t, k, _ = feats.shape
         ident = self._ident(ident)
         x = torch.cat([ctx, self.embed(feats, ident).reshape(b, t * k, -1)], dim=1)
-        mask = baller2vec_mask(ctx.shape[1], t, k, device=x.device)
+        mask = baller2vec_mask(ctx.shape[1], t, k, device=x.device,
+                               window_frames=self.cfg.window_frames)
         ks, vs = [], []
         for blk in self.blocks:
             x, (kk, vv) = blk(x, mask)
@@ -147,34 +185,42 @@ class SportsNGEN(nn.Module):
         h = self.ln_f(x[:, ctx.shape[1]:]).reshape(b, t, k, -1)
         if not return_cache:
             return h
-        cache = KVCache(ks, vs, ident, t, max(self.cfg.window_frames, t))
-        return h, cache
+        n_ctx, w = ctx.shape[1], self.cfg.window_frames
+        keep = torch.arange(max(0, t - w), t, device=x.device)   # frames still in the band
+        slots = (n_ctx + (keep % w)[:, None] * k + torch.arange(k, device=x.device)).reshape(-1)
+        src = (n_ctx + keep[:, None] * k + torch.arange(k, device=x.device)).reshape(-1)
+        rings = []
+        for kv in (ks, vs):
+            layer = []
+            for m in kv:
+                ring = _empty_ring(m[:, :, :n_ctx], w)
+                ring[:, :, slots] = m[:, :, src]
+                layer.append(ring)
+            rings.append(layer)
+        return h, KVCache(rings[0], rings[1], ident, n_ctx, t, w)
 
     # --- incremental -----------------------------------------------------------------------
-    def init_cache(self, ident: torch.Tensor, ctx: torch.Tensor,
-                   max_frames: int | None = None) -> KVCache:
-        """A cache holding the context tokens' keys/values (context sees only context)."""
+    def init_cache(self, ident: torch.Tensor, ctx: torch.Tensor) -> KVCache:
+        """An empty ring holding the context tokens' keys/values (context sees only context)."""
         x = ctx
         ks, vs = [], []
+        w = self.cfg.window_frames
         for blk in self.blocks:
             x, (kk, vv) = blk(x)
-            ks.append(kk)
-            vs.append(vv)
-        return KVCache(ks, vs, self._ident(ident), 0, max_frames or self.cfg.window_frames)
+            ks.append(_empty_ring(kk, w))
+            vs.append(_empty_ring(vv, w))
+        return KVCache(ks, vs, self._ident(ident), ctx.shape[1], 0, w)
 
     def forward_step(self, new_frame_feats: torch.Tensor, cache: KVCache):
-        """Append one frame: new_frame_feats (B, 3, F) -> (h (B, 3, d), cache). The new tokens
-        attend to the cached context and frames and to each other; the oldest frame is
-        dropped first when the cache already holds `max_frames` frames."""
-        if cache.n_frames >= cache.max_frames:
-            cache.drop_oldest()
+        """Append the next frame: new_frame_feats (B, 3, F) -> (h (B, 3, d), cache). Its three
+        tokens attend to the context, to each other and to the cached frames of the band."""
         b = new_frame_feats.shape[0]
         x = self.embed(new_frame_feats[:, None], cache.ident).reshape(b, N_OBJECTS, -1)
-        for i, blk in enumerate(self.blocks):
-            x, (kk, vv) = blk(x, None, (cache.k[i], cache.v[i]))
-            cache.k[i] = torch.cat([cache.k[i], kk], dim=2)
-            cache.v[i] = torch.cat([cache.v[i], vv], dim=2)
+        lo = cache.n_ctx + N_OBJECTS * (cache.n_frames % cache.max_frames)
         cache.n_frames += 1
+        n_keys = cache.n_keys
+        for i, blk in enumerate(self.blocks):
+            x = blk.step(x, cache.k[i], cache.v[i], lo, n_keys)
         return self.ln_f(x), cache
 
     # --- targets and sampling ------------------------------------------------------------

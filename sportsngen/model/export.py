@@ -32,8 +32,29 @@ def save_model(path: str | Path, model: SportsNGEN, vocab: Vocab,
         "decoder": {k: v.detach().cpu() for k, v in model.state_dict().items()},
         "event_classifier": None if event_classifier is None else
         {k: v.detach().cpu() for k, v in event_classifier.state_dict().items()},
-        "extra": dict(extra or {}),
+        "extra": _plain(dict(extra or {})),
     }
+    torch.save(blob, path)
+    return path
+
+
+def _plain(value):
+    """numpy arrays -> tensors (recursively), so the file stays loadable with weights_only."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if hasattr(value, "__array__") and not isinstance(value, torch.Tensor):
+        return torch.as_tensor(value)
+    return value
+
+
+def update_extra(path: str | Path, **items) -> Path:
+    """Add or replace entries of a model file's `extra` data in place (e.g. the simulator's
+    initial conditions, `sportsngen.sim.initial`)."""
+    path = Path(path)
+    blob = torch.load(path, map_location="cpu", weights_only=True)
+    if not is_model_file(blob):
+        raise ValueError(f"{path} is not a sportsngen model file")
+    blob["extra"] = {**dict(blob.get("extra") or {}), **_plain(items)}
     torch.save(blob, path)
     return path
 

@@ -19,7 +19,8 @@ from omegaconf import DictConfig, OmegaConf
 
 from sportsngen.data.tokens import Augment, Vocab
 from sportsngen.model.config import ModelConfig
-from sportsngen.model.export import save_model
+from sportsngen.model.export import read_extra, save_model
+from sportsngen.sim.initial import InitialConditions
 from sportsngen.train.datamodule import TrackingDataModule, data_fingerprint, load_rally_data
 from sportsngen.train.finetune import (
     add_player,
@@ -144,8 +145,20 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
                  "data": OmegaConf.to_container(cfg.data, resolve=True),
                  "player": cfg.get("player"), "n_sequences": ft.get("n_sequences"),
                  "fingerprint": data_fingerprint(data)}
+        # The simulator starts its rallies from real first frames of the training data.
+        init = InitialConditions.from_rally_data(data)
+        base = None
+        if cfg.get("init"):
+            try:
+                base = read_extra(cfg.init).get("initial_conditions")
+            except ValueError:   # a Lightning checkpoint carries no initial conditions
+                base = None
+        if base is not None:
+            init = InitialConditions.from_dict(base).merged(init)
+        init = init.to_dict()
         path = save_model(out_dir / "model.pt", module.model.cpu(), vocab, event_model,
-                          extra={"summary": summary, "split": split})
+                          extra={"summary": summary, "split": split,
+                                 "initial_conditions": init})
         summary["model_file"] = str(path)
         (out_dir / "summary.json").write_text(json.dumps(summary, indent=2))
         log.info("summary: %s", json.dumps(summary, indent=2))

@@ -1,0 +1,119 @@
+"""Initial conditions of simulated rallies: the first frames of historical rallies.
+
+A simulated point starts from the first `n_frames` frames (the start of the toss) of a real
+(training) rally of the same server, serve number and side, so the decoder continues a serve
+that starts the way that player starts his serves. Examples are kept per (server, serve number,
+side) up to a cap, in the orientation they were recorded; `draw` rotates one by 180 degrees
+about the net centre when the simulated server serves from the other end (a rotation keeps the
+deuce court the deuce court).
+
+The pool travels inside the model file (`to_dict` / `from_dict`, under the key
+`initial_conditions` of its extra data), so a simulator needs nothing but the model file.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from sportsngen.data.tokens import Vocab, flip_xy, rally_arrays
+from sportsngen.data.tracking import RallyData
+
+N_FRAMES_DEFAULT = 10            # 0.4 s of the toss at 25 Hz: the serve itself is simulated
+MAX_PER_KEY_DEFAULT = 100        # examples kept per (server, serve number, side)
+
+
+@dataclass
+class InitialConditions:
+    pos_m: np.ndarray            # (N, n_frames, 3, 3) float32: server, receiver, ball
+    server: np.ndarray           # (N,) str
+    serve_number: np.ndarray     # (N,) int64, 1 or 2
+    side: np.ndarray             # (N,) str, "deuce" or "ad"
+    server_end: np.ndarray       # (N,) int64, +1 or -1
+    surface: np.ndarray          # (N,) str
+    fps: float
+
+    def __len__(self) -> int:
+        return len(self.pos_m)
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.pos_m.shape[1])
+
+    @property
+    def servers(self) -> tuple[str, ...]:
+        return tuple(sorted(set(self.server.tolist())))
+
+    @classmethod
+    def from_rally_data(cls, data: RallyData, n_frames: int = N_FRAMES_DEFAULT,
+                        max_per_key: int = MAX_PER_KEY_DEFAULT,
+                        seed: int = 0) -> InitialConditions:
+        """Up to `max_per_key` random rallies per (server, serve number, side) of `data`, each
+        at least `n_frames` long; their first `n_frames` frames."""
+        if n_frames < 1:
+            raise ValueError(f"n_frames must be at least 1, got {n_frames}")
+        arr = rally_arrays(data, Vocab.from_data(data), unknown="generic")
+        r = data.rallies.reset_index(drop=True)
+        ok = arr.length >= n_frames
+        rng = np.random.default_rng(seed)
+        keys = r["server"].astype(str) + "|" + r["serve_number"].astype(str) + "|" + \
+            r["side"].astype(str)
+        chosen = []
+        for _, idx in keys[ok].groupby(keys[ok]).groups.items():
+            idx = np.asarray(idx)
+            chosen.append(rng.permutation(idx)[:max_per_key])
+        if not chosen:
+            raise ValueError(f"no rally has {n_frames} frames to start a simulation from")
+        sel = np.sort(np.concatenate(chosen))
+        rows = arr.start[sel][:, None] + np.arange(n_frames)
+        return cls(pos_m=arr.pos_m[rows].astype(np.float32),
+                   server=r["server"].to_numpy(dtype=str)[sel],
+                   serve_number=r["serve_number"].to_numpy(dtype=np.int64)[sel],
+                   side=r["side"].to_numpy(dtype=str)[sel],
+                   server_end=r["server_end"].to_numpy(dtype=np.int64)[sel],
+                   surface=r["surface"].to_numpy(dtype=str)[sel], fps=float(data.fps))
+
+    def draw(self, server: str, serve_number: int, side: str, server_end: int,
+             rng: np.random.Generator, surface: str | None = None) -> np.ndarray:
+        """(n_frames, 3, 3) first frames for this serve: one of the server's own examples of
+        that serve number and side (preferring `surface`), any server's when he has none."""
+        if side not in ("deuce", "ad"):
+            raise ValueError(f"side must be 'deuce' or 'ad', got {side!r}")
+        if server_end not in (1, -1):
+            raise ValueError(f"server_end must be +1 or -1, got {server_end}")
+        base = (self.serve_number == serve_number) & (self.side == side)
+        cand = base & (self.server == server)
+        if not cand.any():
+            cand = base
+        if not cand.any():
+            raise ValueError(f"no initial condition for serve {serve_number} from the {side} "
+                             "side")
+        if surface is not None and (cand & (self.surface == surface)).any():
+            cand &= self.surface == surface
+        i = int(rng.choice(np.flatnonzero(cand)))
+        pos = self.pos_m[i]
+        return flip_xy(pos) if int(self.server_end[i]) != server_end else pos.copy()
+
+    def merged(self, other: InitialConditions) -> InitialConditions:
+        """Both pools (e.g. a fine-tuned player's serves added to the generic model's)."""
+        if other.n_frames != self.n_frames or other.fps != self.fps:
+            raise ValueError("initial conditions differ in frames or frame rate")
+        return InitialConditions(*(np.concatenate([getattr(self, f), getattr(other, f)])
+                                   for f in ("pos_m", "server", "serve_number", "side",
+                                             "server_end", "surface")), fps=self.fps)
+
+    def to_dict(self) -> dict:
+        return {"pos_m": self.pos_m, "server": self.server.tolist(),
+                "serve_number": self.serve_number, "side": self.side.tolist(),
+                "server_end": self.server_end, "surface": self.surface.tolist(),
+                "fps": self.fps}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> InitialConditions:
+        return cls(pos_m=np.asarray(d["pos_m"], dtype=np.float32),
+                   server=np.asarray(d["server"], dtype=str),
+                   serve_number=np.asarray(d["serve_number"], dtype=np.int64),
+                   side=np.asarray(d["side"], dtype=str),
+                   server_end=np.asarray(d["server_end"], dtype=np.int64),
+                   surface=np.asarray(d["surface"], dtype=str), fps=float(d["fps"]))

@@ -1,0 +1,189 @@
+"""Batched rollouts of the decoder f: B rallies at once, frame by frame, until each one ends.
+
+Each step turns the newest frame of every live rally into object tokens, runs them through the
+decoder with the ring key/value cache (`SportsNGEN.forward_step`), samples the next frame
+(nucleus per object kind, then uniform inside the bin: `SportsNGEN.sample_next`) and hands it
+to a rally tracker (`sportsngen.tennis.rally.RallyTracker`, or anything with the same
+`update` / `select`) which says which rallies just ended. Finished rallies leave the batch (the
+cache, the tracker and the sampling state are compacted), so a batch costs what its live
+rallies cost.
+
+`mode` picks how the decoder sees the past, for tests and benchmarks:
+
+- ``"cache"`` (default): the ring cache; exact for the band-attention model at any length.
+- ``"recompute"``: re-run `forward` on the whole rally so far at every step (the same model,
+  the slow way: what the cache must equal).
+- ``"window"``: re-run `forward` on the last `window_frames` frames only (the naive rolling
+  window: the same as the others until a rally outgrows the window, a truncated history after).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+import torch
+from tqdm.auto import tqdm
+
+from sportsngen.data.tokens import object_features
+from sportsngen.model.decoder import SportsNGEN
+
+MODES = ("cache", "recompute", "window")
+
+
+class Tracker(Protocol):
+    """Rally-end rules over the whole batch: `update(pos_m (B, 3, 3), active (B,) bool)` feeds
+    one frame to the active rallies and returns which rallies are over, (B,) bool."""
+
+    def update(self, pos_m: np.ndarray, active: np.ndarray | None = None) -> np.ndarray: ...
+
+
+@dataclass
+class RolloutInputs:
+    """One row per rally: its first frames and its context (vocabulary indices)."""
+
+    init_pos_m: np.ndarray   # (B, T0, 3, 3) server, receiver, ball; frame 0 = rally start
+    ident: np.ndarray        # (B, 3) int64
+    surface: np.ndarray      # (B,) int64
+    tournament: np.ndarray   # (B,) int64
+    serve: np.ndarray        # (B,) int64: 0 first serve, 1 second serve
+    score: np.ndarray        # (B, 7) float32 (`sportsngen.data.tokens.score_vector`)
+
+    def __post_init__(self) -> None:
+        b = len(self.init_pos_m)
+        if self.init_pos_m.ndim != 4 or self.init_pos_m.shape[2:] != (3, 3):
+            raise ValueError(f"init_pos_m must be (B, T0, 3, 3), got {self.init_pos_m.shape}")
+        if self.init_pos_m.shape[1] < 1:
+            raise ValueError("rollouts need at least one initial frame")
+        if not np.isfinite(self.init_pos_m).all():
+            raise ValueError("init_pos_m holds NaN or infinite positions")
+        for name in ("ident", "surface", "tournament", "serve", "score"):
+            if len(getattr(self, name)) != b:
+                raise ValueError(f"{name} has {len(getattr(self, name))} rows, expected {b}")
+
+    def __len__(self) -> int:
+        return len(self.init_pos_m)
+
+
+@dataclass
+class Rollout:
+    """Simulated tracks: rally i is pos_m[i, :length[i]] (NaN after)."""
+
+    pos_m: np.ndarray        # (B, T, 3, 3) float32
+    length: np.ndarray       # (B,) frames, initial frames included
+    ended: np.ndarray        # (B,) bool: the tracker ended it (False: stopped at max_frames)
+    n_steps: int             # decoder steps taken (the longest rally's sampled frames)
+    frames_simulated: int    # sampled frames summed over rallies
+
+
+class _NoTracker:
+    """Never ends a rally: rollouts then run to max_frames (benchmarks, tests)."""
+
+    def update(self, pos_m: np.ndarray, active: np.ndarray | None = None) -> np.ndarray:
+        return np.zeros(len(pos_m), dtype=bool)
+
+
+def _features(hist: torch.Tensor, n: int, fps: float) -> torch.Tensor:
+    """Object tokens of frame n-1 given positions hist[:, :n] -> (B, 3, F)."""
+    pos = hist[:, n - 1]
+    vel = (pos - hist[:, n - 2]) * fps if n >= 2 else torch.zeros_like(pos)
+    t = torch.full((len(pos),), (n - 1) / fps, dtype=pos.dtype, device=pos.device)
+    return object_features(pos[:, None], vel[:, None], t[:, None])[:, 0]
+
+
+def _window_features(hist: torch.Tensor, lo: int, n: int, fps: float) -> torch.Tensor:
+    """Tokens of frames lo..n-1 -> (B, n - lo, 3, F), velocities from the frame before lo."""
+    pos = hist[:, lo:n]
+    first_prev = max(lo - 1, 0)  # the rally's first frame has no predecessor: velocity 0
+    prev = torch.cat([hist[:, first_prev:first_prev + 1], hist[:, lo:n - 1]], dim=1)
+    t = (torch.arange(lo, n, dtype=pos.dtype, device=pos.device) / fps).expand(len(pos), -1)
+    return object_features(pos, (pos - prev) * fps, t)
+
+
+@torch.inference_mode()
+def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
+            tracker: Tracker | None = None, top_p_player: float = 1.0,
+            top_p_ball: float = 1.0, seed: int | None = 0,
+            generator: torch.Generator | None = None, mode: str = "cache",
+            progress: bool = False) -> Rollout:
+    """Roll `inputs` forward until the tracker ends each rally or it has `max_frames` frames.
+
+    The tracker sees every frame of every rally in order, the initial ones included, and
+    keeps each finished rally's result (read it after the rollout). `generator` (or `seed`)
+    makes the rollout reproducible: the same inputs, seed and batch give the same tracks.
+    """
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+    model.eval()
+    dev = next(model.parameters()).device
+    b, t0 = inputs.init_pos_m.shape[:2]
+    if max_frames < t0:
+        raise ValueError(f"max_frames ({max_frames}) is shorter than the initial frames ({t0})")
+    if generator is None:
+        generator = torch.Generator(device=dev)
+        generator.manual_seed(0 if seed is None else int(seed))
+    tracker = tracker or _NoTracker()
+    fps = model.cfg.fps
+
+    def tens(x, dtype):
+        return torch.as_tensor(np.array(x), dtype=dtype, device=dev)
+
+    ident = tens(inputs.ident, torch.long)
+    ctx = model.context_tokens(tens(inputs.surface, torch.long),
+                               tens(inputs.tournament, torch.long),
+                               tens(inputs.serve, torch.long), tens(inputs.score, torch.float32))
+    hist = torch.full((b, max_frames, 3, 3), float("nan"), device=dev)
+    hist[:, :t0] = tens(inputs.init_pos_m, torch.float32)
+    out = np.full((b, max_frames, 3, 3), np.nan, dtype=np.float32)
+    out[:, :t0] = inputs.init_pos_m
+    length = np.full(b, t0, dtype=np.int64)
+    ended = np.zeros(b, dtype=bool)
+    alive = np.arange(b)                      # original row of each live batch row
+
+    done = np.zeros(b, dtype=bool)
+    for k in range(t0):
+        done = tracker.update(inputs.init_pos_m[:, k], ~done)
+    latest = inputs.init_pos_m[:, -1].astype(np.float32)   # every rally's newest frame
+    cache, h = None, None
+    if mode == "cache":
+        hs, cache = model(_window_features(hist, 0, t0, fps), ident, ctx, return_cache=True)
+        h = hs[:, -1]
+    n, steps, frames = t0, 0, 0
+    bar = tqdm(total=max_frames - t0, desc="frames", disable=not progress, leave=False)
+    while True:
+        if done.any():
+            ended[alive[done]] = True
+            keep = np.flatnonzero(~done)
+            alive = alive[keep]
+            if len(alive) == 0:
+                break
+            kt = torch.as_tensor(keep, device=dev)
+            hist, ident, ctx = hist[kt], ident[kt], ctx[kt]
+            if cache is not None:
+                cache, h = cache.select(kt), h[kt]
+        if n >= max_frames:
+            break
+        if mode == "cache":
+            if steps:
+                h = model.forward_step(_features(hist, n, fps), cache)[0]
+        else:
+            lo = max(0, n - model.cfg.window_frames) if mode == "window" else 0
+            h = model(_window_features(hist, lo, n, fps), ident, ctx)[:, -1]
+        pos = hist[:, n - 1]
+        prev = hist[:, n - 2] if n >= 2 else pos
+        nxt = model.sample_next(h, pos, (pos - prev) * fps, top_p_player, top_p_ball, generator)
+        hist[:, n] = nxt
+        nxt_np = nxt.cpu().numpy()
+        out[alive, n] = nxt_np
+        length[alive] = n + 1
+        latest[alive] = nxt_np
+        active = np.zeros(b, dtype=bool)
+        active[alive] = True
+        done = tracker.update(latest, active)[alive]
+        n += 1
+        steps += 1
+        frames += len(alive)
+        bar.update(1)
+    bar.close()
+    return Rollout(out[:, :int(length.max())], length, ended, steps, frames)

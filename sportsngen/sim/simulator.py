@@ -1,0 +1,184 @@
+"""`Simulator`: the learned engine's Python API (rallies, service points, matches).
+
+    from sportsngen.sim import Simulator
+    sim = Simulator.from_pretrained()                     # the bundled model
+    data = sim.simulate_points("Roger Federer", "Rafael Nadal", "hard", n_points=100, seed=0)
+    match = sim.simulate_match("Roger Federer", "Rafael Nadal", "hard", seed=0)
+    print(match.score_line); print(match.summary())
+
+Everything goes through `simulate_rallies`: a plan (one row a rally: who serves, which serve,
+side, end, surface, score) becomes initial frames drawn from the model's pool of historical
+serve starts (`sportsngen.sim.initial`), one batched rollout (`sportsngen.sim.rollout`) under
+the rally-end rules (`sportsngen.tennis.rally`), event labels from the classifier
+(`sportsngen.sim.events`) and a `RallyData` (`sportsngen.sim.assemble`).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import torch
+
+from sportsngen.data.tokens import SCORE_FIELDS, Vocab, score_vector
+from sportsngen.data.tracking import RallyData
+from sportsngen.model.decoder import SportsNGEN
+from sportsngen.model.event_classifier import EventClassifier
+from sportsngen.model.export import load_model, read_extra
+from sportsngen.sim.assemble import PLAN_COLUMNS, assemble
+from sportsngen.sim.events import frame_labels
+from sportsngen.sim.initial import InitialConditions
+from sportsngen.sim.match import MatchResult, simulate_matches
+from sportsngen.sim.rollout import RolloutInputs, rollout
+from sportsngen.tennis.rally import RallyTracker
+
+BUNDLED_DIR = Path(__file__).resolve().parents[1] / "model" / "bundled"
+BUNDLED_NAMES = {"sportsngen-small": BUNDLED_DIR / "sportsngen-small.pt"}
+DEFAULT_MODEL = "sportsngen-small"
+TOURNAMENT = "synthetic"
+
+
+class Simulator:
+    """A decoder f, its event classifier g, vocabularies and serve starts, ready to roll."""
+
+    def __init__(self, model: SportsNGEN, event_model: EventClassifier | None, vocab: Vocab,
+                 initial: InitialConditions, top_p_player: float = 1.0,
+                 top_p_ball: float = 1.0, max_duration_s: float = 30.0,
+                 batch_size: int = 256, max_retries: int = 10, unknown: str | None = None,
+                 device: str | torch.device = "cpu"):
+        if abs(initial.fps - model.cfg.fps) > 1e-6:
+            raise ValueError(f"initial conditions at {initial.fps} Hz, model at {model.cfg.fps}")
+        for name, p in (("top_p_player", top_p_player), ("top_p_ball", top_p_ball)):
+            if not 0.0 < p <= 1.0:
+                raise ValueError(f"{name} must be in (0, 1], got {p}")
+        self.model = model.to(device).eval()
+        self.event_model = None if event_model is None else event_model.to(device).eval()
+        self.vocab = vocab
+        self.initial = initial
+        self.top_p_player = float(top_p_player)
+        self.top_p_ball = float(top_p_ball)
+        self.max_duration_s = float(max_duration_s)
+        self.batch_size = int(batch_size)
+        self.max_retries = int(max_retries)
+        self.unknown = unknown or model.cfg.unknown
+
+    @classmethod
+    def from_pretrained(cls, path_or_name: str | Path | None = None, **kwargs) -> Simulator:
+        """Load a model file (or a bundled model by name; None: the default bundled model).
+        Keyword arguments go to `Simulator` (top_p_player, top_p_ball, max_duration_s, ...);
+        top-p defaults to the values stored with the model, if any."""
+        name = DEFAULT_MODEL if path_or_name is None else str(path_or_name)
+        path = BUNDLED_NAMES.get(name, Path(name))
+        model, ec, vocab, _ = load_model(path)
+        extra = read_extra(path)
+        if "initial_conditions" not in extra:
+            raise ValueError(f"{path} carries no initial conditions for simulation; add them "
+                             "with `python -m sportsngen.sim.add_initial --model ... --data ...`")
+        for key, value in (extra.get("sim_defaults") or {}).items():
+            kwargs.setdefault(key, float(value))
+        return cls(model, ec, vocab, InitialConditions.from_dict(extra["initial_conditions"]),
+                   **kwargs)
+
+    @property
+    def fps(self) -> float:
+        return self.model.cfg.fps
+
+    # --- rallies -------------------------------------------------------------------------------
+    def _inputs(self, plan: pd.DataFrame, rng: np.random.Generator) -> RolloutInputs:
+        init = np.stack([self.initial.draw(s, int(n), side, int(e), rng, surface=surf)
+                         for s, n, side, e, surf in zip(plan["server"], plan["serve_number"],
+                                                        plan["side"], plan["server_end"],
+                                                        plan["surface"])])
+        v, unk = self.vocab, self.unknown
+        ids = {p: v.player_index(p, unk) for p in set(plan["server"]) | set(plan["receiver"])}
+        ident = np.stack([plan["server"].map(ids), plan["receiver"].map(ids),
+                          np.zeros(len(plan), dtype=np.int64)], axis=1).astype(np.int64)
+        surf = plan["surface"].map(lambda s: v.surface_index(s, unk)).to_numpy(np.int64)
+        tour = plan["tournament"].map(v.tournament_index).to_numpy(np.int64)
+        score = score_vector(*(plan[c].to_numpy() for c in SCORE_FIELDS))
+        return RolloutInputs(init, ident, surf, tour,
+                             plan["serve_number"].to_numpy(np.int64) - 1, score)
+
+    def simulate_rallies(self, plan: pd.DataFrame, seed: int = 0,
+                         progress: bool = False) -> RallyData:
+        """One rally for each row of `plan` (columns `PLAN_COLUMNS`), in batches of
+        `batch_size` -> RallyData with the simulator's columns (see `sportsngen.sim.assemble`)."""
+        missing = [c for c in PLAN_COLUMNS if c not in plan.columns]
+        if missing:
+            raise ValueError(f"rally plan lacks columns {missing}")
+        rng = np.random.default_rng(seed)
+        parts = []
+        max_frames = int(math.ceil(self.max_duration_s * self.fps)) + 2
+        for lo in range(0, len(plan), self.batch_size):
+            part = plan.iloc[lo:lo + self.batch_size].reset_index(drop=True)
+            inputs = self._inputs(part, rng)
+            tracker = RallyTracker(part["server_end"].to_numpy(), part["side"].to_numpy(),
+                                   part["serve_number"].to_numpy(), self.fps,
+                                   self.max_duration_s)
+            gen = torch.Generator(device=next(self.model.parameters()).device)
+            gen.manual_seed(int(rng.integers(2 ** 62)))
+            roll = rollout(self.model, inputs, max_frames, tracker, self.top_p_player,
+                           self.top_p_ball, generator=gen, progress=progress)
+            labels = None if self.event_model is None else frame_labels(
+                self.event_model, roll.pos_m, roll.length, self.fps, self.model.cfg.window_frames)
+            parts.append(assemble(part, roll.pos_m, roll.length, tracker.results(), labels,
+                                  self.fps))
+        return RallyData.concat(parts)
+
+    # --- service points ------------------------------------------------------------------------
+    def simulate_points(self, server: str, receiver: str, surface: str, n_points: int,
+                        seed: int = 0, serve_number: int | None = None,
+                        top_p: float | None = None, progress: bool = False) -> RallyData:
+        """`n_points` service points of `server` against `receiver`: first serves, then a second
+        serve for each fault (or only serve `serve_number`). Scores within a game are drawn at
+        random (side from the score), ends alternate. `top_p` sets both kinds' nucleus for this
+        call. The rallies table carries `realistic`; `sportsngen.sim.assemble.realistic_points`
+        keeps the points fit for statistics."""
+        if n_points < 1:
+            raise ValueError(f"n_points must be >= 1, got {n_points}")
+        if serve_number not in (None, 1, 2):
+            raise ValueError(f"serve_number must be None, 1 or 2, got {serve_number}")
+        rng = np.random.default_rng([seed, 1])
+        sp, rp = rng.integers(0, 4, n_points), rng.integers(0, 4, n_points)
+        plan = pd.DataFrame({
+            "rally_id": np.arange(n_points), "match_id": "points",
+            "point": np.arange(1, n_points + 1),
+            "server": server, "receiver": receiver, "serve_number": serve_number or 1,
+            "side": np.where((sp + rp) % 2 == 0, "deuce", "ad"),
+            "server_end": np.where(np.arange(n_points) % 2 == 0, 1, -1),
+            "surface": surface, "tournament": TOURNAMENT, "set_no": 1,
+            "server_sets": 0, "receiver_sets": 0, "server_games": 0, "receiver_games": 0,
+            "server_points": sp, "receiver_points": rp, "in_tiebreak": False,
+            "score": [f"{a}-{b}" for a, b in zip(sp, rp)]})
+        saved = self.top_p_player, self.top_p_ball
+        if top_p is not None:
+            self.top_p_player = self.top_p_ball = float(top_p)
+        try:
+            first = self.simulate_rallies(plan, seed=seed, progress=progress)
+            if serve_number is not None:
+                return first
+            faulted = first.rallies["end_reason"].to_numpy() == "fault"
+            second_plan = plan[faulted].assign(serve_number=2,
+                                               rally_id=np.arange(faulted.sum()) + n_points)
+            if not len(second_plan):
+                return first
+            second = self.simulate_rallies(second_plan, seed=seed + 1, progress=progress)
+            return RallyData.concat([first, second])
+        finally:
+            self.top_p_player, self.top_p_ball = saved
+
+    # --- matches -------------------------------------------------------------------------------
+    def simulate_match(self, player1: str, player2: str, surface: str, fmt=None, seed: int = 0,
+                       first_server: int | None = None, progress: bool = True) -> MatchResult:
+        """One match -> `MatchResult` (points table, RallyData, score line, summary)."""
+        return simulate_matches(self, [(player1, player2)], surface, fmt=fmt, seed=seed,
+                                first_server=first_server, progress=progress)[0]
+
+    def simulate_matches(self, matchups, surface: str, fmt=None, seed: int = 0,
+                         first_server: int | None = None,
+                         progress: bool = True) -> list[MatchResult]:
+        """Many matches, their points batched together -> list of `MatchResult`."""
+        return simulate_matches(self, matchups, surface, fmt=fmt, seed=seed,
+                                first_server=first_server, progress=progress)

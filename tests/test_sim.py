@@ -1,0 +1,142 @@
+"""The learned engine end to end with a tiny model: rollouts, initial conditions, matches."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import torch
+from hydra import compose, initialize_config_dir
+
+from sportsngen.data.points import POINTS_DTYPES
+from sportsngen.data.tokens import flip_xy
+from sportsngen.data.toy import make_toy_rallies
+from sportsngen.eval.stats import serve_stats
+from sportsngen.model.export import load_model, save_model
+from sportsngen.sim import Simulator
+from sportsngen.sim.initial import InitialConditions
+from sportsngen.sim.rollout import RolloutInputs, rollout
+from sportsngen.tennis.scoring import MatchFormat, MatchState
+from sportsngen.train.run import train_from_config
+
+REPO = Path(__file__).resolve().parents[1]
+SHORT = MatchFormat(best_of=1, games_per_set=2, tiebreak_at=1, no_ad=True)
+
+
+@pytest.fixture(scope="module")
+def tiny_model_file(tmp_path_factory) -> Path:
+    """A tiny decoder + event classifier trained a few steps on toy rallies, exported."""
+    out = tmp_path_factory.mktemp("tiny_run")
+    overrides = ["experiment=tiny", "data=toy", "data.n_rallies=16", "trainer.max_steps=3",
+                 "trainer.val_check_interval=3", "trainer.limit_val_batches=1",
+                 "trainer.enable_progress_bar=false", "events.max_steps=2"]
+    with initialize_config_dir(config_dir=str(REPO / "conf"), version_base=None):
+        cfg = compose(config_name="train", overrides=overrides)
+    train_from_config(cfg, out)
+    return out / "model.pt"
+
+
+def _sim(path, **kw) -> Simulator:
+    return Simulator.from_pretrained(path, max_duration_s=kw.pop("max_duration_s", 1.2),
+                                     max_retries=kw.pop("max_retries", 0), **kw)
+
+
+def test_tiny_model_simulates_a_short_match(tiny_model_file):
+    sim = _sim(tiny_model_file)
+    res = sim.simulate_match("Toy Alpha", "Toy Beta", "hard", fmt=SHORT, seed=0,
+                             progress=False)
+    assert res.state.is_over
+    assert res.winner in ("Toy Alpha", "Toy Beta")
+    assert re.fullmatch(r"Toy (Alpha|Beta) d\. Toy (Alpha|Beta) \d-\d(\(\d+\))?", res.score_line)
+    pts = res.points
+    assert list(pts.columns) == list(POINTS_DTYPES)
+    assert len(pts) == res.state.points_played
+    # Replaying the points table's winners through the scoring gives the same final score.
+    names = ("Toy Alpha", "Toy Beta")
+    first = names.index(pts["server"].iat[0])
+    state = MatchState.new(SHORT, first_server=first)
+    for w in pts["winner"]:
+        state = state.point_won(names.index(w))
+    assert state.is_over and state.score_str() == res.state.score_str()
+    stats = serve_stats(pts)
+    assert set(stats.index) <= {"Toy Alpha", "Toy Beta"}
+    r = res.rallies.rallies
+    assert (r["realistic"] | (r["end_reason"] != "none")).all()
+    assert res.n_discarded + res.forced_decisions >= 0
+    assert set(res.rallies.frames["rally_id"]) == set(r["rally_id"])
+
+
+def test_simulate_points_is_deterministic_for_a_seed(tiny_model_file):
+    sim = _sim(tiny_model_file, max_duration_s=1.5)
+    a = sim.simulate_points("Toy Alpha", "Toy Gamma", "hard", 6, seed=3)
+    b = sim.simulate_points("Toy Alpha", "Toy Gamma", "hard", 6, seed=3)
+    c = sim.simulate_points("Toy Alpha", "Toy Gamma", "hard", 6, seed=4)
+    pd.testing.assert_frame_equal(a.frames, b.frames)
+    pd.testing.assert_frame_equal(a.rallies, b.rallies)
+    assert not np.allclose(a.frames["x"].to_numpy()[:300], c.frames["x"].to_numpy()[:300])
+    r = a.rallies
+    assert "realistic" in r.columns and r["realistic"].dtype == bool
+    assert (r.loc[r["serve_number"] == 2, "point"].isin(
+        r.loc[(r["serve_number"] == 1) & (r["end_reason"] == "fault"), "point"])).all()
+    # Every rally starts at frame 0 with the server, the receiver and the ball.
+    f0 = a.frames[a.frames["frame"] == 0]
+    assert (f0.groupby("rally_id").size() == 3).all()
+
+
+def test_rollout_cache_recompute_and_window_agree(tiny_model_file):
+    model, _, _, cfg = load_model(tiny_model_file)
+    w = cfg.window_frames
+    rng = np.random.default_rng(0)
+    b = 3
+    init = rng.normal(0, 1, (b, 2, 3, 3)).astype(np.float32)
+    init[..., 2] = np.abs(init[..., 2])
+    inputs = RolloutInputs(init, np.tile([[2, 3, 0]], (b, 1)), np.zeros(b, np.int64),
+                           np.zeros(b, np.int64), np.zeros(b, np.int64),
+                           np.zeros((b, 7), np.float32))
+    n = w + 6
+    cache = rollout(model, inputs, n, seed=1, mode="cache", top_p_ball=0.9)
+    full = rollout(model, inputs, n, seed=1, mode="recompute", top_p_ball=0.9)
+    short = rollout(model, inputs, w, seed=1, mode="window", top_p_ball=0.9)
+    assert cache.pos_m.shape == (b, n, 3, 3) and (cache.length == n).all()
+    np.testing.assert_allclose(cache.pos_m, full.pos_m, atol=1e-4)
+    # Until the rally outgrows the window, the naive rolling window is the same model.
+    np.testing.assert_allclose(cache.pos_m[:, :w], short.pos_m, atol=1e-4)
+    assert (cache.pos_m[:, 2:, :2, 2] == 0).all()       # sampled players on the ground
+    with pytest.raises(ValueError, match="mode"):
+        rollout(model, inputs, n, mode="fast")
+
+
+def test_initial_conditions_draw_rotate_and_round_trip():
+    data = make_toy_rallies(12, seed=2)
+    ic = InitialConditions.from_rally_data(data, n_frames=4, max_per_key=50)
+    assert ic.pos_m.shape[1:] == (4, 3, 3) and len(ic) == len(data)
+    i = 0
+    s, n, side, e = ic.server[i], int(ic.serve_number[i]), ic.side[i], int(ic.server_end[i])
+    only = (ic.server == s) & (ic.serve_number == n) & (ic.side == side)
+    rng = np.random.default_rng(0)
+    same = ic.draw(s, n, side, e, rng)
+    other = ic.draw(s, n, side, -e, np.random.default_rng(0))
+    np.testing.assert_array_equal(other, flip_xy(same))
+    assert any(np.array_equal(same, p) for p in ic.pos_m[only])
+    back = InitialConditions.from_dict(ic.to_dict())
+    np.testing.assert_array_equal(back.pos_m, ic.pos_m)
+    with pytest.raises(ValueError, match="side"):
+        ic.draw(s, n, "middle", e, rng)
+
+
+def test_simulator_bad_input(tiny_model_file, tmp_path):
+    with pytest.raises(ValueError, match="top_p_ball"):
+        _sim(tiny_model_file, top_p_ball=0.0)
+    model, ec, vocab, _ = load_model(tiny_model_file)
+    bare = save_model(tmp_path / "bare.pt", model, vocab, ec)
+    with pytest.raises(ValueError, match="initial conditions"):
+        Simulator.from_pretrained(bare)
+    sim = _sim(tiny_model_file, max_duration_s=0.5)
+    with pytest.warns(UserWarning, match="Nobody"):
+        sim.simulate_points("Nobody", "Toy Beta", "hard", 1, seed=0, serve_number=1)
+    with pytest.raises(ValueError, match="matchups"):
+        sim.simulate_matches([("Toy Alpha", "Toy Alpha")], "hard")
+    torch.manual_seed(0)
