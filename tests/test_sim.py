@@ -39,9 +39,12 @@ def tiny_model_file(tmp_path_factory) -> Path:
     return out / "model.pt"
 
 
+_LOAD = Simulator.from_pretrained
+
+
 def _sim(path, **kw) -> Simulator:
-    return Simulator.from_pretrained(path, max_duration_s=kw.pop("max_duration_s", 1.2),
-                                     max_retries=kw.pop("max_retries", 0), **kw)
+    return _LOAD(path, max_duration_s=kw.pop("max_duration_s", 1.2),
+                 max_retries=kw.pop("max_retries", 0), **kw)
 
 
 def test_tiny_model_simulates_a_short_match(tiny_model_file):
@@ -140,3 +143,74 @@ def test_simulator_bad_input(tiny_model_file, tmp_path):
     with pytest.raises(ValueError, match="matchups"):
         sim.simulate_matches([("Toy Alpha", "Toy Alpha")], "hard")
     torch.manual_seed(0)
+
+
+def test_simulate_py_learned_engine_writes_outputs(tiny_model_file, tmp_path, capsys):
+    from sportsngen.sim.cli import run_simulation
+
+    over = [f"output_dir={tmp_path}", "engine=sportsngen", f"model_file={tiny_model_file}",
+            "player1=Toy Alpha", "player2=Toy Beta", "format.best_of=1",
+            "format.games_per_set=2", "format.tiebreak_at=1", "format.no_ad=true", "top_p=0.9"]
+    with initialize_config_dir(config_dir=str(REPO / "conf"), version_base=None):
+        cfg = compose("simulate", overrides=over)
+    with pytest.MonkeyPatch.context() as mp:   # keep the CLI quick: short, unretried rallies
+        mp.setattr(Simulator, "from_pretrained", classmethod(
+            lambda cls, path, **kw: _sim(path, **kw)))
+        points = run_simulation(cfg)
+    assert len(points) > 0 and set(points["winner"]) <= {"Toy Alpha", "Toy Beta"}
+    for name in ("points.parquet", "rallies/rallies.parquet", "rally_1.png", "point.gif"):
+        assert (tmp_path / name).exists(), name
+    out = capsys.readouterr().out
+    assert "match 1: Toy" in out and "1st in" in out
+
+
+def test_wilson_interval_known_values():
+    from sportsngen.sim.whatif import wilson_interval
+
+    lo, hi = wilson_interval(50, 100)
+    assert abs(lo - 0.4038) < 1e-4 and abs(hi - 0.5962) < 1e-4
+    assert wilson_interval(0, 10)[0] == 0.0 and np.isnan(wilson_interval(0, 0)[0])
+
+
+def test_shot_constraint_judges_the_landing_of_the_ball_leaving_the_hitter():
+    from sportsngen.sim.whatif import ShotConstraint
+
+    def step(ball_now, ball_next):
+        pos = torch.zeros(1, 3, 3)
+        pos[0, 0] = torch.tensor([11.0, 0.5, 0.0])
+        nxt = pos.clone()
+        pos[0, 2] = torch.tensor(ball_now)
+        nxt[0, 2] = torch.tensor(ball_next)
+        return pos, nxt
+
+    # From (10, 0, 1) at (-20, -5, 2) m/s the ballistic landing is (-3.99, -3.50).
+    pos, nxt = step([10.8, 0.2, 0.92], [10.0, 0.0, 1.0])
+    inside = ShotConstraint((-5.0, -3.0, -4.0, -3.0), 0, 1, "right", "forehand", "deuce", 5)
+    outside = ShotConstraint((-5.0, -3.0, 3.0, 4.0), 0, 1, "right", "forehand", "deuce", 5)
+    assert inside.accept(np.array([0]), 5, pos, nxt).tolist() == [True] and inside.done == {0}
+    assert outside.accept(np.array([0]), 5, pos, nxt).tolist() == [False]
+    # A ball still coming toward the hitter is not judged yet.
+    pos2, nxt2 = step([9.0, 0.0, 1.0], [10.0, 0.0, 1.0])
+    waiting = ShotConstraint((-5.0, -3.0, 3.0, 4.0), 0, 1, "right", "forehand", "deuce", 5)
+    assert waiting.accept(np.array([0]), 5, pos2, nxt2).tolist() == [True]
+    assert waiting.done == set()
+
+
+def test_rally_win_probability_and_counterfactual_run_on_a_real_rally(tiny_model_file):
+    sim = _sim(tiny_model_file, max_duration_s=1.6)
+    data = make_toy_rallies(4, seed=3)
+    rid = int(data.rallies["rally_id"].iat[0])
+    from sportsngen.sim.whatif import rally_win_probability
+
+    d = rally_win_probability(sim, data, rid, frame=10, n=8, seed=0, details=True)
+    assert d["n_sims"] == 8 and d["n"] + d["n_unrealistic"] == 8
+    assert np.isnan(d["p"]) or 0.0 <= d["p"] <= 1.0
+    table = sim.counterfactual(data, rid, shot_index=1, n=6, seed=0)
+    assert list(table.columns) == ["option", "win_probability", "ci_low", "ci_high", "n",
+                                   "n_sims", "n_unrealistic", "n_forced_failed"]
+    assert table["option"].tolist() == ["cross_court", "down_the_line"]
+    assert (table["n_sims"] == 6).all()
+    with pytest.raises(ValueError, match="outside rally"):
+        sim.rally_win_probability(data, rid, frame=10 ** 6, n=2)
+    with pytest.raises(ValueError, match="no shot 99"):
+        sim.counterfactual(data, rid, shot_index=99, n=2)

@@ -13,7 +13,8 @@ CONF = str(Path(__file__).resolve().parents[1] / "conf")
 
 def _cfg(tmp_path, *overrides):
     with initialize_config_dir(config_dir=CONF, version_base=None):
-        return compose("simulate", overrides=[f"output_dir={tmp_path}", *overrides])
+        return compose("simulate", overrides=[f"output_dir={tmp_path}", "engine=markov",
+                                              *overrides])
 
 
 def test_markov_match_replays_to_a_finished_match(tmp_path, capsys):

@@ -4,7 +4,9 @@ Engines:
 - ``markov``: the i.i.d.-point baseline (`sportsngen.baselines.markov`), one serve model
   (`sportsngen.baselines.serve_model`) per player derived from the real 2011 Grand Slam data
   (bundled as derived figures, so it runs on a clone without ../shared/data).
-- ``sportsngen``: the learned engine; not bundled yet (the simulation issue adds it).
+- ``sportsngen`` (default): the learned engine (`sportsngen.sim.Simulator`) with the bundled
+  model or `model_file=<file>`: prints the score line and the statistics table and writes the points
+  table and the rallies (Parquet), a few rally plots and an animated GIF of one point.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from tqdm.auto import tqdm
 from sportsngen.baselines.markov import match_win_probability
 from sportsngen.baselines.serve_model import ServeModel, simulate_match_points
 from sportsngen.eval.stats import serve_stats, serve_stats_table
+from sportsngen.sim.match import winner_view
 from sportsngen.tennis.scoring import MatchFormat, MatchState
 
 log = logging.getLogger(__name__)
@@ -98,25 +101,12 @@ def run_markov(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFrame
             seed=int(cfg.seed) + i, match_id=f"sim-{i + 1}", first_server=int(cfg.first_server))
         tables.append(points)
         print(f"match {i + 1}: {names[final.winner]} d. {names[1 - final.winner]}  "
-              f"{_winner_view(final)}  ({len(points)} points)")
+              f"{winner_view(final)}  ({len(points)} points)")
         if i == 0:
             probs = win_probability_path(points, pa, pb, fmt, names[0], int(cfg.first_server))
             _plot_win_probability(probs, names, f"{names[0]} v {names[1]}: "
                                   f"{final.score_str()}", out_dir / "win_probability.png")
     return pd.concat(tables, ignore_index=True)
-
-
-def _winner_view(state: MatchState) -> str:
-    """Score line from the winner's side, as tennis reports it ("7-6(5) 6-4")."""
-    if state.winner == 0:
-        return state.score_str()
-    parts = []
-    for (a, b), tb in zip(state.sets, state.tiebreaks):
-        s = f"{b}-{a}"
-        if tb is not None and max(a, b) - min(a, b) == 1 and min(a, b) >= 6:
-            s += f"({min(tb)})"
-        parts.append(s)
-    return " ".join(parts)
 
 
 def run_simulation(cfg: DictConfig) -> pd.DataFrame:
@@ -128,13 +118,52 @@ def run_simulation(cfg: DictConfig) -> pd.DataFrame:
     fmt = MatchFormat(**OmegaConf.to_container(cfg.format, resolve=True))
     out_dir = Path(str(cfg.output_dir))
     out_dir.mkdir(parents=True, exist_ok=True)
-    if cfg.engine == "sportsngen":
-        raise NotImplementedError("the learned engine is not bundled yet; use engine=markov")
     print(f"{cfg.player1} v {cfg.player2}, {cfg.surface}, best of {fmt.best_of}, "
           f"engine={cfg.engine}, seed={cfg.seed}")
-    points = run_markov(cfg, fmt, out_dir)
+    points = run_markov(cfg, fmt, out_dir) if cfg.engine == "markov" else \
+        run_learned(cfg, fmt, out_dir)
     print()
     print(serve_stats_table(serve_stats(points)))
     points.to_parquet(out_dir / "points.parquet", index=False)
-    print(f"\nwrote {out_dir / 'points.parquet'} and {out_dir / 'win_probability.png'}")
+    print(f"\nwrote {out_dir}/: points.parquet"
+          + (", win_probability.png" if cfg.engine == "markov" else
+             ", rallies/, rally_*.png, point.gif"))
     return points
+
+
+def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFrame:
+    """Play `cfg.n_matches` matches (batched together) with the learned engine."""
+    from sportsngen.sim.simulator import Simulator
+
+    kw = {k: float(cfg[k]) for k in ("top_p_player", "top_p_ball") if cfg.get(k) is not None}
+    if cfg.get("top_p") is not None:
+        kw = {"top_p_player": float(cfg.top_p), "top_p_ball": float(cfg.top_p)}
+    sim = Simulator.from_pretrained(cfg.get("model_file"), **kw)
+    names = (str(cfg.player1), str(cfg.player2))
+    results = sim.simulate_matches([names] * int(cfg.n_matches), str(cfg.surface), fmt=fmt,
+                                   seed=int(cfg.seed), first_server=int(cfg.first_server))
+    for i, res in enumerate(results):
+        print(f"match {i + 1}: {res.score_line}  ({len(res.points)} points, "
+              f"{res.n_discarded} rallies set aside as non-realistic or undecided, "
+              f"{res.forced_decisions} points decided without a realistic rally)")
+    first = results[0]
+    first.rallies.save(out_dir / "rallies")
+    _rally_figures(first, out_dir)
+    return pd.concat([r.points for r in results], ignore_index=True)
+
+
+def _rally_figures(res, out_dir: Path, n_plots: int = 3) -> None:
+    """Plots of the longest rallies of the match and an animation of the longest one."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from sportsngen.viz.court_plot import animate_rally, plot_rally
+
+    r = res.rallies.rallies.sort_values("rally_length", ascending=False, kind="stable")
+    for k, rid in enumerate(r["rally_id"].head(n_plots)):
+        fig = plot_rally(res.rallies, int(rid), out_dir / f"rally_{k + 1}.png")
+        plt.close(fig)
+    if len(r):
+        animate_rally(res.rallies, int(r["rally_id"].iat[0]), out_dir / "point.gif")

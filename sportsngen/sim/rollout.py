@@ -75,6 +75,40 @@ class Rollout:
     ended: np.ndarray        # (B,) bool: the tracker ended it (False: stopped at max_frames)
     n_steps: int             # decoder steps taken (the longest rally's sampled frames)
     frames_simulated: int    # sampled frames summed over rallies
+    resampled: int = 0       # samples drawn again because a constraint rejected them
+
+
+class Constraint(Protocol):
+    """`accept(rows, frame, pos_m, next_pos_m) -> (B,) bool` for the live rallies `rows`
+    (indices into the batch as first given), the frame index being sampled, the current and the
+    sampled positions (B, 3, 3) tensors. `max_tries` bounds the resampling of a frame; rows
+    still rejected then keep their last sample (`give_up(rows)` is told which)."""
+
+    max_tries: int
+
+    def accept(self, rows: np.ndarray, frame: int, pos_m: torch.Tensor,
+               next_pos_m: torch.Tensor) -> torch.Tensor: ...
+
+    def give_up(self, rows: np.ndarray) -> None: ...
+
+
+def _constrain(model, constraint, alive, n, h, pos, vel, nxt, top_p_player, top_p_ball,
+               generator):
+    """Resample the rows `constraint` rejects, up to its max_tries."""
+    bad = ~constraint.accept(alive, n, pos, nxt)
+    tries, drawn = 0, 0
+    while bool(bad.any()) and tries < constraint.max_tries:
+        idx = torch.nonzero(bad).squeeze(1)
+        again = model.sample_next(h[idx], pos[idx], vel[idx], top_p_player, top_p_ball,
+                                  generator)
+        nxt[idx] = again
+        drawn += len(idx)
+        ok = constraint.accept(alive[idx.cpu().numpy()], n, pos[idx], again)
+        bad[idx] = ~ok
+        tries += 1
+    if bool(bad.any()):
+        constraint.give_up(alive[torch.nonzero(bad).squeeze(1).cpu().numpy()])
+    return nxt, drawn
 
 
 class _NoTracker:
@@ -106,12 +140,15 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             tracker: Tracker | None = None, top_p_player: float = 1.0,
             top_p_ball: float = 1.0, seed: int | None = 0,
             generator: torch.Generator | None = None, mode: str = "cache",
-            progress: bool = False) -> Rollout:
+            progress: bool = False, constraint: Constraint | None = None) -> Rollout:
     """Roll `inputs` forward until the tracker ends each rally or it has `max_frames` frames.
 
     The tracker sees every frame of every rally in order, the initial ones included, and
-    keeps each finished rally's result (read it after the rollout). `generator` (or `seed`)
-    makes the rollout reproducible: the same inputs, seed and batch give the same tracks.
+    keeps each finished rally's result (read it after the rollout). `constraint` restricts the
+    sampled frames (counterfactuals): rows whose sample it rejects are sampled again from the
+    same distribution, which samples the distribution restricted to the accepted set.
+    `generator` (or `seed`) makes the rollout reproducible: the same inputs, seed and batch
+    give the same tracks.
     """
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
@@ -149,7 +186,7 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
     if mode == "cache":
         hs, cache = model(_window_features(hist, 0, t0, fps), ident, ctx, return_cache=True)
         h = hs[:, -1]
-    n, steps, frames = t0, 0, 0
+    n, steps, frames, resampled = t0, 0, 0, 0
     bar = tqdm(total=max_frames - t0, desc="frames", disable=not progress, leave=False)
     while True:
         if done.any():
@@ -172,7 +209,12 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             h = model(_window_features(hist, lo, n, fps), ident, ctx)[:, -1]
         pos = hist[:, n - 1]
         prev = hist[:, n - 2] if n >= 2 else pos
-        nxt = model.sample_next(h, pos, (pos - prev) * fps, top_p_player, top_p_ball, generator)
+        vel = (pos - prev) * fps
+        nxt = model.sample_next(h, pos, vel, top_p_player, top_p_ball, generator)
+        if constraint is not None:
+            nxt, n_resampled = _constrain(model, constraint, alive, n, h, pos, vel, nxt,
+                                          top_p_player, top_p_ball, generator)
+            resampled += n_resampled
         hist[:, n] = nxt
         nxt_np = nxt.cpu().numpy()
         out[alive, n] = nxt_np
@@ -186,4 +228,4 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
         frames += len(alive)
         bar.update(1)
     bar.close()
-    return Rollout(out[:, :int(length.max())], length, ended, steps, frames)
+    return Rollout(out[:, :int(length.max())], length, ended, steps, frames, resampled)

@@ -27,11 +27,12 @@ from sportsngen.data.tracking import RallyData
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.model.event_classifier import EventClassifier
 from sportsngen.model.export import load_model, read_extra
+from sportsngen.sim import whatif
 from sportsngen.sim.assemble import PLAN_COLUMNS, assemble
 from sportsngen.sim.events import frame_labels
 from sportsngen.sim.initial import InitialConditions
 from sportsngen.sim.match import MatchResult, simulate_matches
-from sportsngen.sim.rollout import RolloutInputs, rollout
+from sportsngen.sim.rollout import Constraint, RolloutInputs, rollout
 from sportsngen.tennis.rally import RallyTracker
 
 BUNDLED_DIR = Path(__file__).resolve().parents[1] / "model" / "bundled"
@@ -75,7 +76,7 @@ class Simulator:
         extra = read_extra(path)
         if "initial_conditions" not in extra:
             raise ValueError(f"{path} carries no initial conditions for simulation; add them "
-                             "with `python -m sportsngen.sim.add_initial --model ... --data ...`")
+                             "with scripts/add_initial_conditions.py --model ... --data ...")
         for key, value in (extra.get("sim_defaults") or {}).items():
             kwargs.setdefault(key, float(value))
         return cls(model, ec, vocab, InitialConditions.from_dict(extra["initial_conditions"]),
@@ -86,11 +87,12 @@ class Simulator:
         return self.model.cfg.fps
 
     # --- rallies -------------------------------------------------------------------------------
-    def _inputs(self, plan: pd.DataFrame, rng: np.random.Generator) -> RolloutInputs:
-        init = np.stack([self.initial.draw(s, int(n), side, int(e), rng, surface=surf)
-                         for s, n, side, e, surf in zip(plan["server"], plan["serve_number"],
-                                                        plan["side"], plan["server_end"],
-                                                        plan["surface"])])
+    def _inputs(self, plan: pd.DataFrame, rng: np.random.Generator,
+                init_pos_m: np.ndarray | None = None) -> RolloutInputs:
+        init = init_pos_m if init_pos_m is not None else np.stack(
+            [self.initial.draw(s, int(n), side, int(e), rng, surface=surf)
+             for s, n, side, e, surf in zip(plan["server"], plan["serve_number"], plan["side"],
+                                            plan["server_end"], plan["surface"])])
         v, unk = self.vocab, self.unknown
         ids = {p: v.player_index(p, unk) for p in set(plan["server"]) | set(plan["receiver"])}
         ident = np.stack([plan["server"].map(ids), plan["receiver"].map(ids),
@@ -101,10 +103,15 @@ class Simulator:
         return RolloutInputs(init, ident, surf, tour,
                              plan["serve_number"].to_numpy(np.int64) - 1, score)
 
-    def simulate_rallies(self, plan: pd.DataFrame, seed: int = 0,
-                         progress: bool = False) -> RallyData:
+    def simulate_rallies(self, plan: pd.DataFrame, seed: int = 0, progress: bool = False,
+                         init_pos_m: np.ndarray | None = None,
+                         constraint: Constraint | None = None) -> RallyData:
         """One rally for each row of `plan` (columns `PLAN_COLUMNS`), in batches of
-        `batch_size` -> RallyData with the simulator's columns (see `sportsngen.sim.assemble`)."""
+        `batch_size` -> RallyData with the simulator's columns (see `sportsngen.sim.assemble`).
+
+        Rallies start from serve starts drawn from the model's pool, or from `init_pos_m`
+        (len(plan), T0, 3, 3) (branching from a real rally); `constraint` restricts sampling
+        (`sportsngen.sim.rollout.Constraint`; row indices are plan positions)."""
         missing = [c for c in PLAN_COLUMNS if c not in plan.columns]
         if missing:
             raise ValueError(f"rally plan lacks columns {missing}")
@@ -113,14 +120,19 @@ class Simulator:
         max_frames = int(math.ceil(self.max_duration_s * self.fps)) + 2
         for lo in range(0, len(plan), self.batch_size):
             part = plan.iloc[lo:lo + self.batch_size].reset_index(drop=True)
-            inputs = self._inputs(part, rng)
+            inputs = self._inputs(part, rng, None if init_pos_m is None else
+                                  init_pos_m[lo:lo + self.batch_size])
+            if constraint is not None:
+                constraint.offset = lo
             tracker = RallyTracker(part["server_end"].to_numpy(), part["side"].to_numpy(),
                                    part["serve_number"].to_numpy(), self.fps,
                                    self.max_duration_s)
             gen = torch.Generator(device=next(self.model.parameters()).device)
             gen.manual_seed(int(rng.integers(2 ** 62)))
-            roll = rollout(self.model, inputs, max_frames, tracker, self.top_p_player,
-                           self.top_p_ball, generator=gen, progress=progress)
+            t0 = inputs.init_pos_m.shape[1]
+            roll = rollout(self.model, inputs, max(max_frames, t0 + 2), tracker,
+                           self.top_p_player, self.top_p_ball, generator=gen,
+                           progress=progress, constraint=constraint)
             labels = None if self.event_model is None else frame_labels(
                 self.event_model, roll.pos_m, roll.length, self.fps, self.model.cfg.window_frames)
             parts.append(assemble(part, roll.pos_m, roll.length, tracker.results(), labels,
@@ -182,3 +194,24 @@ class Simulator:
         """Many matches, their points batched together -> list of `MatchResult`."""
         return simulate_matches(self, matchups, surface, fmt=fmt, seed=seed,
                                 first_server=first_server, progress=progress)
+
+    # --- what if -------------------------------------------------------------------------------
+    def rally_win_probability(self, rally_data: RallyData, rally_id: int, frame: int,
+                              n: int = 100, seed: int = 0) -> float:
+        """P(the rally's server wins the point) from `n` rollouts after frame `frame` of the
+        rally (see `sportsngen.sim.whatif.rally_win_probability`)."""
+        return whatif.rally_win_probability(self, rally_data, rally_id, frame, n, seed)
+
+    def counterfactual(self, rally_data: RallyData, rally_id: int, shot_index: int,
+                       options=("cross_court", "down_the_line"), n: int = 100,
+                       seed: int = 0) -> pd.DataFrame:
+        """The hitter's win probability for each way shot `shot_index` could have gone (see
+        `sportsngen.sim.whatif.counterfactual`)."""
+        return whatif.counterfactual(self, rally_data, rally_id, shot_index, options, n, seed)
+
+    def match_win_probability(self, player1: str, player2: str, surface: str, state=None,
+                              fmt=None, n_points: int = 200, seed: int = 0) -> dict:
+        """P(player1 wins the match) from any score (see
+        `sportsngen.sim.whatif.match_win_probability`)."""
+        return whatif.match_win_probability(self, player1, player2, surface, state, fmt,
+                                            n_points, seed)

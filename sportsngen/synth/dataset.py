@@ -44,7 +44,7 @@ from sportsngen.synth.profiles import (
 )
 from sportsngen.tennis.scoring import MatchFormat
 
-GENERATOR_VERSION = "2"  # bump when the generated tracks change
+GENERATOR_VERSION = "3"  # bump when the generated tracks change (3: still through the toss)
 _ARROW = {"int64": pa.int64(), "float64": pa.float64(), "string": pa.string(), "bool": pa.bool_()}
 
 

@@ -283,6 +283,9 @@ def play_rally(server: PlayerProfile, receiver: PlayerProfile, server_end: int,
 
         # The hitter recovers; the opponent reacts, then runs to the best reachable contact.
         if plan.stroke == "serve":
+            # Both players stand still through the toss: nobody moves before the serve.
+            for m in movers:
+                m.run_to(int(math.floor(t_contact * fps)), m.x, m.y)
             delay = receiver.reaction_s + server.serve_disguise_s - \
                 receiver.return_anticipation_s
             delay = max(delay, 0.08)

@@ -1,0 +1,205 @@
+"""Simulation speed of the learned engine (decoder f rollouts) with the bundled model.
+
+    .venv/bin/python bench/bench_sim.py [--quick] [--model PATH] [--threads N]
+
+Each measurement runs in a fresh subprocess (its own peak RSS):
+
+- decoder step at a full 6 s window (150 frames at 25 Hz, 454 tokens): the ring cache
+  (`forward_step`, one new frame) against recomputing the window (`forward` on the last 150
+  frames, the naive rolling window) and against recomputing the whole rally so far with the band
+  mask (`forward` on every frame, what the cache equals exactly), for B = 1 and 64;
+- rollouts (`sportsngen.sim.rollout.rollout`, sampling included, no rally-end rules so every
+  rally runs the same number of frames) from real serve starts: simulated frames per second for
+  B = 1, 64 and 256 parallel rallies (B = 1 is the one-rally-at-a-time baseline);
+- end to end with the rally-end rules, event labels and tables (`Simulator`): 100 rollouts of
+  one serve (the cost of a 100-rollout win probability), and one best-of-3 match.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+BUNDLED = ROOT / "sportsngen" / "model" / "bundled" / "sportsngen-small.pt"
+
+_COMMON = """
+import json, resource, sys, time
+import numpy as np, torch
+from sportsngen.model.export import load_model, read_extra
+from sportsngen.sim.initial import InitialConditions
+from sportsngen.sim.rollout import RolloutInputs, rollout
+from sportsngen.data.tokens import object_features
+torch.set_num_threads(int(sys.argv[2]))
+path = sys.argv[1]
+model, ec, vocab, cfg = load_model(path)
+ic = InitialConditions.from_dict(read_extra(path)["initial_conditions"])
+
+def inputs(b, t0=None):
+    rng = np.random.default_rng(0)
+    idx = rng.integers(0, len(ic), b)
+    pos = ic.pos_m[idx] if t0 is None else ic.pos_m[idx][:, :t0]
+    return RolloutInputs(pos, np.tile([[2, 3, 0]], (b, 1)), np.zeros(b, np.int64),
+                         np.zeros(b, np.int64), np.zeros(b, np.int64),
+                         np.zeros((b, 7), np.float32))
+
+def peak_mb():
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+"""
+
+_STEP_CHILD = _COMMON + textwrap.dedent("""
+    b, reps = int(sys.argv[3]), int(sys.argv[4])
+    w = cfg.window_frames
+    # A real rally prefix of w + 10 frames, simulated once.
+    hist = rollout(model, inputs(b), w + 10, seed=0).pos_m
+    pos = torch.from_numpy(hist)
+    prev = torch.cat([pos[:, :1], pos[:, :-1]], dim=1)
+    t = (torch.arange(pos.shape[1]) / cfg.fps).expand(b, -1)
+    feats = object_features(pos, (pos - prev) * cfg.fps, t)
+    ident = torch.tensor([[2, 3, 0]] * b)
+    z = torch.zeros(b, dtype=torch.long)
+    ctx = model.context_tokens(z, z, z, torch.zeros(b, 7))
+    n = w + 5
+    out = {"b": b, "window_frames": w}
+    with torch.inference_mode():
+        _, cache0 = model(feats[:, :n], ident, ctx, return_cache=True)
+        def run(kind):
+            best = float("inf")
+            for _ in range(reps):
+                cache = cache0.select(torch.arange(b))
+                t0 = time.perf_counter()
+                for k in range(5):
+                    if kind == "cache":
+                        model.forward_step(feats[:, n + k], cache)
+                    elif kind == "window":
+                        model(feats[:, n + k + 1 - w:n + k + 1], ident, ctx)
+                    else:
+                        model(feats[:, :n + k + 1], ident, ctx)
+                best = min(best, (time.perf_counter() - t0) / 5)
+            return best
+        for kind in ("cache", "window", "recompute"):
+            out[kind + "_ms"] = 1000 * run(kind)
+        # The cached state equals the band recomputation on the same frames.
+        cache = cache0.select(torch.arange(b))
+        h_c, _ = model.forward_step(feats[:, n], cache)
+        h_r = model(feats[:, :n + 1], ident, ctx)[:, -1]
+        out["max_abs_diff"] = float((h_c - h_r).abs().max())
+        lg_c = model.ball_head.dim_logits(h_c[:, 2], torch.zeros(b, 3, dtype=torch.long), 0)
+        lg_r = model.ball_head.dim_logits(h_r[:, 2], torch.zeros(b, 3, dtype=torch.long), 0)
+        out["max_abs_logit_diff"] = float((lg_c - lg_r).abs().max())
+    out["peak_rss_mb"] = peak_mb()
+    print(json.dumps(out))
+""")
+
+_ROLLOUT_CHILD = _COMMON + textwrap.dedent("""
+    b, n_frames = int(sys.argv[3]), int(sys.argv[4])
+    rollout(model, inputs(min(b, 4)), 20, seed=0)          # warm-up
+    t0 = time.perf_counter()
+    r = rollout(model, inputs(b), n_frames, seed=1)
+    wall = time.perf_counter() - t0
+    print(json.dumps({"b": b, "frames": r.frames_simulated, "wall_s": wall,
+                      "frames_per_s": r.frames_simulated / wall,
+                      "ms_per_step": 1000 * wall / r.n_steps, "peak_rss_mb": peak_mb()}))
+""")
+
+_SIM_CHILD = _COMMON + textwrap.dedent("""
+    from sportsngen.sim import Simulator
+    sim = Simulator.from_pretrained(path)
+    t0 = time.perf_counter()
+    d = sim.simulate_points("Roger Federer", "Rafael Nadal", "hard", 100, seed=0,
+                            serve_number=1)
+    t_100 = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    m = sim.simulate_match("Roger Federer", "Rafael Nadal", "hard", seed=0, progress=False)
+    t_match = time.perf_counter() - t0
+    n_rallies = len(m.rallies) + m.n_discarded
+    print(json.dumps({"rollouts_100_s": t_100, "match_s": t_match, "score": m.score_line,
+                      "points": len(m.points), "rallies_simulated": n_rallies,
+                      "discarded": m.n_discarded, "forced": m.forced_decisions,
+                      "realistic_100": float(d.rallies["realistic"].mean()),
+                      "peak_rss_mb": peak_mb()}))
+""")
+
+
+def _child(code: str, *args: object) -> dict:
+    out = subprocess.run([sys.executable, "-c", code, *map(str, args)], capture_output=True,
+                         text=True, cwd=ROOT)
+    if out.returncode:
+        raise RuntimeError(f"benchmark child failed:\n{out.stderr[-3000:]}")
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def bench_simulation(quick: bool, model: Path = BUNDLED, threads: int = 2,
+                     end_to_end: bool = True) -> tuple[list[str], dict]:
+    steps = [_child(_STEP_CHILD, model, threads, b, 2 if quick else 5) for b in (1, 64)]
+    for s in steps:
+        print(f"decoder step at a full window, B={s['b']}: cache {s['cache_ms']:.2f} ms, "
+              f"window {s['window_ms']:.1f} ms ({s['window_ms'] / s['cache_ms']:.0f}x), "
+              f"recompute {s['recompute_ms']:.1f} ms ({s['recompute_ms'] / s['cache_ms']:.0f}x)"
+              f"; cache vs recompute max |diff| {s['max_abs_diff']:.1e}")
+    n_frames = 100 if quick else 200
+    rolls = [_child(_ROLLOUT_CHILD, model, threads, b, n_frames) for b in (1, 64, 256)]
+    for r in rolls:
+        print(f"rollout B={r['b']}: {r['frames_per_s']:.0f} frames/s "
+              f"({r['ms_per_step']:.2f} ms a step), peak RSS {r['peak_rss_mb']:.0f} MB")
+    e2e = _child(_SIM_CHILD, model, threads) if end_to_end else None
+    if e2e:
+        print(f"100 rollouts of a serve: {e2e['rollouts_100_s']:.1f} s; best-of-3 match: "
+              f"{e2e['match_s']:.1f} s ({e2e['points']} points, {e2e['rallies_simulated']} "
+              f"rallies simulated, {e2e['discarded']} set aside)")
+    lines = [
+        "## Simulation (learned engine)",
+        "",
+        f"Bundled model `{model.name}`, {threads} torch threads, `bench/bench_sim.py`.",
+        "",
+        "Decoder step at a full 6 s window (150 frames, 454 tokens), best of repeated runs of "
+        "5 steps: the ring cache against recomputing the last 150 frames (naive window) and "
+        "against recomputing the whole rally with the band mask (the computation the cache "
+        "equals).",
+        "",
+        "| B | cache ms | window ms | speed-up | recompute ms | speed-up | "
+        "max abs diff (hidden) | max abs diff (logits) | peak RSS MB |",
+        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for s in steps:
+        lines.append(f"| {s['b']} | {s['cache_ms']:.2f} | {s['window_ms']:.1f} | "
+                     f"{s['window_ms'] / s['cache_ms']:.0f}x | {s['recompute_ms']:.1f} | "
+                     f"{s['recompute_ms'] / s['cache_ms']:.0f}x | {s['max_abs_diff']:.1e} | "
+                     f"{s['max_abs_logit_diff']:.1e} | {s['peak_rss_mb']:.0f} |")
+    base = rolls[0]["frames_per_s"]
+    lines += ["", f"Rollouts of {n_frames} frames from real serve starts (sampling included, "
+              "no rally-end rules), B rallies in parallel; B = 1 is one rally at a time.", "",
+              "| B | frames/s | x B=1 | ms a step | peak RSS MB |", "|---:|---:|---:|---:|---:|"]
+    for r in rolls:
+        lines.append(f"| {r['b']} | {r['frames_per_s']:.0f} | {r['frames_per_s'] / base:.1f} | "
+                     f"{r['ms_per_step']:.2f} | {r['peak_rss_mb']:.0f} |")
+    if e2e:
+        lines += ["", "End to end (`Simulator`: rollouts, rally-end rules, event labels, tables), "
+                  "Roger Federer v Rafael Nadal on hard, seed 0:", "",
+                  f"- 100 rollouts of a first serve: {e2e['rollouts_100_s']:.1f} s "
+                  f"({100 * e2e['realistic_100']:.0f} % realistic)",
+                  f"- one best-of-3 match: {e2e['match_s']:.1f} s, {e2e['score']}, "
+                  f"{e2e['points']} points, {e2e['rallies_simulated']} rallies simulated "
+                  f"({e2e['discarded']} set aside as non-realistic or undecided, "
+                  f"{e2e['forced']} points decided without a realistic rally); peak RSS "
+                  f"{e2e['peak_rss_mb']:.0f} MB"]
+    return lines, {"steps": steps, "rollouts": rolls, "end_to_end": e2e}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--model", type=Path, default=BUNDLED)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--no-end-to-end", action="store_true")
+    args = ap.parse_args()
+    lines, _ = bench_simulation(args.quick, args.model, args.threads, not args.no_end_to_end)
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,143 @@
+"""Command line of `sportsngen.eval`: the realism report.
+
+    python -m sportsngen.eval report --sim FOLDER --ref FOLDER --out DIR
+    python -m sportsngen.eval report --sim FOLDER --ref-synthetic "Roger Federer,Rafael Nadal" \\
+        [--surface hard] [--points N] [--seed 0] [--real-year 2011 | --no-real] --out DIR
+
+Folders are `RallyData.save` folders, read without physics validation (simulated rallies may
+break physics and are flagged, not refused). `--ref-synthetic` generates the reference with
+`sportsngen.synth.generate_matches` (default: the simulated data's surfaces and number of
+points). Real slam points of `--real-year` served by the same players form a third column when
+the shared data is present; without it the report is written without them and a note says why.
+Exit status 2 on a missing folder, empty data or a bad option.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+from sportsngen.data.tracking import FPS_DEFAULT, RallyData, TrackingDataError
+
+_TABLES = ("frames", "rallies", "shots")
+
+
+class UsageError(Exception):
+    """A problem with the command's inputs, reported as one line and exit status 2."""
+
+
+def load_tracking(folder: str | Path, what: str) -> RallyData:
+    """A `RallyData.save` folder, columns cast but physics not validated; UsageError when the
+    folder or a table is missing or it holds no rallies."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise UsageError(f"{what}: no tracking folder at {folder}")
+    absent = [f"{n}.parquet" for n in _TABLES if not (folder / f"{n}.parquet").is_file()]
+    if absent:
+        raise UsageError(f"{what}: {folder} is not a RallyData folder (lacks {absent})")
+    try:
+        data = _read(folder)
+    except TrackingDataError as exc:
+        raise UsageError(f"{what}: {folder}: {exc}") from exc
+    if len(data.rallies) == 0:
+        raise UsageError(f"{what}: {folder} holds no rallies")
+    return data
+
+
+def _read(folder: Path) -> RallyData:
+    """What `RallyData.load` reads, without its validation."""
+    meta_path = folder / "meta.json"
+    meta = json.loads(meta_path.read_text()) if meta_path.is_file() else {}
+    fps = float(meta.pop("fps", FPS_DEFAULT))
+    tables = [pd.read_parquet(folder / f"{n}.parquet") for n in _TABLES]
+    return RallyData.from_tables(*tables, fps=fps, meta=meta, validate=False)
+
+
+def synthetic_reference(players: str, surface: list[str], n_points: int, seed: int) -> RallyData:
+    """Ground truth of the matchup "A,B" from the generator (one worker process)."""
+    from sportsngen.synth import generate_matches
+
+    names = [p.strip() for p in players.split(",") if p.strip()]
+    if len(names) != 2:
+        raise UsageError(f"--ref-synthetic wants two players 'A,B', got {players!r}")
+    try:
+        return generate_matches([tuple(names)], surface, n_points, seed=seed, workers=1)
+    except ValueError as exc:
+        raise UsageError(f"--ref-synthetic: {exc}") from exc
+
+
+def _real_points(sim: RallyData, year: int):
+    """Real points of `year` served by the simulated players, or None with a note why not."""
+    from sportsngen.eval.report import load_real_points
+
+    players = sorted(set(sim.rallies["server"].astype(str)) | set(sim.rallies["receiver"]
+                                                                   .astype(str)))
+    try:
+        return load_real_points(players, year)
+    except (FileNotFoundError, ValueError) as exc:
+        print(f"note: report written without real figures: {exc}", file=sys.stderr)
+        return None
+
+
+def run_report(args: argparse.Namespace) -> Path:
+    from sportsngen.eval.report import write_report
+
+    sim = load_tracking(args.sim, "--sim")
+    if args.ref is not None:
+        ref = load_tracking(args.ref, "--ref")
+    else:
+        surface = args.surface or sorted(set(sim.rallies["surface"].astype(str)))
+        n_points = args.points or int(sim.rallies.groupby(["match_id", "point"]).ngroups)
+        if n_points < 1:
+            raise UsageError(f"--points must be positive, got {n_points}")
+        ref = synthetic_reference(args.ref_synthetic, surface, n_points, args.seed)
+    labels = tuple(s.strip() for s in args.labels.split(",")) if args.labels else \
+        ("simulated", "synthetic truth" if args.ref is None else "reference")
+    if len(labels) != 2:
+        raise UsageError(f"--labels wants two names 'A,B', got {args.labels!r}")
+    real = None if args.no_real else _real_points(sim, args.real_year)
+    return write_report(sim, ref, args.out, real_points=real, labels=labels)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="python -m sportsngen.eval",
+                                 description="Realism evaluation of simulated tennis tracking.")
+    sub = ap.add_subparsers(dest="command", required=True)
+    rep = sub.add_parser("report", help="report.md, metrics.csv and figures: simulated play "
+                                        "against a reference and real slam figures")
+    rep.add_argument("--sim", required=True, help="RallyData folder of the simulated play")
+    ref = rep.add_mutually_exclusive_group(required=True)
+    ref.add_argument("--ref", help="RallyData folder of the reference")
+    ref.add_argument("--ref-synthetic", metavar="'A,B'",
+                     help="generate the reference: synthetic matches between players A and B")
+    rep.add_argument("--surface", nargs="+", default=None,
+                     help="surface(s) of the synthetic reference (default: the simulated ones)")
+    rep.add_argument("--points", type=int, default=None,
+                     help="points of the synthetic reference (default: as many as simulated)")
+    rep.add_argument("--seed", type=int, default=0, help="seed of the synthetic reference")
+    rep.add_argument("--real-year", type=int, default=2011,
+                     help="year of the real slam points beside them (default 2011)")
+    rep.add_argument("--no-real", action="store_true", help="leave the real figures out")
+    rep.add_argument("--labels", default=None,
+                     help="names of the two sources, 'simulated,reference'")
+    rep.add_argument("--out", required=True, type=Path, help="folder to write the report into")
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        path = run_report(args)
+    except UsageError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print(f"wrote {path} (+ metrics.csv, figures/)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,227 @@
+"""Rally outcome prediction, counterfactual "what if" shots and match win probabilities.
+
+- `rally_win_probability`: branch a real rally at one of its frames, roll n continuations and
+  count how often the rally's server wins the point (a first serve that ends in a fault goes on
+  with n simulated second serves of that point).
+- `counterfactual`: branch just before a shot's contact and force where the shot goes: at the
+  first sampled frame where the ball leaves the hitter, only samples whose flight lands in the
+  chosen direction (or target box) are accepted; the others are drawn again from the same
+  distribution, so the shot is sampled from the model's distribution restricted to that option
+  and renormalised. The landing point is the ballistic extrapolation of that frame's velocity
+  (gravity, no drag or spin: enough to tell the direction, which depends on y only).
+- `match_win_probability`: point-win rates on serve from simulated service points, then the
+  exact Markov chain of the scoring from any `MatchState`.
+
+Probabilities count realistic, decided rallies only; the rest are reported, not hidden.
+Confidence intervals are Wilson score intervals (95 %).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+import torch
+
+from sportsngen.baselines.markov import match_win_probability as markov_match_win
+from sportsngen.data.tokens import Vocab, rally_arrays
+from sportsngen.data.tracking import RallyData
+from sportsngen.sim.assemble import PLAN_COLUMNS, realistic_points
+from sportsngen.tennis import court
+from sportsngen.tennis.scoring import MatchFormat, MatchState
+
+G_MPS2 = 9.81
+LEAVE_WINDOW_FRAMES = 12     # the constraint waits this long for the ball to leave the hitter
+MAX_TRIES = 200
+
+
+def wilson_interval(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """95 % Wilson score interval of a proportion k / n ((nan, nan) for n = 0)."""
+    if n == 0:
+        return (math.nan, math.nan)
+    p = k / n
+    den = 1 + z * z / n
+    mid = (p + z * z / (2 * n)) / den
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    return (max(0.0, mid - half), min(1.0, mid + half))
+
+
+def _rally(data: RallyData, rally_id: int) -> tuple[pd.Series, np.ndarray, int]:
+    """The rally's row, its positions (T, 3, 3) [server, receiver, ball], its first frame."""
+    r = data.rallies
+    if rally_id not in set(r["rally_id"].tolist()):
+        raise ValueError(f"rally {rally_id} is not in the data")
+    sub = data.subset([rally_id])
+    arr = rally_arrays(sub, Vocab.from_data(sub), unknown="generic")
+    first = int(sub.frames["frame"].min())
+    return r[r["rally_id"] == rally_id].iloc[0], arr.pos_m[:int(arr.length[0])], first
+
+
+def _plan(row: pd.Series, n: int, serve_number: int | None = None) -> pd.DataFrame:
+    plan = pd.DataFrame([row[PLAN_COLUMNS].to_dict()] * n)
+    plan["rally_id"] = np.arange(n)
+    plan["match_id"] = "branch"
+    if serve_number is not None:
+        plan["serve_number"] = serve_number
+    return plan
+
+
+def _server_wins(sim, row: pd.Series, out: RallyData, n: int, seed: int) -> dict:
+    """P(server wins the point) from branched rallies `out` (second serves after faults)."""
+    r = out.rallies
+    ok = r["realistic"].to_numpy(bool) & (r["end_reason"] != "none").to_numpy()
+    fault = ok & (r["end_reason"] == "fault").to_numpy()
+    won = ok & (r["winner"] == row["server"]).to_numpy()
+    p2, n2 = math.nan, 0
+    if fault.any():
+        second = sim.simulate_rallies(_plan(row, n, serve_number=2), seed=seed + 1)
+        s = realistic_points(second).rallies
+        n2 = len(s)
+        p2 = float((s["winner"] == row["server"]).mean()) if n2 else math.nan
+    n_ok = int(ok.sum())
+    p = math.nan if n_ok == 0 else (won.sum() + (fault.sum() * p2 if fault.any() else 0)) / n_ok
+    return {"p": float(p), "n": n_ok, "n_sims": len(r), "n_unrealistic": int((~ok).sum()),
+            "n_faults": int(fault.sum()), "n_second_serves": n2}
+
+
+def rally_win_probability(sim, data: RallyData, rally_id: int, frame: int, n: int = 100,
+                          seed: int = 0, details: bool = False):
+    """P(the rally's server wins the point), from `n` continuations of the rally after its
+    frame number `frame` (a `frame` value of `data.frames`). With `details`, a dict with the
+    counts behind it."""
+    row, pos, first = _rally(data, rally_id)
+    k = int(frame) - first
+    if not 0 <= k < len(pos):
+        raise ValueError(f"frame {frame} is outside rally {rally_id} (frames {first}.."
+                         f"{first + len(pos) - 1})")
+    init = np.repeat(pos[None, :k + 1], n, axis=0)
+    out = sim.simulate_rallies(_plan(row, n), seed=seed, init_pos_m=init)
+    res = _server_wins(sim, row, out, n, seed)
+    return res if details else res["p"]
+
+
+@dataclass
+class ShotConstraint:
+    """Accept a sampled frame only if the shot leaving the hitter lands as `option` says."""
+
+    option: str | tuple[float, float, float, float]
+    hitter: int                   # 0 server, 1 receiver
+    hitter_end: int               # sign of x of the hitter's baseline
+    handedness: str
+    stroke: str
+    serve_side: str
+    start_frame: int
+    max_tries: int = MAX_TRIES
+    offset: int = 0
+    done: set = field(default_factory=set)
+    failed: set = field(default_factory=set)
+
+    def accept(self, rows: np.ndarray, frame: int, pos_m: torch.Tensor,
+               next_pos_m: torch.Tensor) -> torch.Tensor:
+        rows = np.asarray(rows) + self.offset
+        p = next_pos_m[:, 2].double().cpu().numpy()
+        v = (p - pos_m[:, 2].double().cpu().numpy()) * self.fps
+        leaving = np.sign(v[:, 0]) == -self.hitter_end
+        waiting = np.array([r not in self.done for r in rows]) & \
+            (frame < self.start_frame + LEAVE_WINDOW_FRAMES)
+        judge = waiting & leaving
+        ok = np.ones(len(rows), dtype=bool)
+        if judge.any():
+            ok[judge] = self._lands_as_asked(p[judge], v[judge],
+                                             pos_m[judge][:, self.hitter].cpu().numpy())
+            for r in rows[judge & ok]:
+                self.done.add(int(r))
+        return torch.as_tensor(ok, device=next_pos_m.device)
+
+    def give_up(self, rows: np.ndarray) -> None:
+        for r in np.asarray(rows) + self.offset:
+            self.failed.add(int(r))
+            self.done.add(int(r))
+
+    def _lands_as_asked(self, p: np.ndarray, v: np.ndarray, hitter_xy: np.ndarray) -> np.ndarray:
+        disc = v[:, 2] ** 2 + 2 * G_MPS2 * np.maximum(p[:, 2], 0.0)
+        t = (v[:, 2] + np.sqrt(disc)) / G_MPS2
+        lx, ly = p[:, 0] + v[:, 0] * t, p[:, 1] + v[:, 1] * t
+        if isinstance(self.option, tuple):
+            x0, x1, y0, y1 = self.option
+            return (lx >= x0) & (lx <= x1) & (ly >= y0) & (ly <= y1)
+        if self.stroke == "serve":
+            return court.serve_zone(ly) == self.option
+        stroke = self.stroke if self.stroke in ("forehand", "backhand", "forehand_volley",
+                                                "backhand_volley", "overhead") else "forehand"
+        got = court.shot_direction(hitter_xy[:, 0], hitter_xy[:, 1], lx, ly,
+                                   np.full(len(lx), self.handedness), np.full(len(lx), stroke))
+        want = {"cross_court": ("cross_court", "inside_out"),
+                "down_the_line": ("down_the_line", "inside_in")}.get(self.option, (self.option,))
+        return np.isin(got, want)
+
+    fps: float = 25.0
+
+
+def _handedness(name: str) -> str:
+    from sportsngen.synth.profiles import named_profiles
+
+    prof = named_profiles().get(name)
+    return prof.handedness if prof is not None else "right"
+
+
+def counterfactual(sim, data: RallyData, rally_id: int, shot_index: int,
+                   options=("cross_court", "down_the_line"), n: int = 100,
+                   seed: int = 0, return_branches: bool = False):
+    """The hitter's point-win probability if shot `shot_index` of the rally went each way.
+
+    `options`: direction names ("cross_court", "down_the_line", "middle", "inside_out",
+    "inside_in"; for a serve "wide", "body", "T") or target boxes (x_min, x_max, y_min, y_max)
+    in metres where the shot must land. -> DataFrame with columns option, win_probability,
+    ci_low, ci_high, n (realistic decided branches), n_sims, n_unrealistic, n_forced_failed
+    (branches whose shot could not be made to go that way in `MAX_TRIES` draws, or whose ball
+    never left the hitter within `LEAVE_WINDOW_FRAMES`: those go unconstrained)."""
+    row, pos, first = _rally(data, rally_id)
+    shots = data.shots[data.shots["rally_id"] == rally_id].sort_values("shot_index")
+    if not 0 <= shot_index < len(shots):
+        raise ValueError(f"rally {rally_id} has {len(shots)} shots; no shot {shot_index}")
+    shot = shots.iloc[shot_index]
+    k = int(shot["frame"]) - first - 1            # the last frame before the contact
+    if k < 1:
+        raise ValueError("the shot is struck too early in the track to branch before it")
+    hitter = 0 if shot["hitter"] == row["server"] else 1
+    hitter_end = int(row["server_end"]) * (1 if hitter == 0 else -1)
+    init = np.repeat(pos[None, :k + 1], n, axis=0)
+    rows, branches = [], {}
+    for j, opt in enumerate(options):
+        opt = tuple(float(v) for v in opt) if not isinstance(opt, str) else opt
+        con = ShotConstraint(opt, hitter, hitter_end, _handedness(str(shot["hitter"])),
+                             str(shot["stroke"]), str(row["side"]), k + 1, fps=sim.fps)
+        out = sim.simulate_rallies(_plan(row, n), seed=seed + 7919 * j, init_pos_m=init,
+                                   constraint=con)
+        res = _server_wins(sim, row, out, n, seed + 7919 * j)
+        p = res["p"] if hitter == 0 else 1.0 - res["p"]
+        wins = int(round(p * res["n"])) if res["n"] else 0
+        lo, hi = wilson_interval(wins, res["n"])
+        rows.append({"option": opt if isinstance(opt, str) else str(opt), "win_probability": p,
+                     "ci_low": lo, "ci_high": hi, "n": res["n"], "n_sims": res["n_sims"],
+                     "n_unrealistic": res["n_unrealistic"],
+                     "n_forced_failed": len(con.failed) + n - len(con.done)})
+        branches[rows[-1]["option"]] = out
+    table = pd.DataFrame(rows)
+    return (table, branches) if return_branches else table
+
+
+def match_win_probability(sim, player1: str, player2: str, surface: str,
+                          state: MatchState | None = None, fmt: MatchFormat | None = None,
+                          n_points: int = 200, seed: int = 0) -> dict:
+    """P(player1 wins the match) from `state` (default: the start, player1 serving): each
+    player's point-win rate on serve from `n_points` simulated service points against the
+    other (realistic points only), then the exact Markov chain of the scoring."""
+    rates = []
+    for k, (a, b) in enumerate(((player1, player2), (player2, player1))):
+        pts = realistic_points(sim.simulate_points(a, b, surface, n_points, seed=seed + k))
+        table = pts.points()
+        if not len(table):
+            raise ValueError(f"no realistic simulated service point of {a}")
+        rates.append(float((table["winner"] == a).mean()))
+    fmt = fmt or (state.fmt if state is not None else MatchFormat())
+    p = markov_match_win(rates[0], rates[1], fmt, state)
+    return {"p_match": p, "p_serve_player1": rates[0], "p_serve_player2": rates[1]}
