@@ -8,8 +8,10 @@ For Roger Federer v Rafael Nadal on hard: `--points` simulated service points fo
 synthetic ground truth of the same matchup (`generate_matches`, 3000 points). Prints the share
 of non-realistic rallies (and which checks failed), then per server first serve in %, aces %,
 double faults %, serve points won % (over the realistic points), median first-serve speed and
-mean rally length, simulated beside ground truth; and how often the event classifier's point
-winner agrees with the rules' winner on simulated rallies and on ground-truth rallies.
+mean rally length, simulated beside ground truth (serve speeds from the ball tracks for both:
+all first serves, faults included, `sportsngen.eval.physical.shot_quantities`); and how often
+the event classifier's point winner agrees with the rules' winner on simulated rallies and on
+ground-truth rallies.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ import numpy as np
 import torch
 
 from sportsngen.data.tokens import Vocab, rally_arrays
+from sportsngen.eval.physical import shot_quantities
 from sportsngen.eval.stats import serve_stats
 from sportsngen.sim import Simulator
 from sportsngen.sim.assemble import realistic_points
@@ -100,13 +103,20 @@ def main() -> None:
     real = realistic_points(simd)
     s_sim = serve_stats(real.points()).reindex(list(PLAYERS))
     s_true = serve_stats(truth.points()).reindex(list(PLAYERS))
+    # Serve speeds measured the same way on both (the ball track's first frame after contact:
+    # the generator's table holds launch speeds, the simulator's track speeds).
+    for st, d in ((s_sim, simd), (s_true, truth)):
+        q = shot_quantities(d, speed_from="tracks")
+        first = q[q["quantity"] == "first_serve_kmh"].groupby("hitter")["value"].median()
+        st["first_serve_kmh_median"] = first.reindex(st.index).to_numpy()
     rows = []
     print(f"\n{'server':<15} {'':>6} " + " ".join(f"{h:>10}" for _, h, _ in COLUMNS))
     for p in PLAYERS:
         for name, st in (("sim", s_sim), ("truth", s_true)):
             vals = [st.loc[p, c] * f for c, _, f in COLUMNS]
             print(f"{p:<15} {name:>6} " + " ".join(f"{v:>10.1f}" for v in vals))
-            rows.append({"server": p, "source": name, "n_points": int(np.nan_to_num(st.loc[p, "n_points"])),
+            n_pts = int(np.nan_to_num(st.loc[p, "n_points"]))
+            rows.append({"server": p, "source": name, "n_points": n_pts,
                          **{c: float(st.loc[p, c]) for c, _, _ in COLUMNS}})
     decided = r[(r["rules_winner"] >= 0)]
     agree_sim = float((decided["classifier_winner"] == decided["rules_winner"]).mean())

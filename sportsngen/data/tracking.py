@@ -270,8 +270,9 @@ class RallyData:
         return folder
 
     @classmethod
-    def load(cls, folder: str | Path, repair: bool = False) -> RallyData:
-        """Read a folder written by `save` (or by hand in the same layout) and validate it."""
+    def load(cls, folder: str | Path, repair: bool = False, validate: bool = True) -> RallyData:
+        """Read a folder written by `save` (or by hand in the same layout) and validate it
+        (`validate=False`: cast only, for simulated rallies that may break physics)."""
         folder = Path(folder)
         if not folder.is_dir():
             raise FileNotFoundError(f"no tracking folder at {folder}")
@@ -283,4 +284,4 @@ class RallyData:
         meta = json.loads(meta_path.read_text()) if meta_path.exists() else {}
         fps = float(meta.pop("fps", FPS_DEFAULT))
         return cls.from_tables(*(pd.read_parquet(p) for p in paths.values()), fps=fps,
-                               meta=meta, repair=repair)
+                               meta=meta, repair=repair, validate=validate)

@@ -15,13 +15,10 @@ Exit status 2 on a missing folder, empty data or a bad option.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
-import pandas as pd
-
-from sportsngen.data.tracking import FPS_DEFAULT, RallyData, TrackingDataError
+from sportsngen.data.tracking import RallyData, TrackingDataError
 
 _TABLES = ("frames", "rallies", "shots")
 
@@ -49,12 +46,8 @@ def load_tracking(folder: str | Path, what: str) -> RallyData:
 
 
 def _read(folder: Path) -> RallyData:
-    """What `RallyData.load` reads, without its validation."""
-    meta_path = folder / "meta.json"
-    meta = json.loads(meta_path.read_text()) if meta_path.is_file() else {}
-    fps = float(meta.pop("fps", FPS_DEFAULT))
-    tables = [pd.read_parquet(folder / f"{n}.parquet") for n in _TABLES]
-    return RallyData.from_tables(*tables, fps=fps, meta=meta, validate=False)
+    """A RallyData folder, without validation (simulated rallies may break physics)."""
+    return RallyData.load(folder, validate=False)
 
 
 def synthetic_reference(players: str, surface: list[str], n_points: int, seed: int) -> RallyData:

@@ -31,7 +31,6 @@ from sportsngen.model.embedding import ContextEmbedding, ObjectEmbedding
 from sportsngen.model.heads import make_head
 from sportsngen.model.sampling import uniform_in_bin
 
-
 SMALL_BATCH_HEADS = 32      # rows x heads up to which a cached step uses plain matmuls
 
 

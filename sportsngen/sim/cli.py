@@ -148,6 +148,8 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
               f"{res.forced_decisions} points decided without a realistic rally)")
     first = results[0]
     first.rallies.save(out_dir / "rallies")
+    if first.discarded is not None:       # set-aside rallies are kept, for the record
+        first.discarded.save(out_dir / "discarded")
     _rally_figures(first, out_dir)
     return pd.concat([r.points for r in results], ignore_index=True)
 
