@@ -2,7 +2,7 @@
 
 - `rally_win_probability`: branch a real rally at one of its frames, roll n continuations and
   count how often the rally's server wins the point (a first serve that ends in a fault goes on
-  with n simulated second serves of that point).
+  with one simulated second serve).
 - `counterfactual`: branch just before a shot's contact and force where the shot goes: at the
   first sampled frame where the ball leaves the hitter, only samples whose flight lands in the
   chosen direction (or target box) are accepted; the others are drawn again from the same
@@ -68,38 +68,72 @@ def _plan(row: pd.Series, n: int, serve_number: int | None = None) -> pd.DataFra
     return plan
 
 
-def _server_wins(sim, row: pd.Series, out: RallyData, n: int, seed: int) -> dict:
-    """P(server wins the point) from branched rallies `out` (second serves after faults)."""
-    r = out.rallies
+def _branch_outcomes(sim, rows: pd.DataFrame, out: RallyData, seed: int) -> np.ndarray:
+    """Per branch (one rally of `out` per row of `rows`, same order): 1.0 if the server won
+    the point, 0.0 if he lost it, NaN if the branch (or its second serve) was not realistic or
+    undecided. A first serve that ends in a fault goes on with one simulated second serve."""
+    r = out.rallies.reset_index(drop=True)
     ok = r["realistic"].to_numpy(bool) & (r["end_reason"] != "none").to_numpy()
+    res = np.where(r["winner"].to_numpy(dtype=object) == rows["server"].to_numpy(dtype=object),
+                   1.0, 0.0)
+    res[~ok] = np.nan
     fault = ok & (r["end_reason"] == "fault").to_numpy()
-    won = ok & (r["winner"] == row["server"]).to_numpy()
-    p2, n2 = math.nan, 0
     if fault.any():
-        second = sim.simulate_rallies(_plan(row, n, serve_number=2), seed=seed + 1)
-        s = realistic_points(second).rallies
-        n2 = len(s)
-        p2 = float((s["winner"] == row["server"]).mean()) if n2 else math.nan
-    n_ok = int(ok.sum())
-    p = math.nan if n_ok == 0 else (won.sum() + (fault.sum() * p2 if fault.any() else 0)) / n_ok
-    return {"p": float(p), "n": n_ok, "n_sims": len(r), "n_unrealistic": int((~ok).sum()),
-            "n_faults": int(fault.sum()), "n_second_serves": n2}
+        plan = rows[fault].copy()
+        plan["serve_number"] = 2
+        plan["rally_id"] = np.arange(len(plan))
+        second = sim.simulate_rallies(plan.reset_index(drop=True), seed=seed + 1)
+        s2 = second.rallies.reset_index(drop=True)
+        ok2 = s2["realistic"].to_numpy(bool) & (s2["end_reason"] != "none").to_numpy()
+        won2 = s2["winner"].to_numpy(dtype=object) == plan["server"].to_numpy(dtype=object)
+        res[fault] = np.where(ok2, won2.astype(float), np.nan)
+    return res
+
+
+def _summary(outcomes: np.ndarray) -> dict:
+    done = ~np.isnan(outcomes)
+    n_ok = int(done.sum())
+    return {"p": float(outcomes[done].mean()) if n_ok else math.nan, "n": n_ok,
+            "n_sims": len(outcomes), "n_unrealistic": int((~done).sum())}
+
+
+def rally_win_probabilities(sim, data: RallyData, items, n: int = 100,
+                            seed: int = 0) -> pd.DataFrame:
+    """`rally_win_probability` for many (rally_id, frame) pairs at once: branches of pairs
+    with the same prefix length share batches. -> one row a pair: rally_id, frame, p, n,
+    n_sims, n_unrealistic."""
+    prefixes = []
+    for rid, frame in items:
+        row, pos, first = _rally(data, int(rid))
+        k = int(frame) - first
+        if not 0 <= k < len(pos):
+            raise ValueError(f"frame {frame} is outside rally {rid} (frames {first}.."
+                             f"{first + len(pos) - 1})")
+        prefixes.append((row, pos[:k + 1]))
+    results: dict[int, dict] = {}
+    by_len: dict[int, list[int]] = {}
+    for i, (_, pre) in enumerate(prefixes):
+        by_len.setdefault(len(pre), []).append(i)
+    for g, (_, idx) in enumerate(sorted(by_len.items())):
+        plan = pd.concat([_plan(prefixes[i][0], n) for i in idx], ignore_index=True)
+        plan["rally_id"] = np.arange(len(plan))
+        init = np.concatenate([np.repeat(prefixes[i][1][None], n, axis=0) for i in idx])
+        out = sim.simulate_rallies(plan, seed=seed + 1009 * g, init_pos_m=init)
+        outcomes = _branch_outcomes(sim, plan, out, seed + 1009 * g)
+        for j, i in enumerate(idx):
+            results[i] = _summary(outcomes[j * n:(j + 1) * n])
+    return pd.DataFrame([{"rally_id": int(rid), "frame": int(f), **results[i]}
+                         for i, (rid, f) in enumerate(items)])
 
 
 def rally_win_probability(sim, data: RallyData, rally_id: int, frame: int, n: int = 100,
                           seed: int = 0, details: bool = False):
     """P(the rally's server wins the point), from `n` continuations of the rally after its
     frame number `frame` (a `frame` value of `data.frames`). With `details`, a dict with the
-    counts behind it."""
-    row, pos, first = _rally(data, rally_id)
-    k = int(frame) - first
-    if not 0 <= k < len(pos):
-        raise ValueError(f"frame {frame} is outside rally {rally_id} (frames {first}.."
-                         f"{first + len(pos) - 1})")
-    init = np.repeat(pos[None, :k + 1], n, axis=0)
-    out = sim.simulate_rallies(_plan(row, n), seed=seed, init_pos_m=init)
-    res = _server_wins(sim, row, out, n, seed)
-    return res if details else res["p"]
+    counts behind it (n realistic decided branches, n_sims, n_unrealistic)."""
+    res = rally_win_probabilities(sim, data, [(rally_id, frame)], n, seed).iloc[0]
+    d = {k: res[k] for k in ("p", "n", "n_sims", "n_unrealistic")}
+    return d if details else float(d["p"])
 
 
 @dataclass
@@ -196,7 +230,8 @@ def counterfactual(sim, data: RallyData, rally_id: int, shot_index: int,
                              str(shot["stroke"]), str(row["side"]), k + 1, fps=sim.fps)
         out = sim.simulate_rallies(_plan(row, n), seed=seed + 7919 * j, init_pos_m=init,
                                    constraint=con)
-        res = _server_wins(sim, row, out, n, seed + 7919 * j)
+        plan = _plan(row, n)
+        res = _summary(_branch_outcomes(sim, plan, out, seed + 7919 * j))
         p = res["p"] if hitter == 0 else 1.0 - res["p"]
         wins = int(round(p * res["n"])) if res["n"] else 0
         lo, hi = wilson_interval(wins, res["n"])

@@ -1,0 +1,88 @@
+"""Calibration of probabilistic predictions: reliability table, expected calibration error,
+Brier score, and the paper's reliability diagram with the histogram of predictions (Fig. 14/15).
+
+Pure numpy (plots with matplotlib, imported when drawing).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+
+def _check(pred, outcome) -> tuple[np.ndarray, np.ndarray]:
+    p = np.asarray(pred, dtype=float)
+    y = np.asarray(outcome, dtype=float)
+    if p.shape != y.shape or p.ndim != 1:
+        raise ValueError(f"predictions and outcomes must be 1-D of one length, got {p.shape}, "
+                         f"{y.shape}")
+    if np.isnan(p).any() or ((p < 0) | (p > 1)).any():
+        raise ValueError("predictions must be probabilities in [0, 1] (no NaN)")
+    if not np.isin(y, (0.0, 1.0)).all():
+        raise ValueError("outcomes must be 0 or 1")
+    return p, y
+
+
+def reliability_table(pred, outcome, n_bins: int = 10) -> pd.DataFrame:
+    """Equal-width bins of the predicted probability: per bin its count, mean prediction and
+    observed frequency (NaN for empty bins). The last bin includes 1.0."""
+    p, y = _check(pred, outcome)
+    edges = np.linspace(0.0, 1.0, n_bins + 1)
+    b = np.clip(np.digitize(p, edges[1:-1], right=False), 0, n_bins - 1)
+    count = np.bincount(b, minlength=n_bins)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean_pred = np.bincount(b, weights=p, minlength=n_bins) / count
+        freq = np.bincount(b, weights=y, minlength=n_bins) / count
+    return pd.DataFrame({"lo": edges[:-1], "hi": edges[1:], "count": count,
+                         "mean_pred": mean_pred, "observed": freq})
+
+
+def expected_calibration_error(pred, outcome, n_bins: int = 10) -> float:
+    """Sum over bins of (bin share) * |observed frequency - mean prediction|."""
+    t = reliability_table(pred, outcome, n_bins)
+    w = t["count"].to_numpy() / max(int(t["count"].sum()), 1)
+    gap = np.abs(t["observed"].to_numpy() - t["mean_pred"].to_numpy())
+    return float(np.nansum(w * gap))
+
+
+def brier_score(pred, outcome) -> float:
+    """Mean squared difference between the probability and the 0/1 outcome."""
+    p, y = _check(pred, outcome)
+    return float(np.mean((p - y) ** 2))
+
+
+def plot_reliability(preds: dict[str, np.ndarray], outcome, path: str | Path,
+                     n_bins: int = 10, title: str = "") -> Path:
+    """Reliability diagram (observed frequency against mean prediction per bin, one line per
+    predictor) above the histogram of each predictor's predictions."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax, hx) = plt.subplots(2, 1, figsize=(5.5, 7), height_ratios=(3, 1.4))
+    ax.plot([0, 1], [0, 1], color="grey", ls="--", lw=1, label="perfect")
+    for name, p in preds.items():
+        t = reliability_table(p, outcome, n_bins)
+        ok = t["count"] > 0
+        ece = expected_calibration_error(p, outcome, n_bins)
+        ax.plot(t.loc[ok, "mean_pred"], t.loc[ok, "observed"], marker="o",
+                label=f"{name} (ECE {ece:.3f}, Brier {brier_score(p, outcome):.3f})")
+        hx.hist(p, bins=np.linspace(0, 1, n_bins + 1), alpha=0.5, label=name)
+    ax.set_xlim(0, 1)
+    ax.set_ylim(0, 1)
+    ax.set_xlabel("predicted P(server wins the point)")
+    ax.set_ylabel("observed frequency")
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=7, loc="upper left")
+    hx.set_xlabel("predicted probability")
+    hx.set_ylabel("count")
+    hx.legend(fontsize=7)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

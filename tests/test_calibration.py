@@ -1,0 +1,42 @@
+"""Reliability table, ECE and Brier score on hand-made predictions with known answers."""
+
+import numpy as np
+import pytest
+
+from sportsngen.eval.calibration import (
+    brier_score,
+    expected_calibration_error,
+    plot_reliability,
+    reliability_table,
+)
+
+
+def test_known_values():
+    p = np.array([0.05, 0.05, 0.95, 0.95])
+    y = np.array([0, 1, 1, 1])
+    t = reliability_table(p, y, n_bins=10)
+    assert t["count"].tolist() == [2, 0, 0, 0, 0, 0, 0, 0, 0, 2]
+    assert t["observed"].iat[0] == 0.5 and t["observed"].iat[9] == 1.0
+    # ECE = 0.5 * |0.5 - 0.05| + 0.5 * |1.0 - 0.95| = 0.25
+    assert expected_calibration_error(p, y) == pytest.approx(0.25)
+    # Brier = (0.0025 + 0.9025 + 0.0025 + 0.0025) / 4 = 0.2275
+    assert brier_score(p, y) == pytest.approx(0.2275)
+    assert reliability_table([1.0], [1]).loc[9, "count"] == 1   # 1.0 lands in the last bin
+
+
+def test_calibrated_predictor_has_small_ece_and_constant_one_large():
+    rng = np.random.default_rng(0)
+    p = rng.uniform(0, 1, 20000)
+    y = (rng.uniform(0, 1, p.size) < p).astype(float)
+    assert expected_calibration_error(p, y) < 0.02
+    assert expected_calibration_error(np.full(p.size, 0.9), y) > 0.35
+    assert brier_score(p, y) == pytest.approx(1 / 6, abs=0.01)   # E[p(1-p)] for uniform p
+
+
+def test_bad_input_and_plot(tmp_path):
+    with pytest.raises(ValueError, match="probabilities"):
+        brier_score([1.2], [1])
+    with pytest.raises(ValueError, match="0 or 1"):
+        brier_score([0.2], [0.5])
+    out = plot_reliability({"a": np.array([0.2, 0.8])}, np.array([0, 1]), tmp_path / "r.png")
+    assert out.read_bytes()[:4] == b"\x89PNG"
