@@ -1,10 +1,12 @@
 """Compare the decoder's output heads, bin spacings and bin centres by held-out likelihood.
 
-    nice -n 10 .venv/bin/python scripts/compare_heads.py --steps 2500 1000 --seeds 0 1
+    nice -n 10 .venv/bin/python scripts/compare_heads.py --steps 2000 1000 --seeds 0 1 \\
+        --seed-variants 2
 
-Every variant is trained with `train_from_config` on the same data (`synthetic_tiny`), the same
-`tiny` model, seed, steps and `n_bins` (21, so that the joint ball head's 21^3 classes fit), then
-scored on its held-out rallies (the validation split the training recorded in `model.pt`).
+Every variant is trained with `train_from_config` on the same data (`synthetic_tiny`, frozen
+first into `outputs/compare_heads/data/<name>-<fingerprint>` because the generator's cache is
+regenerated whenever its profiles or version change), the same `tiny` model, seed, steps and
+`n_bins` (21, so that the joint ball head's 21^3 classes fit), then scored on its held-out rallies (the validation split the training recorded in `model.pt`).
 
 Discrete NLL over bins is not comparable across binnings (a wider bin holds more mass), so the
 headline figure is the continuous NLL of the density the sampler draws from: a bin chosen with
@@ -18,8 +20,9 @@ constant-velocity Gaussian (per-dimension sigma fitted on the same tokens, as in
 `sportsngen.train.metrics`) is scored as a true continuous density: it does not depend on the
 binning, so equal values across variants show that every variant is scored on the same tokens.
 
-Results go to `outputs/compare_heads/<variant>_seed<k>/` (model, logs, `result.json`; an existing
-`result.json` is reused unless --force) and the table to `docs/figures/compare_heads.md`.
+Results go to `outputs/compare_heads/<variant>_steps<n>_seed<k>/` (model, logs, `result.json`; an
+existing `result.json` is reused unless --force; --reevaluate scores it again) and the tables
+to `docs/figures/compare_heads.md`.
 """
 
 from __future__ import annotations
@@ -38,13 +41,17 @@ from hydra import compose, initialize_config_dir
 from torch.utils.data import DataLoader
 
 from sportsngen.data.tokens import BALL, WindowDataset, centre_m, object_features, rally_arrays
+from sportsngen.data.tracking import RallyData
 from sportsngen.model.export import load_model, read_extra
-from sportsngen.train.datamodule import load_rally_data, split_rallies
+from sportsngen.synth.dataset import cache_root
+from sportsngen.train.datamodule import data_fingerprint, load_rally_data, split_rallies
+from sportsngen.train.evaluate import data_config
 from sportsngen.train.metrics import CV_SIGMAS_M, NextFrameMetrics
 from sportsngen.train.run import train_from_config
 
 REPO = Path(__file__).resolve().parents[1]
 LOG_2PI = math.log(2.0 * math.pi)
+NOTES_MARKER = "<!-- hand-written notes below: kept when the script rewrites this file -->"
 
 
 @dataclass(frozen=True)
@@ -69,19 +76,35 @@ VARIANTS = (
 )
 
 
-def overrides(v: Variant, steps: int, seed: int, n_bins: int) -> list[str]:
+def freeze_data(args) -> Path:
+    """A copy of the data under out/data/<name>-<fingerprint> that every variant trains on:
+    a cached synthetic set is regenerated whenever the generator's profiles or version change,
+    which must not happen between two variants of one comparison."""
+    if args.data_path:
+        data, name = RallyData.load(args.data_path), Path(args.data_path).name.split("-")[0]
+    else:
+        data, name = load_rally_data(data_config(args.data)), args.data
+    dest = args.out / "data" / f"{name}-{data_fingerprint(data)}"
+    if not (dest / "meta.json").is_file():
+        data.save(dest)
+    return dest
+
+
+def overrides(v: Variant, steps: int, seed: int, n_bins: int, data_dir: Path) -> list[str]:
     # One validation pass at the end only: intermediate ones would cost CPU time and change
     # nothing in the exported model (train_from_config exports the last weights).
-    return ["experiment=tiny", "data=synthetic_tiny", "threads=1", f"seed={seed}",
+    return ["experiment=tiny", "data=synthetic_tiny", "data.source=folder",
+            f"+data.path={data_dir}", "threads=1", f"seed={seed}",
             f"trainer.max_steps={steps}", f"trainer.val_check_interval={steps}",
             "trainer.limit_val_batches=2", "trainer.enable_progress_bar=false",
             "events.enabled=false", f"model.head={v.head}", f"model.bin_spacing={v.spacing}",
             f"model.bin_centre={v.centre}", f"model.n_bins={n_bins}"]
 
 
-def train_variant(v: Variant, steps: int, seed: int, n_bins: int, out_dir: Path) -> dict:
+def train_variant(v: Variant, steps: int, seed: int, n_bins: int, data_dir: Path,
+                  out_dir: Path) -> dict:
     """Train one variant into out_dir; -> wall time (s), parameter count, overrides."""
-    ov = overrides(v, steps, seed, n_bins)
+    ov = overrides(v, steps, seed, n_bins, data_dir)
     with initialize_config_dir(config_dir=str(REPO / "conf"), version_base=None):
         cfg = compose(config_name="train", overrides=ov)
     t0 = time.perf_counter()
@@ -90,15 +113,38 @@ def train_variant(v: Variant, steps: int, seed: int, n_bins: int, out_dir: Path)
             "overrides": ov}
 
 
-def held_out_loader(model_path: Path, batch_size: int, cache: dict) -> DataLoader:
-    """Windows of the rallies the training put in validation (as `train.evaluate` does);
-    `cache` keeps the loaded tracking across variants trained on the same data."""
+def training_data(split: dict, search: list[Path], cache: dict) -> RallyData:
+    """The rallies a model was trained on: its recorded data config if that still gives the
+    recorded fingerprint, else the folder among `search` (frozen copies, synthetic caches)
+    that does; anything else would score a model on rallies it may have trained on."""
+    fp = split["fingerprint"]
+    if fp in cache:
+        return cache[fp]
+    try:
+        data = load_rally_data(split["data"])
+    except FileNotFoundError:
+        data = None
+    if data is None or data_fingerprint(data) != fp:
+        data = None
+        for folder in search:
+            if (folder / "meta.json").is_file():
+                candidate = RallyData.load(folder)
+                if data_fingerprint(candidate) == fp:
+                    data = candidate
+                    break
+    if data is None:
+        raise RuntimeError(f"no data with the training fingerprint {fp} (looked in "
+                           f"{[str(f) for f in search]})")
+    cache[fp] = data
+    return data
+
+
+def held_out_loader(model_path: Path, batch_size: int, search: list[Path],
+                    cache: dict) -> DataLoader:
+    """Windows of the rallies the training put in validation (as `train.evaluate` does)."""
     _, _, vocab, cfg = load_model(model_path)
     split = read_extra(model_path)["split"]
-    key = json.dumps(split["data"], sort_keys=True)
-    if key not in cache:
-        cache[key] = load_rally_data(split["data"])
-    arrays = rally_arrays(cache[key], vocab, cfg.unknown)
+    arrays = rally_arrays(training_data(split, search, cache), vocab, cfg.unknown)
     held = split_rallies(arrays, float(split["val_fraction"]), int(split["seed"]))[1]
     return DataLoader(WindowDataset(held, cfg.window_frames, None), batch_size=batch_size)
 
@@ -112,10 +158,10 @@ def gaussian_nll_grid(err_m: torch.Tensor) -> torch.Tensor:
 
 
 @torch.no_grad()
-def evaluate(model_path: Path, batch_size: int, cache: dict) -> dict:
+def evaluate(model_path: Path, batch_size: int, search: list[Path], cache: dict) -> dict:
     """Held-out continuous and discrete NLL, top-1, out-of-range shares of one model file."""
     model, _, _, cfg = load_model(model_path)
-    loader = held_out_loader(model_path, batch_size, cache)
+    loader = held_out_loader(model_path, batch_size, search, cache)
     disc = NextFrameMetrics()
     parts = ("player", "flight", "contact")
     dims = {"player": 2, "flight": 3, "contact": 3}
@@ -154,6 +200,7 @@ def evaluate(model_path: Path, batch_size: int, cache: dict) -> dict:
             s["oor"] += int(out.sum())
             s["cv"] += gaussian_nll_grid(e)
     res = {k: v for k, v in disc.compute().items() if not k.startswith("cv_")}
+    res["data_fingerprint"] = read_extra(model_path)["split"]["fingerprint"]
     n_ball = sums["flight"]["n"] + sums["contact"]["n"]
     cv_ball = sums["flight"]["cv"] + sums["contact"]["cv"]
     best_b = cv_ball.argmin(dim=0)[None]
@@ -178,15 +225,28 @@ def evaluate(model_path: Path, batch_size: int, cache: dict) -> dict:
     return res
 
 
+def run_dir(out: Path, name: str, steps: int, seed: int) -> Path:
+    return out / f"{name}_steps{steps}_seed{seed}"
+
+
 def run_one(v: Variant, steps: int, seed: int, args) -> dict:
-    out_dir = args.out / f"{v.name}_steps{steps}_seed{seed}"
+    out_dir = run_dir(args.out, v.name, steps, seed)
     result_path = out_dir / "result.json"
+    search = [args.data_dir, *sorted((args.out / "data").glob("*")),
+              *sorted((cache_root() / "synthetic").glob(f"{args.data}-*"))]
     if result_path.is_file() and not args.force:
-        return json.loads(result_path.read_text())
+        res = json.loads(result_path.read_text())
+        if not args.reevaluate:
+            return res
+        keep = ("variant", "note", "seed", "steps", "train_wall_s", "n_params", "overrides")
+        res = {**{k: res[k] for k in keep},
+               **evaluate(out_dir / "model.pt", args.batch_size, search, args.cache)}
+        result_path.write_text(json.dumps(res, indent=2))
+        return res
     print(f"[compare_heads] training {v.name} steps {steps} seed {seed}", flush=True)
-    info = train_variant(v, steps, seed, args.n_bins, out_dir)
+    info = train_variant(v, steps, seed, args.n_bins, args.data_dir, out_dir)
     res = {"variant": v.name, "note": v.note, "seed": seed, "steps": steps, **info,
-           **evaluate(out_dir / "model.pt", args.batch_size, args.cache)}
+           **evaluate(out_dir / "model.pt", args.batch_size, search, args.cache)}
     result_path.write_text(json.dumps(res, indent=2))
     print(f"[compare_heads] {v.name} steps {steps} seed {seed}: ball "
           f"{res['cont_nll_ball']:.3f} player {res['cont_nll_player']:.3f} "
@@ -222,42 +282,67 @@ def table(results: list[dict]) -> list[str]:
 
 
 def summary_lines(results: list[dict]) -> list[str]:
-    """Ranking by the mean over seeds, and each seed's paired difference of the winner to
-    the others (the spread of those differences over seeds is the noise estimate)."""
+    """Ranking on the first seed, and each variant's paired difference to the winner on every
+    seed that has both (their spread over seeds is the noise estimate)."""
     seeds = sorted({r["seed"] for r in results})
     by = {(r["variant"], r["seed"]): r for r in results}
-    names = list(dict.fromkeys(r["variant"] for r in results))
-    complete = [n for n in names if all((n, s) in by for s in seeds)]
-    out = [f"Seeds {seeds} (each seed is its own initialisation, data order and held-out "
-           "split); continuous NLL, nats per object token, lower is better.", ""]
+    names = [r["variant"] for r in results if r["seed"] == seeds[0]]
+    out = [f"Ranked on seed {seeds[0]}; paired differences to the winner per seed "
+           f"(seeds {seeds}; a seed sets the initialisation, the data order and the held-out "
+           "split). Continuous NLL, nats per object token, lower is better.", ""]
     for key, label in (("cont_nll_ball", "ball"), ("cont_nll_ball_flight", "ball in flight"),
                        ("cont_nll_ball_contact", "ball at contact"),
                        ("cont_nll_player", "players")):
-        mean = {n: sum(by[(n, s)][key] for s in seeds) / len(seeds) for n in complete}
-        ranked = sorted(complete, key=mean.get)
+        ranked = sorted(names, key=lambda n: by[(n, seeds[0])][key])
         best = ranked[0]
-        out.append(f"- **{label}**: " + ", ".join(f"{n} {mean[n]:.3f}" for n in ranked) + ".")
+        out.append(f"- **{label}**: " + ", ".join(f"{n} {by[(n, seeds[0])][key]:.3f}"
+                                                  for n in ranked) + ".")
         for n in ranked[1:]:
-            d = [by[(n, s)][key] - by[(best, s)][key] for s in seeds]
-            out.append(f"  - {n} minus {best}: mean {sum(d) / len(d):+.3f}, per seed "
-                       + ", ".join(f"{x:+.3f}" for x in d))
+            d = ", ".join(f"seed {s} {by[(n, s)][key] - by[(best, s)][key]:+.3f}"
+                          for s in seeds if (n, s) in by and (best, s) in by)
+            out.append(f"  - {n} minus {best}: {d}")
     return out
+
+
+def uniform_floor(model_path: Path, n_bins: int) -> tuple[float, float]:
+    """(ball, player) continuous NLL of a perfect bin picker on uniform bins: with equal
+    widths the log bin volume is the same for every token, sum over dims of log(2 R / n)."""
+    cfg = load_model(model_path)[3]
+    ball = sum(math.log(2 * s / cfg.fps / n_bins) for s in cfg.ball_max_speed_mps)
+    return ball, 2 * math.log(2 * cfg.player_max_speed_mps / cfg.fps / n_bins)
+
+
+def data_line(results: list[dict]) -> str:
+    """Which data (fingerprint, `data_fingerprint`) the runs of a table were trained and
+    scored on: comparisons inside a table are only fair on one data set."""
+    fps = sorted({r["data_fingerprint"] for r in results})
+    if len(fps) == 1:
+        return f"Every run of this table trained and scored on data `{fps[0]}`."
+    return ("**Mixed data** (compare only rows of the same fingerprint): " + "; ".join(
+        f"`{fp}`: " + ", ".join(f"{r['variant']} seed {r['seed']}" for r in results
+                               if r["data_fingerprint"] == fp) for fp in fps) + ".")
 
 
 def write_markdown(results: list[dict], args, argv: list[str]) -> None:
     main_steps = args.steps[0]
     main = [r for r in results if r["steps"] == main_steps]
     r0 = main[0]
+    model_file = run_dir(args.out, r0["variant"], r0["steps"], r0["seed"]) / "model.pt"
     cmd = "nice -n 10 .venv/bin/python scripts/compare_heads.py " + shlex.join(argv)
     text = [
         "# Output heads, bin spacing and bin centre: held-out likelihood",
         "",
         f"Reproduce (from the repository root; {len(results)} CPU trainings in sequence, "
-        "threads=1):",
+        "threads=1; without --data-path the current `synthetic_tiny` is frozen first into "
+        "`outputs/compare_heads/data/<name>-<fingerprint>`; runs whose `result.json` exists "
+        "are reused):",
         "",
         "```bash",
-        cmd.rstrip(),
+        "nice -n 10 .venv/bin/python scripts/compare_heads.py --steps 2000 1000 --seeds 0 1 "
+        "--seed-variants 2",
         "```",
+        "",
+        f"This file was written by `{cmd.strip()}`.",
         "",
         f"Each variant: `train_from_config` with overrides `{' '.join(r0['overrides'][:-4])}` "
         "plus its `model.head`, `model.bin_spacing`, `model.bin_centre` and "
@@ -278,6 +363,8 @@ def write_markdown(results: list[dict], args, argv: list[str]) -> None:
         "",
         f"### {main_steps} steps",
         "",
+        data_line(main),
+        "",
         *table(main),
         "",
         "Reference: constant-velocity Gaussian (continuous, sigma per dimension fitted on the "
@@ -286,40 +373,61 @@ def write_markdown(results: list[dict], args, argv: list[str]) -> None:
         f"players {r0['cv_cont_nll_player']:.3f} (seed {r0['seed']}'s split; the same for "
         "every variant of that seed).",
         "",
+        *[f"Uniform-bin floor with {n} bins (a model that always picks the right bin): "
+          f"ball {b:.3f}, players {pl:.3f}." for n, (b, pl) in
+          ((n, uniform_floor(model_file, n)) for n in (args.n_bins, 61))],
+        "",
         "## Result",
         "",
         f"### Result at {main_steps} steps",
         "",
         *summary_lines(main),
     ]
+    if len({r["data_fingerprint"] for r in results}) > 1:
+        text += ["", "The tables below used other data (another generator version or other "
+                 "profiles, by fingerprint): compare rows within a table, not across tables."]
     for steps in args.steps[1:]:
         other = [r for r in results if r["steps"] == steps]
         text += ["", f"### {steps} steps (does the ranking hold with less training?)", "",
-                 *table(other), "", *summary_lines(other)]
+                 data_line(other), "", *table(other), "", *summary_lines(other)]
+    # Hand-written notes below the marker survive a rewrite of the generated part.
+    notes = NOTES_MARKER + "\n"
+    if args.md.is_file() and NOTES_MARKER in args.md.read_text():
+        notes = args.md.read_text().split(NOTES_MARKER, 1)
+        notes = NOTES_MARKER + notes[1]
     args.md.parent.mkdir(parents=True, exist_ok=True)
-    args.md.write_text("\n".join(text) + "\n")
+    args.md.write_text("\n".join(text) + "\n\n" + notes)
 
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--steps", type=int, nargs="+", default=[600],
-                   help="training steps of every variant; the first is the main comparison, "
-                        "the others are run with the first seed only")
+                   help="training steps of every variant; the first is the main comparison")
     p.add_argument("--seeds", type=int, nargs="+", default=[0],
                    help="seeds of the main comparison (two or more: a noise estimate)")
+    p.add_argument("--seed-variants", type=int, default=None,
+                   help="run the seeds after the first only for the first N variants")
     p.add_argument("--n-bins", type=int, default=21)
     p.add_argument("--only", nargs="*", default=None, help="variant names to run")
     p.add_argument("--batch-size", type=int, default=32, help="evaluation batch size")
     p.add_argument("--out", type=Path, default=REPO / "outputs" / "compare_heads")
     p.add_argument("--md", type=Path, default=REPO / "docs" / "figures" / "compare_heads.md")
+    p.add_argument("--data", default="synthetic_tiny", help="a conf/data config to freeze")
+    p.add_argument("--data-path", type=Path, default=None,
+                   help="a RallyData folder to freeze and train on instead of --data")
     p.add_argument("--force", action="store_true", help="retrain even if a result exists")
+    p.add_argument("--reevaluate", action="store_true",
+                   help="score existing runs again (on the data matching their fingerprint)")
     argv = sys.argv[1:]
     args = p.parse_args(argv)
     torch.set_num_threads(1)
     args.cache = {}
+    args.data_dir = freeze_data(args)
     variants = [v for v in VARIANTS if args.only is None or v.name in args.only]
-    runs = [(v, args.steps[0], s) for s in args.seeds for v in variants]
-    runs += [(v, n, args.seeds[0]) for n in args.steps[1:] for v in variants]
+    runs = []
+    for n in args.steps:
+        runs += [(v, n, args.seeds[0]) for v in variants]
+        runs += [(v, n, s) for s in args.seeds[1:] for v in variants[:args.seed_variants]]
     results = [run_one(v, n, s, args) for v, n, s in runs]
     (args.out / "results.json").write_text(json.dumps(results, indent=2))
     if args.only is None:

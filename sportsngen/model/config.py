@@ -7,6 +7,9 @@ from dataclasses import asdict, dataclass, fields
 HEAD_KINDS = ("joint", "factorised")
 BIN_SPACINGS = ("uniform", "nonuniform")
 BIN_CENTRES = ("current", "cv")
+# The object-feature groups as `sportsngen.data.tokens.object_features` lays them out: name ->
+# (first, end) column of the N_FEATURES = 8 features. Ablations switch groups off by name.
+FEATURE_GROUPS = {"position": (0, 3), "velocity": (3, 6), "distance": (6, 7), "time": (7, 8)}
 
 
 @dataclass
@@ -47,9 +50,23 @@ class ModelConfig:
     event_d_model: int = 64
     event_layers: int = 2
     event_heads: int = 4
+    # Ablations (conf/experiment/ablation_*.yaml). The defaults are the full model, so a config
+    # saved before these fields existed loads unchanged. Disabled feature groups are dropped
+    # from the object embedding's input (of f and g alike); without context the four context
+    # tokens are learned constants (same shape, so the mask and the cache are unchanged).
+    features: tuple[str, ...] = tuple(FEATURE_GROUPS)
+    use_context: bool = True
 
     def __post_init__(self) -> None:
         self.embed_hidden = tuple(int(v) for v in self.embed_hidden)
+        unknown = sorted(set(self.features) - set(FEATURE_GROUPS))
+        if unknown or not self.features:
+            raise ValueError(f"model.features must be a non-empty subset of "
+                             f"{list(FEATURE_GROUPS)}, got {list(self.features)}")
+        # Canonical order, so equal sets give equal configs (the input order is fixed anyway).
+        self.features = tuple(g for g in FEATURE_GROUPS if g in set(self.features))
+        if self.id_dim < 0:
+            raise ValueError(f"model.id_dim must be >= 0 (0: no identity), got {self.id_dim}")
         self.ball_max_speed_mps = tuple(float(v) for v in self.ball_max_speed_mps)
         if self.head not in HEAD_KINDS:
             raise ValueError(f"model.head must be one of {HEAD_KINDS}, got {self.head!r}")
@@ -80,11 +97,13 @@ class ModelConfig:
         d = asdict(self)
         d["embed_hidden"] = list(self.embed_hidden)
         d["ball_max_speed_mps"] = list(self.ball_max_speed_mps)
+        d["features"] = list(self.features)
         return d
 
     @classmethod
     def from_dict(cls, d: dict) -> ModelConfig:
-        """Build from a dict (or Hydra DictConfig); unknown keys are an error."""
+        """Build from a dict (or Hydra DictConfig); unknown keys are an error, missing keys
+        take their defaults (so older model files load)."""
         d = dict(d)
         known = {f.name for f in fields(cls)}
         extra = sorted(set(d) - known)

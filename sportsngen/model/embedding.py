@@ -1,4 +1,10 @@
-"""Token embeddings: object tokens (identity + features through an MLP) and context tokens."""
+"""Token embeddings: object tokens (identity + features through an MLP) and context tokens.
+
+Ablation switches of `ModelConfig` act here, so the decoder needs no change: feature groups not
+in `cfg.features` are dropped from the object MLP's input (a smaller first layer; changing them
+cannot change the output), `id_dim = 0` concatenates no identity, and `use_context = False`
+replaces the four context tokens by learned constants of the same shape (B, 4, d).
+"""
 
 from __future__ import annotations
 
@@ -6,7 +12,7 @@ import torch
 from torch import nn
 
 from sportsngen.data.tokens import N_FEATURES, SCORE_FIELDS
-from sportsngen.model.config import ModelConfig
+from sportsngen.model.config import FEATURE_GROUPS, ModelConfig
 
 N_CONTEXT = 4  # surface, tournament, serve number, score
 
@@ -21,33 +27,56 @@ def mlp(sizes: list[int], dropout: float = 0.0) -> nn.Sequential:
     return nn.Sequential(*layers)
 
 
+def feature_columns(features: tuple[str, ...]) -> list[int]:
+    """Columns of the N_FEATURES object features that the groups `features` cover."""
+    assert max(end for _, end in FEATURE_GROUPS.values()) == N_FEATURES
+    return [c for g in features for c in range(*FEATURE_GROUPS[g])]
+
+
 class ObjectEmbedding(nn.Module):
-    """[identity embedding, 8 features] -> MLP (the paper's 30 -> 256 -> 512 -> d)."""
+    """[identity embedding, kept features] -> MLP (the paper's 22 + 8 = 30 -> 256 -> 512 -> d).
+
+    The identity table exists even when `id_dim` is 0 (zero-width rows), so code that reaches
+    for `embed.identity` (fine-tuning) keeps working; nothing is concatenated then.
+    """
 
     def __init__(self, cfg: ModelConfig, with_identity: bool = True, d_model: int | None = None):
         super().__init__()
         self.with_identity = with_identity
         d = d_model or cfg.d_model
-        in_dim = N_FEATURES + (cfg.id_dim if with_identity else 0)
+        cols = feature_columns(cfg.features)
+        # None keeps the full-feature path exactly the pre-ablation computation (no gather).
+        self.columns = None if len(cols) == N_FEATURES else cols
+        in_dim = len(cols) + (cfg.id_dim if with_identity else 0)
         self.identity = nn.Embedding(cfg.n_ids, cfg.id_dim) if with_identity else None
         self.mlp = mlp([in_dim, *cfg.embed_hidden, d], cfg.dropout)
 
     def forward(self, feats: torch.Tensor, ident: torch.Tensor | None = None) -> torch.Tensor:
-        """(B, T, K, F) features, (B, K) identity indices -> (B, T, K, d)."""
+        """(B, T, K, N_FEATURES) features, (B, K) identity indices -> (B, T, K, d)."""
+        if self.columns is not None:
+            feats = feats[..., self.columns]
         if self.identity is not None:
             if ident is None:
                 raise ValueError("this embedding needs identity indices")
-            e = self.identity(ident)[:, None].expand(*feats.shape[:-1], -1)
-            feats = torch.cat([e, feats], dim=-1)
+            if self.identity.embedding_dim > 0:
+                e = self.identity(ident)[:, None].expand(*feats.shape[:-1], -1)
+                feats = torch.cat([e, feats], dim=-1)
         return self.mlp(feats)
 
 
 class ContextEmbedding(nn.Module):
-    """Four context tokens: surface, tournament, first/second serve, score (an MLP)."""
+    """Four context tokens: surface, tournament, first/second serve, score (an MLP); with
+    `cfg.use_context` False, four learned constants that ignore the inputs (the paper's
+    baseline has no context; keeping the tokens keeps the decoder's shapes)."""
 
     def __init__(self, cfg: ModelConfig):
         super().__init__()
         d = cfg.d_model
+        self.use_context = cfg.use_context
+        if not self.use_context:
+            # Scaled like the nn.Embedding rows they replace (N(0, 1)).
+            self.constant = nn.Parameter(torch.randn(N_CONTEXT, d))
+            return
         self.surface = nn.Embedding(cfg.n_surfaces, d)
         self.tournament = nn.Embedding(cfg.n_tournaments, d)
         self.serve = nn.Embedding(2, d)
@@ -56,5 +85,7 @@ class ContextEmbedding(nn.Module):
     def forward(self, surface: torch.Tensor, tournament: torch.Tensor, serve: torch.Tensor,
                 score: torch.Tensor) -> torch.Tensor:
         """(B,), (B,), (B,), (B, 7) -> (B, 4, d)."""
+        if not self.use_context:
+            return self.constant.expand(surface.shape[0], -1, -1)
         return torch.stack([self.surface(surface), self.tournament(tournament),
                             self.serve(serve), self.score(score)], dim=1)

@@ -86,7 +86,7 @@ class SeasonSimulator(L.LightningModule):
     def __init__(self, model_path: str | Path | None, matchups: Sequence[tuple[str, str]],
                  surface: str, fmt: MatchFormat | None = None, seed: int = 0,
                  chunk_size: int = 8, first_server: int | None = None,
-                 sim_kwargs: dict | None = None):
+                 sim_kwargs: dict | None = None, threads: int | None = None):
         super().__init__()
         self.model_path = None if model_path is None else str(model_path)
         self.matchups = [tuple(m) for m in matchups]
@@ -96,12 +96,15 @@ class SeasonSimulator(L.LightningModule):
         self.chunk_size = int(chunk_size)
         self.first_server = first_server
         self.sim_kwargs = dict(sim_kwargs or {})
+        self.threads = threads
         self.sim: Simulator | None = None
 
     def setup(self, stage: str) -> None:
-        if self.trainer.world_size > 1:
-            # Several processes share few cores: one thread each avoids oversubscription.
-            torch.set_num_threads(1)
+        threads = self.threads or (1 if self.trainer.world_size > 1 else None)
+        if threads:
+            # Intra-op threads beyond the free cores spin against each other (measured: a
+            # tiny-model season 10-30x slower with 2 threads than 1 on a busy 2-core machine).
+            torch.set_num_threads(threads)
         if self.sim is None:
             self.sim = Simulator.from_pretrained(self.model_path, **self.sim_kwargs)
 
@@ -163,12 +166,14 @@ def simulate_season(model_path: str | Path | None, matchups: Sequence[tuple[str,
                     surface: str, fmt: MatchFormat | None = None, seed: int = 0,
                     chunk_size: int = 8, devices: int = 1,
                     out_dir: str | Path = "outputs/season", first_server: int | None = None,
-                    sim_kwargs: dict | None = None) -> pd.DataFrame | None:
+                    sim_kwargs: dict | None = None,
+                    threads: int | None = None) -> pd.DataFrame | None:
     """Simulate every (player1, player2) of `matchups` with the learned engine on `devices` CPU
     processes -> the points table of all matches (also `out_dir/points.parquet`) on rank 0,
     None on the other ranks. The table is the same for any `devices` (fixed chunks, seed
     `seed + k` for chunk `k`). `sim_kwargs` go to `Simulator.from_pretrained`
-    (max_duration_s, max_retries, top_p_player, ...)."""
+    (max_duration_s, max_retries, top_p_player, ...). `threads`: torch threads per process
+    (None: 1 when devices > 1, torch's default otherwise); the caller's setting is restored."""
     matchups = [tuple(m) for m in matchups]
     if not matchups:
         raise ValueError("matchups must not be empty")
@@ -176,20 +181,28 @@ def simulate_season(model_path: str | Path | None, matchups: Sequence[tuple[str,
         raise ValueError(f"devices must be >= 1, got {devices}")
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    if devices > 1:
+    saved_env = os.environ.get("OMP_NUM_THREADS")
+    if devices > 1 and not threads:
         os.environ["OMP_NUM_THREADS"] = "1"     # inherited by the re-launched ranks
-        torch.set_num_threads(1)
     module = SeasonSimulator(model_path, matchups, surface, fmt, seed, chunk_size,
-                             first_server, sim_kwargs)
+                             first_server, sim_kwargs, threads)
     trainer = L.Trainer(accelerator="cpu", devices=devices,
                         strategy="ddp" if devices > 1 else "auto", logger=False,
                         enable_checkpointing=False, enable_progress_bar=False,
                         enable_model_summary=False, use_distributed_sampler=False,
                         callbacks=[ChunkWriter(out_dir)])
-    with warnings.catch_warnings():
-        # A chunk is seconds of work; loader workers would only add start-up time.
-        warnings.filterwarnings("ignore", message=".*does not have many workers.*")
-        trainer.predict(module, return_predictions=False)
+    saved_threads = torch.get_num_threads()
+    try:
+        with warnings.catch_warnings():
+            # A chunk is seconds of work; loader workers would only add start-up time.
+            warnings.filterwarnings("ignore", message=".*does not have many workers.*")
+            trainer.predict(module, return_predictions=False)
+    finally:
+        torch.set_num_threads(saved_threads)
+        if saved_env is None:
+            os.environ.pop("OMP_NUM_THREADS", None)
+        else:
+            os.environ["OMP_NUM_THREADS"] = saved_env
     trainer.strategy.barrier("simulate_season")      # every rank's chunks are on disk
     if trainer.global_rank != 0:
         return None
@@ -222,6 +235,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--chunk-size", type=int, default=8)
     ap.add_argument("--devices", type=int, default=1, help="CPU processes (DDP, gloo)")
+    ap.add_argument("--threads", type=int, default=None,
+                    help="torch threads per process (default: 1 when devices > 1)")
     ap.add_argument("--out", default="outputs/season")
     ap.add_argument("--first-server", type=int, default=None, choices=(0, 1))
     ap.add_argument("--best-of", type=int, default=3)
@@ -247,7 +262,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     season = [p for p in parse_matchups(a.matchups) for _ in range(a.matches_per_pair)]
     pts = simulate_season(a.model, season, a.surface, fmt=fmt, seed=a.seed,
                           chunk_size=a.chunk_size, devices=a.devices, out_dir=a.out,
-                          first_server=a.first_server, sim_kwargs=sim_kwargs)
+                          first_server=a.first_server, sim_kwargs=sim_kwargs,
+                          threads=a.threads)
     if pts is not None:
         print(f"{pts['match_id'].nunique()} matches, {len(pts)} points -> "
               f"{Path(a.out) / POINTS_FILE}")

@@ -59,6 +59,7 @@ def _check_resume(path: str, model_cfg: ModelConfig, vocab: Vocab) -> None:
     """A resumed checkpoint must have been made with this model config and vocabulary."""
     hp = torch.load(path, map_location="cpu", weights_only=False).get("hyper_parameters", {})
     old = hp.get("model_cfg", {})
+    old = ModelConfig.from_dict(old).to_dict() if old else {}   # fields added since: defaults
     diff = sorted(k for k in set(old) | set(model_cfg.to_dict())
                   if old.get(k) != model_cfg.to_dict().get(k))
     if diff:
