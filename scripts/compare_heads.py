@@ -6,7 +6,8 @@
 Every variant is trained with `train_from_config` on the same data (`synthetic_tiny`, frozen
 first into `outputs/compare_heads/data/<name>-<fingerprint>` because the generator's cache is
 regenerated whenever its profiles or version change), the same `tiny` model, seed, steps and
-`n_bins` (21, so that the joint ball head's 21^3 classes fit), then scored on its held-out rallies (the validation split the training recorded in `model.pt`).
+`n_bins` (21, so that the joint ball head's 21^3 classes fit), then scored on its held-out
+rallies (the validation split the training recorded in `model.pt`).
 
 Discrete NLL over bins is not comparable across binnings (a wider bin holds more mass), so the
 headline figure is the continuous NLL of the density the sampler draws from: a bin chosen with
