@@ -108,21 +108,66 @@ _ROLLOUT_CHILD = _COMMON + textwrap.dedent("""
 
 _SIM_CHILD = _COMMON + textwrap.dedent("""
     from sportsngen.sim import Simulator
+    from sportsngen.synth.generate import generate_matches
     sim = Simulator.from_pretrained(path)
     t0 = time.perf_counter()
     d = sim.simulate_points("Roger Federer", "Rafael Nadal", "hard", 100, seed=0,
                             serve_number=1)
     t_100 = time.perf_counter() - t0
+    real = generate_matches([("Roger Federer", "Rafael Nadal")], "hard", 30, seed=3)
+    shots = real.shots[real.shots["shot_index"] == 2]
+    rid = int(shots["rally_id"].iat[0])
+    t0 = time.perf_counter()
+    wp = sim.rally_win_probability(real, rid, int(shots["frame"].iat[0]) - 10, n=100)
+    t_wp = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    cf = sim.counterfactual(real, rid, 2, n=100)
+    t_cf = time.perf_counter() - t0
     t0 = time.perf_counter()
     m = sim.simulate_match("Roger Federer", "Rafael Nadal", "hard", seed=0, progress=False)
     t_match = time.perf_counter() - t0
     n_rallies = len(m.rallies) + m.n_discarded
     print(json.dumps({"rollouts_100_s": t_100, "match_s": t_match, "score": m.score_line,
+                      "win_prob_100_s": t_wp, "counterfactual_2x100_s": t_cf,
                       "points": len(m.points), "rallies_simulated": n_rallies,
                       "discarded": m.n_discarded, "forced": m.forced_decisions,
                       "realistic_100": float(d.rallies["realistic"].mean()),
                       "peak_rss_mb": peak_mb()}))
 """)
+
+
+_PEAK_CHILD = textwrap.dedent("""
+    import json, sys, time, torch
+    torch.set_num_threads(int(sys.argv[1]))
+    n = 1024
+    a, b = torch.randn(n, n), torch.randn(n, n)
+    for _ in range(3):
+        a @ b
+    best = float("inf")
+    for _ in range(10):
+        t0 = time.perf_counter()
+        a @ b
+        best = min(best, time.perf_counter() - t0)
+    print(json.dumps({"gflops": 2 * n ** 3 / best / 1e9}))
+""")
+
+
+def flops_per_frame(cfg, n_frames_cached: int) -> float:
+    """Floating-point operations (multiply-add = 2) of one simulated frame of one rally with
+    the cache holding `n_frames_cached` frames: object embedding, the blocks' projections and
+    attention over the cached keys, the factorised heads. LayerNorm, GELU and softmax left out.
+    """
+    d, k = cfg.d_model, 3
+    sizes = [8 + cfg.id_dim, *cfg.embed_hidden, d]
+    embed = sum(2 * a * b for a, b in zip(sizes[:-1], sizes[1:]))
+    n_keys = 4 + 3 * n_frames_cached
+    block = 2 * d * 3 * d + 2 * d * d + 2 * 2 * d * cfg.ff_mult * d + 2 * 2 * d * n_keys
+    nb, hid, emb = cfg.n_bins, cfg.head_hidden, 32
+
+    def head(dims: int) -> int:
+        return 2 * d * nb + sum(2 * (d + j * emb) * hid + 2 * hid * nb
+                                for j in range(1, dims))
+    return float(k * (embed + cfg.n_layers * block) + 2 * head(2) + head(3))
 
 
 def _child(code: str, *args: object) -> dict:
@@ -147,6 +192,19 @@ def bench_simulation(quick: bool, model: Path = BUNDLED, threads: int = 2,
         print(f"rollout B={r['b']}: {r['frames_per_s']:.0f} frames/s "
               f"({r['ms_per_step']:.2f} ms a step), peak RSS {r['peak_rss_mb']:.0f} MB")
     e2e = _child(_SIM_CHILD, model, threads) if end_to_end else None
+    from sportsngen.model.export import load_model
+
+    cfg = load_model(model)[3]
+    peak = _child(_PEAK_CHILD, threads)["gflops"]
+    fpf = flops_per_frame(cfg, cfg.window_frames)
+    # The rollouts start 10 frames in: average the cost over the frames they sampled.
+    avg = sum(flops_per_frame(cfg, min(n + 1, cfg.window_frames))
+              for n in range(10, n_frames)) / (n_frames - 10)
+    for r in rolls:
+        r["share_of_peak"] = avg * r["frames_per_s"] / (peak * 1e9)
+    print(f"{fpf / 1e6:.2f} MFLOP a simulated frame (full window); matmul peak {peak:.1f} "
+          f"GFLOP/s; achieved share " + ", ".join(f"B={r['b']}: {100 * r['share_of_peak']:.1f} %"
+                                                for r in rolls))
     if e2e:
         print(f"100 rollouts of a serve: {e2e['rollouts_100_s']:.1f} s; best-of-3 match: "
               f"{e2e['match_s']:.1f} s ({e2e['points']} points, {e2e['rallies_simulated']} "
@@ -173,21 +231,32 @@ def bench_simulation(quick: bool, model: Path = BUNDLED, threads: int = 2,
     base = rolls[0]["frames_per_s"]
     lines += ["", f"Rollouts of {n_frames} frames from real serve starts (sampling included, "
               "no rally-end rules), B rallies in parallel; B = 1 is one rally at a time.", "",
-              "| B | frames/s | x B=1 | ms a step | peak RSS MB |", "|---:|---:|---:|---:|---:|"]
+              f"FLOPs of one simulated frame at a full window: {fpf / 1e6:.2f} MFLOP "
+              f"(`flops_per_frame`; {avg / 1e6:.2f} MFLOP on average over these rollouts, "
+              f"which the shares below use); this machine's matmul peak ({threads} threads, 1024^2 "
+              f"float32): {peak:.1f} GFLOP/s.", "",
+              "| B | frames/s | x B=1 | ms a step | share of matmul peak | peak RSS MB |",
+              "|---:|---:|---:|---:|---:|---:|"]
     for r in rolls:
         lines.append(f"| {r['b']} | {r['frames_per_s']:.0f} | {r['frames_per_s'] / base:.1f} | "
-                     f"{r['ms_per_step']:.2f} | {r['peak_rss_mb']:.0f} |")
+                     f"{r['ms_per_step']:.2f} | {100 * r['share_of_peak']:.1f} % | "
+                     f"{r['peak_rss_mb']:.0f} |")
     if e2e:
         lines += ["", "End to end (`Simulator`: rollouts, rally-end rules, event labels, tables), "
                   "Roger Federer v Rafael Nadal on hard, seed 0:", "",
                   f"- 100 rollouts of a first serve: {e2e['rollouts_100_s']:.1f} s "
                   f"({100 * e2e['realistic_100']:.0f} % realistic)",
+                  f"- a 100-rollout rally win probability (branching a generated rally 10 "
+                  f"frames before its third shot): {e2e['win_prob_100_s']:.1f} s",
+                  f"- a 2-option counterfactual of that shot, 100 rollouts an option: "
+                  f"{e2e['counterfactual_2x100_s']:.1f} s",
                   f"- one best-of-3 match: {e2e['match_s']:.1f} s, {e2e['score']}, "
                   f"{e2e['points']} points, {e2e['rallies_simulated']} rallies simulated "
                   f"({e2e['discarded']} set aside as non-realistic or undecided, "
                   f"{e2e['forced']} points decided without a realistic rally); peak RSS "
                   f"{e2e['peak_rss_mb']:.0f} MB"]
-    return lines, {"steps": steps, "rollouts": rolls, "end_to_end": e2e}
+    return lines, {"steps": steps, "rollouts": rolls, "end_to_end": e2e, "peak_gflops": peak,
+                   "flops_per_frame": fpf}
 
 
 def main() -> None:

@@ -2,6 +2,7 @@
 
     .venv/bin/python bench/run.py            # every benchmark
     .venv/bin/python bench/run.py --quick    # smaller sizes, for a smoke run
+    .venv/bin/python bench/run.py --only simulation   # one section; the others are kept
 
 Each measurement runs in a fresh subprocess so that peak memory (ru_maxrss) belongs to it
 alone. Speed and memory targets live here, not in the test suite.
@@ -99,27 +100,61 @@ def machine() -> str:
             f"{platform.system()} {platform.release()}")
 
 
+def _old_sections() -> dict[str, list[str]]:
+    """The "## " sections of the current docs/benchmarks.md, by title (to keep those not
+    re-run by --only)."""
+    if not DOC.exists():
+        return {}
+    out: dict[str, list[str]] = {}
+    title = None
+    for line in DOC.read_text().splitlines():
+        if line.startswith("## "):
+            title = line
+            out[title] = [line]
+        elif title is not None:
+            out[title].append(line)
+    return {k: v[:-1] if v and v[-1] == "" else v for k, v in out.items()}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small sizes (smoke run)")
+    parser.add_argument("--only", default="generator,training,simulation",
+                        help="comma list of generator, training, simulation (the other "
+                             "sections of docs/benchmarks.md are kept as they are)")
+    parser.add_argument("--threads", type=int, default=2, help="torch threads (simulation)")
     args = parser.parse_args()
-    sections, _ = bench_generator(args.quick)
-    # The model benchmark imports torch; keep it out of the generator's child processes.
+    only = set(args.only.split(","))
+    sections = _old_sections()
+    if "generator" in only:
+        lines, _ = bench_generator(args.quick)
+        sections[lines[0]] = lines
+    # The model benchmarks import torch; keep it out of the generator's child processes.
     sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from bench_model import bench_training
+    if "training" in only:
+        from bench_model import bench_training
 
-    model_lines, _ = bench_training(args.quick)
-    sections += ["", *model_lines]
+        lines, _ = bench_training(args.quick)
+        sections[lines[0]] = lines
+    if "simulation" in only:
+        from bench_sim import bench_simulation
+
+        lines, _ = bench_simulation(args.quick, threads=args.threads)
+        sections[lines[0]] = lines
     stamp = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    body: list[str] = []
+    for lines in sections.values():
+        body += [*lines, ""]
     doc = [
         "# Benchmarks",
         "",
-        f"Written by `python bench/run.py{' --quick' if args.quick else ''}` on {stamp}.",
+        f"Written by `python bench/run.py{' --quick' if args.quick else ''}"
+        f"{'' if only == {'generator', 'training', 'simulation'} else ' --only ' + args.only}`"
+        f" on {stamp} (sections not re-run are kept from before).",
         "",
         f"Machine: {machine()}.",
         "",
-        *sections,
-        "",
+        *body,
     ]
     DOC.parent.mkdir(parents=True, exist_ok=True)
     DOC.write_text("\n".join(doc))

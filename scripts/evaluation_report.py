@@ -62,7 +62,8 @@ def _renumber(parts: list[RallyData], tag: str) -> RallyData:
 
 
 def _value(cmp: pd.DataFrame, section, metric, statistic, col) -> float:
-    c = cmp[(cmp["group"] == "all") & (cmp["section"] == section) & (cmp["metric"] == metric)
+    group = "hard" if section == "bounce" else "all"     # bounce ratios are by surface
+    c = cmp[(cmp["group"] == group) & (cmp["section"] == section) & (cmp["metric"] == metric)
             & (cmp["statistic"] == statistic)]
     if not len(c):
         return float("nan")
