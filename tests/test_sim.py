@@ -214,3 +214,17 @@ def test_rally_win_probability_and_counterfactual_run_on_a_real_rally(tiny_model
         sim.rally_win_probability(data, rid, frame=10 ** 6, n=2)
     with pytest.raises(ValueError, match="no shot 99"):
         sim.counterfactual(data, rid, shot_index=99, n=2)
+
+
+def test_counterfactual_plot(tiny_model_file, tmp_path):
+    from sportsngen.sim.whatif import counterfactual
+    from sportsngen.viz.counterfactual_plot import plot_counterfactual
+
+    sim = _sim(tiny_model_file, max_duration_s=1.6)
+    data = make_toy_rallies(2, seed=3)
+    rid = int(data.rallies["rally_id"].iat[0])
+    table, branches = counterfactual(sim, data, rid, 1, n=3, seed=0, return_branches=True)
+    assert set(branches) == {"cross_court", "down_the_line"}
+    frame = int(data.shots[data.shots["rally_id"] == rid]["frame"].iat[1]) - 1
+    plot_counterfactual(data, rid, table, branches, frame, tmp_path / "cf.png")
+    assert (tmp_path / "cf.png").read_bytes()[:4] == b"\x89PNG"
