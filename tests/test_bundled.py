@@ -17,3 +17,20 @@ def test_bundled_model_loads_with_event_classifier_and_named_players():
     assert set(named_profiles()) <= set(vocab.players)
     assert cfg.head == "factorised" and cfg.n_bins == 61
     assert all(torch.isfinite(p).all() for p in model.parameters())
+
+
+def test_bundled_model_simulates_service_points():
+    """The bundled file carries its serve starts; a few short rallies roll and get judged."""
+    from sportsngen.sim import Simulator
+
+    sim = Simulator.from_pretrained(max_duration_s=4.0)
+    assert "Roger Federer" in sim.initial.servers
+    data = sim.simulate_points("Roger Federer", "Rafael Nadal", "hard", 4, seed=0,
+                               serve_number=1)
+    r = data.rallies
+    assert len(r) == 4 and set(r["server"]) == {"Roger Federer"}
+    assert r["end_reason"].isin(["fault", "ace", "winner", "forced_error", "unforced_error",
+                                 "double_fault", "none"]).all()
+    # Every rally starts from a real serve start: the server behind his baseline.
+    f0 = data.frames[(data.frames["frame"] == 0) & (data.frames["object"] == "Roger Federer")]
+    assert (f0["x"].abs() > 11.0).all()
