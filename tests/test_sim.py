@@ -228,3 +228,29 @@ def test_counterfactual_plot(tiny_model_file, tmp_path):
     frame = int(data.shots[data.shots["rally_id"] == rid]["frame"].iat[1]) - 1
     plot_counterfactual(data, rid, table, branches, frame, tmp_path / "cf.png")
     assert (tmp_path / "cf.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_physical_limits_reject_ball_below_ground_and_through_the_net():
+    from sportsngen.sim.constraints import AllOf, PhysicalLimits
+
+    lim = PhysicalLimits()
+    pos = torch.zeros(4, 3, 3)
+    nxt = torch.zeros(4, 3, 3)
+    pos[:, 2] = torch.tensor([[0.5, 0.0, 1.0]] * 4)
+    nxt[:, 2] = torch.tensor([[-0.5, 0.0, 1.2],     # over the cord (0.914 m at y = 0): fine
+                              [-0.5, 0.0, 0.5],     # crossing at 0.75 m: through the net
+                              [0.3, 0.0, -0.10],    # 10 cm under the ground
+                              [0.3, 0.0, 0.0]])     # on the ground: fine
+    assert lim.accept(np.arange(4), 5, pos, nxt).tolist() == [True, False, False, True]
+    both = AllOf(lim, None)
+    both.offset = 3
+    assert lim.offset == 3 and both.max_tries == lim.max_tries
+
+
+def test_simulator_counts_resampled_frames(tiny_model_file):
+    sim = _sim(tiny_model_file, max_duration_s=1.2)
+    d = sim.simulate_points("Toy Alpha", "Toy Beta", "hard", 4, seed=0, serve_number=1)
+    assert "resampled_frames" in d.rallies.columns and (d.rallies["resampled_frames"] >= 0).all()
+    off = _sim(tiny_model_file, max_duration_s=1.2, physical_limits=False)
+    d2 = off.simulate_points("Toy Alpha", "Toy Beta", "hard", 4, seed=0, serve_number=1)
+    assert (d2.rallies["resampled_frames"] == 0).all()

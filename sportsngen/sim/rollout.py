@@ -75,7 +75,7 @@ class Rollout:
     ended: np.ndarray        # (B,) bool: the tracker ended it (False: stopped at max_frames)
     n_steps: int             # decoder steps taken (the longest rally's sampled frames)
     frames_simulated: int    # sampled frames summed over rallies
-    resampled: int = 0       # samples drawn again because a constraint rejected them
+    resampled: np.ndarray | None = None  # (B,) frames drawn again (a constraint rejected them)
 
 
 class Constraint(Protocol):
@@ -94,15 +94,17 @@ class Constraint(Protocol):
 
 def _constrain(model, constraint, alive, n, h, pos, vel, nxt, top_p_player, top_p_ball,
                generator):
-    """Resample the rows `constraint` rejects, up to its max_tries."""
+    """Resample the rows `constraint` rejects, up to its max_tries. -> (frames, redraws per
+    live row)."""
     bad = ~constraint.accept(alive, n, pos, nxt)
-    tries, drawn = 0, 0
+    tries = 0
+    drawn = np.zeros(len(alive), dtype=np.int64)
     while bool(bad.any()) and tries < constraint.max_tries:
         idx = torch.nonzero(bad).squeeze(1)
         again = model.sample_next(h[idx], pos[idx], vel[idx], top_p_player, top_p_ball,
                                   generator)
         nxt[idx] = again
-        drawn += len(idx)
+        drawn[idx.cpu().numpy()] += 1
         ok = constraint.accept(alive[idx.cpu().numpy()], n, pos[idx], again)
         bad[idx] = ~ok
         tries += 1
@@ -186,7 +188,8 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
     if mode == "cache":
         hs, cache = model(_window_features(hist, 0, t0, fps), ident, ctx, return_cache=True)
         h = hs[:, -1]
-    n, steps, frames, resampled = t0, 0, 0, 0
+    n, steps, frames = t0, 0, 0
+    resampled = np.zeros(b, dtype=np.int64)
     bar = tqdm(total=max_frames - t0, desc="frames", disable=not progress, leave=False)
     while True:
         if done.any():
@@ -212,9 +215,9 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
         vel = (pos - prev) * fps
         nxt = model.sample_next(h, pos, vel, top_p_player, top_p_ball, generator)
         if constraint is not None:
-            nxt, n_resampled = _constrain(model, constraint, alive, n, h, pos, vel, nxt,
-                                          top_p_player, top_p_ball, generator)
-            resampled += n_resampled
+            nxt, drawn = _constrain(model, constraint, alive, n, h, pos, vel, nxt,
+                                    top_p_player, top_p_ball, generator)
+            resampled[alive] += drawn
         hist[:, n] = nxt
         nxt_np = nxt.cpu().numpy()
         out[alive, n] = nxt_np

@@ -29,6 +29,7 @@ from sportsngen.model.event_classifier import EventClassifier
 from sportsngen.model.export import load_model, read_extra
 from sportsngen.sim import whatif
 from sportsngen.sim.assemble import PLAN_COLUMNS, assemble
+from sportsngen.sim.constraints import AllOf, PhysicalLimits
 from sportsngen.sim.events import frame_labels
 from sportsngen.sim.initial import InitialConditions
 from sportsngen.sim.match import MatchResult, simulate_matches
@@ -48,7 +49,7 @@ class Simulator:
                  initial: InitialConditions, top_p_player: float = 1.0,
                  top_p_ball: float = 1.0, max_duration_s: float = 30.0,
                  batch_size: int = 256, max_retries: int = 10, unknown: str | None = None,
-                 device: str | torch.device = "cpu"):
+                 physical_limits: bool = True, device: str | torch.device = "cpu"):
         if abs(initial.fps - model.cfg.fps) > 1e-6:
             raise ValueError(f"initial conditions at {initial.fps} Hz, model at {model.cfg.fps}")
         for name, p in (("top_p_player", top_p_player), ("top_p_ball", top_p_ball)):
@@ -64,6 +65,7 @@ class Simulator:
         self.batch_size = int(batch_size)
         self.max_retries = int(max_retries)
         self.unknown = unknown or model.cfg.unknown
+        self.physical_limits = bool(physical_limits)
 
     @classmethod
     def from_pretrained(cls, path_or_name: str | Path | None = None, **kwargs) -> Simulator:
@@ -122,8 +124,10 @@ class Simulator:
             part = plan.iloc[lo:lo + self.batch_size].reset_index(drop=True)
             inputs = self._inputs(part, rng, None if init_pos_m is None else
                                   init_pos_m[lo:lo + self.batch_size])
-            if constraint is not None:
-                constraint.offset = lo
+            limits = PhysicalLimits() if self.physical_limits else None
+            con = AllOf(limits, constraint) if (limits or constraint) else None
+            if con is not None:
+                con.offset = lo
             tracker = RallyTracker(part["server_end"].to_numpy(), part["side"].to_numpy(),
                                    part["serve_number"].to_numpy(), self.fps,
                                    self.max_duration_s)
@@ -132,11 +136,12 @@ class Simulator:
             t0 = inputs.init_pos_m.shape[1]
             roll = rollout(self.model, inputs, max(max_frames, t0 + 2), tracker,
                            self.top_p_player, self.top_p_ball, generator=gen,
-                           progress=progress, constraint=constraint)
+                           progress=progress, constraint=con)
             labels = None if self.event_model is None else frame_labels(
                 self.event_model, roll.pos_m, roll.length, self.fps, self.model.cfg.window_frames)
-            parts.append(assemble(part, roll.pos_m, roll.length, tracker.results(), labels,
-                                  self.fps))
+            data = assemble(part, roll.pos_m, roll.length, tracker.results(), labels, self.fps)
+            data.rallies["resampled_frames"] = roll.resampled
+            parts.append(data)
         return RallyData.concat(parts)
 
     # --- service points ------------------------------------------------------------------------
