@@ -94,14 +94,17 @@ class Constraint(Protocol):
 
 def _constrain(model, constraint, alive, n, h, pos, vel, nxt, top_p_player, top_p_ball,
                generator):
-    """Resample the rows `constraint` rejects, up to its max_tries. -> (frames, redraws per
-    live row)."""
+    """Resample the rows `constraint` rejects: up to its max_tries from the nucleus, then as
+    many from the whole distribution. -> (frames, redraws per live row)."""
     bad = ~constraint.accept(alive, n, pos, nxt)
     tries = 0
     drawn = np.zeros(len(alive), dtype=np.int64)
-    while bool(bad.any()) and tries < constraint.max_tries:
+    while bool(bad.any()) and tries < 2 * constraint.max_tries:
         idx = torch.nonzero(bad).squeeze(1)
-        again = model.sample_next(h[idx], pos[idx], vel[idx], top_p_player, top_p_ball,
+        # When the nucleus holds no acceptable frame, the rest of the distribution may.
+        wide = tries >= constraint.max_tries
+        again = model.sample_next(h[idx], pos[idx], vel[idx],
+                                  1.0 if wide else top_p_player, 1.0 if wide else top_p_ball,
                                   generator)
         nxt[idx] = again
         drawn[idx.cpu().numpy()] += 1
