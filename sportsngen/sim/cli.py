@@ -168,4 +168,7 @@ def _rally_figures(res, out_dir: Path, n_plots: int = 3) -> None:
         fig = plot_rally(res.rallies, int(rid), out_dir / f"rally_{k + 1}.png")
         plt.close(fig)
     if len(r):
-        animate_rally(res.rallies, int(r["rally_id"].iat[0]), out_dir / "point.gif")
+        rid = int(r["rally_id"].iat[0])
+        n = int((res.rallies.frames["rally_id"] == rid).sum() // 3)
+        # At most ~150 GIF frames, so that a long rally does not take minutes to render.
+        animate_rally(res.rallies, rid, out_dir / "point.gif", every=max(2, -(-n // 150)))
