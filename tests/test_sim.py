@@ -242,6 +242,12 @@ def test_physical_limits_reject_ball_below_ground_and_through_the_net():
                               [0.3, 0.0, -0.10],    # 10 cm under the ground
                               [0.3, 0.0, 0.0]])     # on the ground: fine
     assert lim.accept(np.arange(4), 5, pos, nxt).tolist() == [True, False, False, True]
+    fixed = lim.project(pos, nxt)
+    # Through the net: stopped 5 cm before it, at the height it met the net (0.75 m).
+    np.testing.assert_allclose(fixed[1, 2].numpy(), [0.05, 0.0, 0.75], atol=1e-6)
+    assert fixed[2, 2, 2].item() == 0.0                        # lifted onto the ground
+    assert torch.equal(fixed[0], nxt[0]) and torch.equal(fixed[3], nxt[3])
+    assert lim.projected == 1
     both = AllOf(lim, None)
     both.offset = 3
     assert lim.offset == 3 and both.max_tries == lim.max_tries

@@ -5,7 +5,8 @@ model breaks most: the ball going below the ground and the ball passing through 
 sampled frame that does either is drawn again from the same distribution (so the frame comes
 from the model's distribution restricted to the possible set, renormalised), up to `max_tries`
 times; the count of redraws is reported per rally, and a rally whose frame could not be fixed
-keeps its sample and is flagged by the rally-end rules as before. This goes beyond the paper,
+is then corrected by the court's solid objects (`PhysicalLimits.project`: the net stops the
+ball, the ground holds it) and the rules judge it from there. This goes beyond the paper,
 which flags such rallies after the fact (about 20 % of them); the unconstrained rate is one
 switch away (`Simulator(physical_limits=False)`).
 """
@@ -18,6 +19,7 @@ import torch
 from sportsngen.tennis.court import NET_HEIGHT_CENTRE_M, NET_HEIGHT_POST_M, NET_POST_Y_M
 
 BALL = 2
+NET_STOP_M = 0.05               # a ball stopped by the net rests this far from its plane
 
 
 class PhysicalLimits:
@@ -31,6 +33,7 @@ class PhysicalLimits:
         self.max_tries = max_tries
         self.offset = 0
         self.given_up = 0
+        self.projected = 0
 
     def accept(self, rows: np.ndarray, frame: int, pos_m: torch.Tensor,
                next_pos_m: torch.Tensor) -> torch.Tensor:
@@ -48,6 +51,27 @@ class PhysicalLimits:
 
     def give_up(self, rows: np.ndarray) -> None:
         self.given_up += len(rows)
+
+    def project(self, pos_m: torch.Tensor, next_pos_m: torch.Tensor) -> torch.Tensor:
+        """The court's solid objects, for frames no redraw could fix: a ball that would pass
+        through the net stops at it (on the side it came from, at the height it met the
+        net), and a ball below the ground is lifted onto it. The rally-end rules then judge the
+        ball at the net as a net ball."""
+        out = next_pos_m.clone()
+        a, b = pos_m[:, BALL], out[:, BALL]
+        crossed = (a[:, 0] * b[:, 0]) < 0
+        frac = a[:, 0] / (a[:, 0] - b[:, 0] + 1e-12)
+        y = a[:, 1] + frac * (b[:, 1] - a[:, 1])
+        z = a[:, 2] + frac * (b[:, 2] - a[:, 2])
+        sag = (torch.clamp(y.abs(), max=NET_POST_Y_M) / NET_POST_Y_M) ** 2
+        cord = NET_HEIGHT_CENTRE_M + (NET_HEIGHT_POST_M - NET_HEIGHT_CENTRE_M) * sag
+        stop = crossed & (z < cord - self.net_tol_m)
+        b[stop, 0] = torch.sign(a[stop, 0]) * NET_STOP_M
+        b[stop, 1] = y[stop]
+        b[stop, 2] = z[stop].clamp(min=0.0)
+        b[:, 2] = b[:, 2].clamp(min=0.0)
+        self.projected += int(stop.sum())
+        return out
 
 
 class AllOf:
@@ -75,3 +99,9 @@ class AllOf:
     def give_up(self, rows) -> None:
         for c in self.parts:
             c.give_up(rows)
+
+    def project(self, pos_m, next_pos_m):
+        for c in self.parts:
+            if hasattr(c, "project"):
+                next_pos_m = c.project(pos_m, next_pos_m)
+        return next_pos_m

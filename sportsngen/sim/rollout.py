@@ -112,7 +112,10 @@ def _constrain(model, constraint, alive, n, h, pos, vel, nxt, top_p_player, top_
         bad[idx] = ~ok
         tries += 1
     if bool(bad.any()):
-        constraint.give_up(alive[torch.nonzero(bad).squeeze(1).cpu().numpy()])
+        idx = torch.nonzero(bad).squeeze(1)
+        constraint.give_up(alive[idx.cpu().numpy()])
+        if hasattr(constraint, "project"):       # e.g. the net stops a ball it cannot pass
+            nxt[idx] = constraint.project(pos[idx], nxt[idx])
     return nxt, drawn
 
 
