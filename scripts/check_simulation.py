@@ -73,12 +73,15 @@ def main() -> None:
     ap.add_argument("--top-p-ball", type=float, default=None)
     ap.add_argument("--threads", type=int, default=None)
     ap.add_argument("--json", default=None)
+    ap.add_argument("--no-physical-limits", action="store_true",
+                    help="free rollouts, as the paper (no redraws, no net/ground correction)")
     args = ap.parse_args()
     if args.threads:
         torch.set_num_threads(args.threads)
     kw = {k: v for k, v in (("top_p_player", args.top_p_player),
                             ("top_p_ball", args.top_p_ball)) if v is not None}
-    sim = Simulator.from_pretrained(args.model, **kw)
+    sim = Simulator.from_pretrained(args.model, physical_limits=not args.no_physical_limits,
+                                    **kw)
     print(f"top-p player {sim.top_p_player}, ball {sim.top_p_ball}")
     t0 = time.perf_counter()
     parts = [sim.simulate_points(a, b, "hard", args.points, seed=args.seed + k)

@@ -53,10 +53,11 @@ ROWS = [  # (section, metric, statistic, label, scale)
 ]
 
 
-def _renumber(parts: list[RallyData], tag: str) -> RallyData:
+def _renumber(parts: list[RallyData], tag: str, step: int = 10 ** 6) -> RallyData:
+    """Concatenate with rally ids made unique (part k's ids shifted by k * step)."""
     for k, p in enumerate(parts):
         for t in (p.rallies, p.frames, p.shots):
-            t["rally_id"] += 10 ** 6 * k
+            t["rally_id"] += step * k
         p.rallies["match_id"] = p.rallies["match_id"].astype(str) + f"-{tag}{k}"
     return RallyData.concat(parts)
 
@@ -101,9 +102,9 @@ def main() -> None:
                                           seed=args.seed + m))
         timing["shot_cycle"] += time.perf_counter() - t0
         print(f"{a} v {b}: done", flush=True)
-    truth_all = _renumber(truths, "t")
-    ours_all = _renumber(ours, "s")
-    base_all = _renumber(baseline, "b")
+    truth_all = _renumber(truths, "t", 10 ** 8)
+    ours_all = _renumber(ours, "s", 10 ** 8)
+    base_all = _renumber(baseline, "b", 10 ** 8)
     cmp_ours = compare_data(ours_all, truth_all)
     cmp_base = compare_data(base_all, truth_all)
     lines = ["# Evaluation: SportsNGEN, the shot-cycle baseline and the ground truth", "",
