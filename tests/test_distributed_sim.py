@@ -11,7 +11,6 @@ from pathlib import Path
 import pandas as pd
 import pytest
 import torch
-from hydra import compose, initialize_config_dir
 
 from sportsngen.data.points import POINTS_DTYPES, as_points_table
 from sportsngen.sim import Simulator
@@ -24,26 +23,12 @@ from sportsngen.sim.distributed import (
     simulate_season,
 )
 from sportsngen.tennis.scoring import MatchFormat, MatchState
-from sportsngen.train.run import train_from_config
 
 REPO = Path(__file__).resolve().parents[1]
 SHORT = MatchFormat(best_of=1, games_per_set=2, tiebreak_at=1, no_ad=True)
 SIM_KW = {"max_duration_s": 1.2, "max_retries": 0}
 PAIRS = [("Toy Alpha", "Toy Beta"), ("Toy Gamma", "Toy Delta"), ("Toy Beta", "Toy Gamma")]
 SEED, CHUNK = 5, 2                 # 3 matches -> chunk 0 (matches 0, 1) and chunk 1 (match 2)
-
-
-@pytest.fixture(scope="module")
-def tiny_model_file(tmp_path_factory) -> Path:
-    """A tiny decoder + event classifier trained a few steps on toy rallies, exported."""
-    out = tmp_path_factory.mktemp("tiny_run")
-    overrides = ["experiment=tiny", "data=toy", "data.n_rallies=16", "trainer.max_steps=3",
-                 "trainer.val_check_interval=3", "trainer.limit_val_batches=1",
-                 "trainer.enable_progress_bar=false", "events.max_steps=2"]
-    with initialize_config_dir(config_dir=str(REPO / "conf"), version_base=None):
-        cfg = compose(config_name="train", overrides=overrides)
-    train_from_config(cfg, out)
-    return out / "model.pt"
 
 
 @pytest.fixture(scope="module")

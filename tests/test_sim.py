@@ -20,23 +20,9 @@ from sportsngen.sim import Simulator
 from sportsngen.sim.initial import InitialConditions
 from sportsngen.sim.rollout import RolloutInputs, rollout
 from sportsngen.tennis.scoring import MatchFormat, MatchState
-from sportsngen.train.run import train_from_config
 
 REPO = Path(__file__).resolve().parents[1]
 SHORT = MatchFormat(best_of=1, games_per_set=2, tiebreak_at=1, no_ad=True)
-
-
-@pytest.fixture(scope="module")
-def tiny_model_file(tmp_path_factory) -> Path:
-    """A tiny decoder + event classifier trained a few steps on toy rallies, exported."""
-    out = tmp_path_factory.mktemp("tiny_run")
-    overrides = ["experiment=tiny", "data=toy", "data.n_rallies=16", "trainer.max_steps=3",
-                 "trainer.val_check_interval=3", "trainer.limit_val_batches=1",
-                 "trainer.enable_progress_bar=false", "events.max_steps=2"]
-    with initialize_config_dir(config_dir=str(REPO / "conf"), version_base=None):
-        cfg = compose(config_name="train", overrides=overrides)
-    train_from_config(cfg, out)
-    return out / "model.pt"
 
 
 _LOAD = Simulator.from_pretrained

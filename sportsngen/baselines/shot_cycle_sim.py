@@ -39,6 +39,7 @@ from sportsngen.data.tracking import (
     RallyData,
 )
 from sportsngen.synth import physics
+from sportsngen.synth.generate import score_row
 from sportsngen.synth.players import Mover, max_distance_m
 from sportsngen.tennis import court
 from sportsngen.tennis.scoring import MatchFormat, MatchState
@@ -139,7 +140,7 @@ def _intercept(flight, t_react: float, t_stop: float, t_bounce: float, mover: Mo
     volley = (~after) & (ball[:, 0] * end > 0.5) & (z >= VOLLEY_Z_M[0]) & \
         (z <= VOLLEY_Z_M[1]) & front & can_volley
     ok = (ok | volley) & (np.abs(ball[:, 0]) < FENCE_X_M - 1.0)
-    sx, sy = _stop_point(mover)
+    sx, sy = mover.stop_point()
     brake_s = math.hypot(mover.vx, mover.vy) / mover.max_accel_mps2
     avail = np.maximum(tau - t_react - brake_s, 0.0)
     travel = np.maximum(np.hypot(ball[:, 0] - sx, ball[:, 1] - sy) - ph.reach_m, 0.0)
@@ -183,14 +184,6 @@ def _stance(model: ShotCycleModel, player: str, role: str, n: int, side: str) ->
     if role == "server":
         return Stance((-12.1, 0.8 * sign), (-11.6, 0.7 * sign, 2.7))
     return Stance((-13.0, 3.0 * sign))
-
-
-def _stop_point(m: Mover) -> tuple[float, float]:
-    v = math.hypot(m.vx, m.vy)
-    if v < 1e-6:
-        return m.x, m.y
-    d = v * v / (2.0 * m.max_accel_mps2)
-    return m.x + m.vx / v * d, m.y + m.vy / v * d
 
 
 def play_rally(model: ShotCycleModel, server: str, receiver: str, server_end: int, side: str,
@@ -309,7 +302,7 @@ def play_rally(model: ShotCycleModel, server: str, receiver: str, server_end: in
 
     n_frames = int(math.ceil((t_end + AFTER_END_S) * fps)) + 1
     for m in movers:
-        m.run_to(max(n_frames - 1, m.n_frames - 1), *_stop_point(m))
+        m.run_to(max(n_frames - 1, m.n_frames - 1), *m.stop_point())
     players = np.stack([m.as_array()[:n_frames] for m in movers])
     t = np.arange(n_frames) * dt
     ball = _ball_track(t, shots[0].contact_m, flights)
@@ -353,15 +346,6 @@ def _ball_track(t: np.ndarray, serve_contact: np.ndarray,
     return out
 
 
-def _score_row(state: MatchState, server: int) -> dict:
-    r = 1 - server
-    sets = state.sets_won
-    return {"set_no": state.set_no, "server_sets": sets[server], "receiver_sets": sets[r],
-            "server_games": state.games[server], "receiver_games": state.games[r],
-            "server_points": state.points[server], "receiver_points": state.points[r],
-            "in_tiebreak": state.in_tiebreak, "score": state.score_str()}
-
-
 def simulate_points(model: ShotCycleModel, server: str, receiver: str, surface: str,
                     n_points: int, seed: int, fmt: MatchFormat | None = None,
                     fps: float = FPS_DEFAULT) -> RallyData:
@@ -384,7 +368,7 @@ def simulate_points(model: ShotCycleModel, server: str, receiver: str, surface: 
         base = {"match_id": f"shotcycle-{match:06d}", "point": state.points_played + 1,
                 "server": names[srv], "receiver": names[1 - srv], "side": state.serving_side,
                 "server_end": state.ends[srv], "surface": surface, "tournament": TOURNAMENT,
-                **_score_row(state, srv)}
+                **score_row(state, srv)}
         for n in (1, 2):
             res = play_rally(model, names[srv], names[1 - srv], state.ends[srv],
                              state.serving_side, n, surface, rng, fps)

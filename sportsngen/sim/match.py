@@ -19,6 +19,7 @@ from tqdm.auto import tqdm
 
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.stats import serve_stats
+from sportsngen.synth.generate import score_row
 from sportsngen.tennis.scoring import MatchFormat, MatchState
 
 
@@ -72,16 +73,10 @@ def winner_view(state: MatchState) -> str:
 def _plan_row(state: MatchState, names: tuple[str, str], match_id: str, point: int,
               serve_number: int, surface: str, tournament: str) -> dict:
     server = state.server
-    receiver = 1 - server
-    sets = state.sets_won
     return {"match_id": match_id, "point": point, "server": names[server],
-            "receiver": names[receiver], "serve_number": serve_number,
+            "receiver": names[1 - server], "serve_number": serve_number,
             "side": state.serving_side, "server_end": state.ends[server], "surface": surface,
-            "tournament": tournament, "set_no": state.set_no, "server_sets": sets[server],
-            "receiver_sets": sets[receiver], "server_games": state.games[server],
-            "receiver_games": state.games[receiver], "server_points": state.points[server],
-            "receiver_points": state.points[receiver], "in_tiebreak": state.in_tiebreak,
-            "score": state.score_str()}
+            "tournament": tournament, **score_row(state, server)}
 
 
 def simulate_matches(sim, matchups, surface: str, fmt: MatchFormat | None = None,

@@ -117,7 +117,8 @@ def match_specs(players: PlayersArg, surface: str | Sequence[str], n_points: int
                         int(child.generate_state(1, dtype=np.uint64)[0]), n_points, fps, render)
 
 
-def _score_row(state: MatchState, server: int) -> dict:
+def score_row(state: MatchState, server: int) -> dict:
+    """The score columns of a rallies-table row, from the server's view."""
     receiver = 1 - server
     sets = state.sets_won
     return {"set_no": state.set_no, "server_sets": sets[server], "receiver_sets": sets[receiver],
@@ -143,7 +144,7 @@ def play_match(spec: MatchSpec) -> MatchTables:
         base = {"match_id": match_id, "point": n_points, "server": names[server],
                 "receiver": names[1 - server], "side": state.serving_side,
                 "server_end": server_end, "surface": spec.surface, "tournament": TOURNAMENT,
-                **_score_row(state, server)}
+                **score_row(state, server)}
         for serve_number in (1, 2):
             res = play_rally(spec.players[server], spec.players[1 - server], server_end,
                              state.serving_side, serve_number, spec.surface, rng, fps=spec.fps,

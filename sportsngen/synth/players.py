@@ -101,5 +101,13 @@ class Mover:
         probe.run_to(max(n_steps, 0), target_x, target_y)
         return probe.pos
 
+    def stop_point(self) -> tuple[float, float]:
+        """Where the player, braking now at full deceleration, comes to rest (m)."""
+        v = math.hypot(self.vx, self.vy)
+        if v < 1e-6:
+            return self.x, self.y
+        d = v * v / (2.0 * self.max_accel_mps2)
+        return self.x + self.vx / v * d, self.y + self.vy / v * d
+
     def as_array(self) -> np.ndarray:
         return np.asarray(self.track, dtype=float)

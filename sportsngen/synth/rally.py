@@ -182,15 +182,6 @@ def _find_intercept(flight, t_react_local: float, pos: np.ndarray, vel: tuple[fl
     return _Intercept(float(tau[k]), ball[k].copy(), bool(ok_pre[k]), float(duress[k]))
 
 
-def _stop_point(m: Mover) -> tuple[float, float]:
-    """Where a player braking now would come to rest."""
-    v = math.hypot(m.vx, m.vy)
-    if v < 1e-6:
-        return m.x, m.y
-    d = v * v / (2.0 * m.max_accel_mps2)
-    return m.x + m.vx / v * d, m.y + m.vy / v * d
-
-
 def _difficulty(n_shots: int, previous: float, server: PlayerProfile, serve_number: int,
                 hitter_pressure: float) -> float:
     """How hard the ball just hit is to play (multiplies the receiver's aim noise).
@@ -360,7 +351,7 @@ def play_rally(server: PlayerProfile, receiver: PlayerProfile, server_end: int,
     result = RallyResult(end_reason, end_detail, winner, rally_length, serve_kmh, shots,
                          n_frames, contact_gap_m=gaps)
     for m in movers:  # after the point: both players brake to a stop
-        m.run_to(max(n_frames - 1, m.n_frames - 1), *_stop_point(m))
+        m.run_to(max(n_frames - 1, m.n_frames - 1), *m.stop_point())
     if not render:
         return result
     result.players_m = np.stack([m.as_array()[:n_frames] for m in movers])

@@ -1,0 +1,26 @@
+"""Fixtures shared by several test files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from hydra import compose, initialize_config_dir
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="session")
+def tiny_model_file(tmp_path_factory) -> Path:
+    """A tiny decoder + event classifier trained a few steps on toy rallies, exported (with
+    serve starts), for simulator tests."""
+    from sportsngen.train.run import train_from_config
+
+    out = tmp_path_factory.mktemp("tiny_run")
+    overrides = ["experiment=tiny", "data=toy", "data.n_rallies=16", "trainer.max_steps=3",
+                 "trainer.val_check_interval=3", "trainer.limit_val_batches=1",
+                 "trainer.enable_progress_bar=false", "events.max_steps=2"]
+    with initialize_config_dir(config_dir=str(REPO / "conf"), version_base=None):
+        cfg = compose(config_name="train", overrides=overrides)
+    train_from_config(cfg, out)
+    return out / "model.pt"
