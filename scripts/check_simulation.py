@@ -84,17 +84,8 @@ def main() -> None:
                                     **kw)
     print(f"top-p player {sim.top_p_player}, ball {sim.top_p_ball}")
     t0 = time.perf_counter()
-    parts = [sim.simulate_points(a, b, "hard", args.points, seed=args.seed + k)
-             for k, (a, b) in enumerate((PLAYERS, PLAYERS[::-1]))]
+    simd = sim.simulate_both_serving(*PLAYERS, "hard", args.points, seed=args.seed)
     sim_s = time.perf_counter() - t0
-    from sportsngen.data.tracking import RallyData
-
-    for k, p in enumerate(parts):   # distinct rally ids and point keys across the two servers
-        p.rallies["rally_id"] += 10 ** 6 * k
-        p.frames["rally_id"] += 10 ** 6 * k
-        p.shots["rally_id"] += 10 ** 6 * k
-        p.rallies["match_id"] = f"points-{k}"
-    simd = RallyData.concat(parts)
     r = simd.rallies
     failed = collections.Counter(c for f in r["failed_checks"] for c in f.split(";") if c)
     unreal = float((~r["realistic"]).mean())

@@ -53,15 +53,6 @@ ROWS = [  # (section, metric, statistic, label, scale)
 ]
 
 
-def _renumber(parts: list[RallyData], tag: str, step: int = 10 ** 6) -> RallyData:
-    """Concatenate with rally ids made unique (part k's ids shifted by k * step)."""
-    for k, p in enumerate(parts):
-        for t in (p.rallies, p.frames, p.shots):
-            t["rally_id"] += step * k
-        p.rallies["match_id"] = p.rallies["match_id"].astype(str) + f"-{tag}{k}"
-    return RallyData.concat(parts)
-
-
 def _value(cmp: pd.DataFrame, section, metric, statistic, col) -> float:
     group = "hard" if section == "bounce" else "all"     # bounce ratios are by surface
     c = cmp[(cmp["group"] == group) & (cmp["section"] == section) & (cmp["metric"] == metric)
@@ -92,9 +83,7 @@ def main() -> None:
                                  workers=2)
         truths.append(truth)
         t0 = time.perf_counter()
-        ours.append(_renumber([sim.simulate_points(x, y, "hard", args.points,
-                                                   seed=args.seed + 2 * m + k)
-                               for k, (x, y) in enumerate(((a, b), (b, a)))], f"m{m}s"))
+        ours.append(sim.simulate_both_serving(a, b, "hard", args.points, seed=args.seed + 2 * m))
         timing["sportsngen"] += time.perf_counter() - t0
         t0 = time.perf_counter()
         model = fit_shot_cycle(truth)
@@ -102,9 +91,8 @@ def main() -> None:
                                           seed=args.seed + m))
         timing["shot_cycle"] += time.perf_counter() - t0
         print(f"{a} v {b}: done", flush=True)
-    truth_all = _renumber(truths, "t", 10 ** 8)
-    ours_all = _renumber(ours, "s", 10 ** 8)
-    base_all = _renumber(baseline, "b", 10 ** 8)
+    truth_all, ours_all, base_all = (RallyData.concat(parts, renumber=True)
+                                     for parts in (truths, ours, baseline))
     cmp_ours = compare_data(ours_all, truth_all)
     cmp_base = compare_data(base_all, truth_all)
     lines = ["# Evaluation: SportsNGEN, the shot-cycle baseline and the ground truth", "",

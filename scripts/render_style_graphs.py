@@ -50,15 +50,8 @@ HEATMAP_PLAYERS = ("Roger Federer", "Rafael Nadal")
 
 def per_matchup(play) -> RallyData:
     """`play(i, a, b)` for every matchup, concatenated with unique rally and match ids."""
-    parts, offset = [], 0
-    for i, (a, b) in enumerate(MATCHUPS):
-        part = play(i, a, b)
-        for df in (part.frames, part.rallies, part.shots):
-            df["rally_id"] += offset
-        part.rallies["match_id"] = f"m{i}-" + part.rallies["match_id"].astype(str)
-        offset += len(part.rallies)
-        parts.append(part)
-    return RallyData.concat(parts)
+    return RallyData.concat([play(i, a, b) for i, (a, b) in enumerate(MATCHUPS)],
+                            renumber=True)
 
 
 def ground_truth(surface: str, n_points: int, seed: int) -> RallyData:

@@ -23,7 +23,6 @@ import numpy as np
 import pandas as pd
 import torch
 
-from sportsngen.data.tracking import RallyData
 from sportsngen.eval.physical import compare_data
 from sportsngen.model.export import update_extra
 from sportsngen.sim import Simulator
@@ -32,16 +31,6 @@ from sportsngen.synth.generate import generate_matches
 
 PLAYERS = ("Roger Federer", "Rafael Nadal")
 SERVE_KEYS = ("first_serve_in", "ace", "double_fault", "serve_points_won")
-
-
-def simulate_both(sim: Simulator, n: int, seed: int) -> RallyData:
-    parts = [sim.simulate_points(a, b, "hard", n, seed=seed + k)
-             for k, (a, b) in enumerate((PLAYERS, PLAYERS[::-1]))]
-    for k, p in enumerate(parts):
-        for t in (p.rallies, p.frames, p.shots):
-            t["rally_id"] += 10 ** 6 * k
-        p.rallies["match_id"] = f"points-{k}"
-    return RallyData.concat(parts)
 
 
 def score_rows(cmp: pd.DataFrame, unreal: float) -> dict:
@@ -83,7 +72,7 @@ def main() -> None:
     for p in args.values:
         sim = Simulator.from_pretrained(args.model, top_p_player=p, top_p_ball=p)
         t0 = time.perf_counter()
-        d = simulate_both(sim, args.points, args.seed)
+        d = sim.simulate_both_serving(*PLAYERS, "hard", args.points, seed=args.seed)
         unreal = float((~d.rallies["realistic"].astype(bool)).mean())
         cmp = compare_data(d, truth)
         row = {"top_p": p, "wall_s": time.perf_counter() - t0, **score_rows(cmp, unreal)}

@@ -246,3 +246,18 @@ def test_simulator_counts_resampled_frames(tiny_model_file):
     off = _sim(tiny_model_file, max_duration_s=1.2, physical_limits=False)
     d2 = off.simulate_points("Toy Alpha", "Toy Beta", "hard", 4, seed=0, serve_number=1)
     assert (d2.rallies["resampled_frames"] == 0).all()
+
+
+def test_concat_renumber_makes_ids_unique_and_leaves_parts_alone():
+    from sportsngen.data.tracking import RallyData
+
+    a, b = make_toy_rallies(3, seed=1), make_toy_rallies(2, seed=2)
+    ids_a = a.rallies["rally_id"].tolist()
+    both = RallyData.concat([a, b], renumber=True)
+    r = both.rallies
+    assert r["rally_id"].is_unique and len(r) == 5
+    assert set(both.frames["rally_id"]) == set(r["rally_id"]) >= set(both.shots["rally_id"])
+    assert r["match_id"].str[:2].tolist() == ["0-"] * 3 + ["1-"] * 2
+    assert a.rallies["rally_id"].tolist() == ids_a                 # parts unchanged
+    # Points stay points: the same count as the two parts' points together.
+    assert len(both.points()) == len(a.points()) + len(b.points())

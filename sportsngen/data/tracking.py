@@ -210,13 +210,25 @@ class RallyData:
                          dict(self.meta))
 
     @staticmethod
-    def concat(parts: list[RallyData]) -> RallyData:
-        """Concatenate; rally ids must already be unique across parts."""
+    def concat(parts: list[RallyData], renumber: bool = False) -> RallyData:
+        """Concatenate; rally ids must already be unique across parts, unless `renumber`: then
+        each part's rally ids are shifted past the previous parts' and its match ids prefixed
+        with "<part index>-" (the parts themselves are left unchanged)."""
         if not parts:
             raise ValueError("concat needs at least one RallyData")
         fps = {p.fps for p in parts}
         if len(fps) != 1:
             raise ValueError(f"cannot concatenate RallyData with different fps {sorted(fps)}")
+        if renumber:
+            shifted, offset = [], 0
+            for k, p in enumerate(parts):
+                tables = [t.assign(rally_id=t["rally_id"] + offset)
+                          for t in (p.frames, p.rallies, p.shots)]
+                tables[1]["match_id"] = f"{k}-" + tables[1]["match_id"].astype(str)
+                shifted.append(RallyData(*tables, p.fps, dict(p.meta)))
+                if len(p.rallies):
+                    offset += int(p.rallies["rally_id"].max()) + 1
+            parts = shifted
         cat = lambda name: pd.concat([getattr(p, name) for p in parts], ignore_index=True)  # noqa: E731
         return RallyData(cat("frames"), cat("rallies"), cat("shots"), parts[0].fps,
                          dict(parts[0].meta))

@@ -186,6 +186,15 @@ class Simulator:
         finally:
             self.top_p_player, self.top_p_ball = saved
 
+    def simulate_both_serving(self, player1: str, player2: str, surface: str, n_points: int,
+                              seed: int = 0, **kwargs) -> RallyData:
+        """`simulate_points` of each player serving `n_points` to the other (seeds `seed` and
+        `seed + 1`), in one RallyData (ids renumbered; match ids "0-..." and "1-...")."""
+        return RallyData.concat(
+            [self.simulate_points(a, b, surface, n_points, seed=seed + k, **kwargs)
+             for k, (a, b) in enumerate(((player1, player2), (player2, player1)))],
+            renumber=True)
+
     # --- matches -------------------------------------------------------------------------------
     def simulate_match(self, player1: str, player2: str, surface: str, fmt=None, seed: int = 0,
                        first_server: int | None = None, progress: bool = True) -> MatchResult:

@@ -147,6 +147,7 @@ class ShotConstraint:
     stroke: str
     serve_side: str
     start_frame: int
+    fps: float = 25.0
     max_tries: int = MAX_TRIES
     offset: int = 0
     done: set = field(default_factory=set)
@@ -190,8 +191,6 @@ class ShotConstraint:
         want = {"cross_court": ("cross_court", "inside_out"),
                 "down_the_line": ("down_the_line", "inside_in")}.get(self.option, (self.option,))
         return np.isin(got, want)
-
-    fps: float = 25.0
 
 
 def _handedness(name: str) -> str:
