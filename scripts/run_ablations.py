@@ -46,7 +46,7 @@ ABLATIONS = {
     "no_distance": "distance-to-ball feature",
     "no_time": "elapsed-time feature",
     "no_context": "context tokens",
-    "no_ball_noise": "ball-noise augmentation",
+    "ball_noise": "nothing; adds the paper's ball-noise augmentation (off by default)",
     "id0": "identity embedding; tiny has size 8",
     "id4": "identity size 4",
     "id20": "identity size 20",

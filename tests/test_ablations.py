@@ -29,7 +29,7 @@ EXPECTED = {
     "no_distance": {"model.features": ["position", "velocity", "time"]},
     "no_time": {"model.features": ["position", "velocity", "distance"]},
     "no_context": {"model.use_context": False},
-    "no_ball_noise": {"windows.augment.ball_noise": False},
+    "ball_noise": {"windows.augment.ball_noise": True},
     "id0": {"model.id_dim": 0},
     "id4": {"model.id_dim": 4},
     "id20": {"model.id_dim": 20},

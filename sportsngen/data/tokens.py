@@ -302,7 +302,7 @@ class Augment:
     """Training augmentation switches."""
 
     flip: bool = True          # x-and-y flip with probability 1/2
-    ball_noise: bool = True    # uniform noise on the ball's input position and velocity
+    ball_noise: bool = False   # uniform noise on the ball's input position and velocity
     random_crop: bool = True   # random window starts (else a fixed tiling)
 
 

@@ -26,12 +26,27 @@ def top_p_filter(logits: torch.Tensor, top_p: float) -> torch.Tensor:
 
 def sample_top_p(logits: torch.Tensor, top_p: float,
                  generator: torch.Generator | None = None) -> torch.Tensor:
-    """One class index per row of `logits` (..., n) -> (...) int64, nucleus-filtered."""
-    filtered = top_p_filter(logits.float(), top_p)
-    probs = torch.softmax(filtered, dim=-1)
-    flat = probs.reshape(-1, probs.shape[-1])
-    idx = torch.multinomial(flat, 1, generator=generator).squeeze(-1)
-    return idx.reshape(probs.shape[:-1])
+    """One class index per row of `logits` (..., n) -> (...) int64, nucleus-filtered.
+
+    Inverse-CDF sampling on the sorted probabilities: the nucleus is the sorted prefix whose
+    mass first reaches `top_p`, so a uniform draw scaled to that prefix's mass picks a class of
+    the nucleus with probability proportional to its own. One sort, one cumsum and one
+    search: about half the operations of masking, renormalising and `torch.multinomial`,
+    which matters in rollouts that sample five distributions a frame.
+    """
+    if not 0.0 < top_p <= 1.0:
+        raise ValueError(f"top_p must be in (0, 1], got {top_p}")
+    flat = logits.float().reshape(-1, logits.shape[-1])
+    sorted_logits, order = torch.sort(flat, dim=-1, descending=True)
+    cdf = torch.cumsum(torch.softmax(sorted_logits, dim=-1), dim=-1)
+    # Mass of the nucleus: the first cumulative value reaching top_p (the whole row at 1).
+    n_keep = torch.searchsorted(cdf, torch.full((len(cdf), 1), min(top_p, 1.0),
+                                                device=cdf.device), right=False)
+    n_keep = n_keep.clamp_max(cdf.shape[-1] - 1)
+    mass = cdf.gather(-1, n_keep) if top_p < 1.0 else cdf[:, -1:]
+    u = torch.rand(len(cdf), 1, generator=generator, device=cdf.device) * mass
+    pick = torch.searchsorted(cdf, u, right=True).clamp_max(n_keep)
+    return order.gather(-1, pick).reshape(logits.shape[:-1])
 
 
 def uniform_in_bin(shape: torch.Size | tuple, device: torch.device | str = "cpu",
