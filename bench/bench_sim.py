@@ -152,6 +152,28 @@ _PEAK_CHILD = textwrap.dedent("""
 """)
 
 
+_BANDWIDTH_CHILD = textwrap.dedent("""
+    import json, sys, time, torch
+    torch.set_num_threads(int(sys.argv[1]))
+    a = torch.randn(64 * 2 ** 20)          # 256 MB, far beyond the caches
+    b = torch.empty_like(a)
+    best = float("inf")
+    for _ in range(6):
+        t0 = time.perf_counter()
+        a.sum()
+        best = min(best, time.perf_counter() - t0)
+    print(json.dumps({"read_gbps": a.numel() * 4 / best / 1e9}))
+""")
+
+
+def kv_bytes_per_frame(cfg, n_frames_cached: int) -> float:
+    """Bytes of cached keys and values one simulated frame of one rally reads (float32, every
+    layer): with 3 queries per rally against hundreds of keys, attention does ~1.5 FLOP a byte,
+    so at large B its bound is memory bandwidth, not matmul throughput."""
+    n_keys = 4 + 3 * n_frames_cached
+    return float(cfg.n_layers * 2 * n_keys * cfg.d_model * 4)
+
+
 def flops_per_frame(cfg, n_frames_cached: int) -> float:
     """Floating-point operations (multiply-add = 2) of one simulated frame of one rally with
     the cache holding `n_frames_cached` frames: object embedding, the blocks' projections and
@@ -196,12 +218,17 @@ def bench_simulation(quick: bool, model: Path = BUNDLED, threads: int = 2,
 
     cfg = load_model(model)[3]
     peak = _child(_PEAK_CHILD, threads)["gflops"]
+    bandwidth = _child(_BANDWIDTH_CHILD, threads)["read_gbps"]
     fpf = flops_per_frame(cfg, cfg.window_frames)
     # The rollouts start 10 frames in: average the cost over the frames they sampled.
     avg = sum(flops_per_frame(cfg, min(n + 1, cfg.window_frames))
               for n in range(10, n_frames)) / (n_frames - 10)
+    kv_full = kv_bytes_per_frame(cfg, cfg.window_frames)
+    avg_kv = sum(kv_bytes_per_frame(cfg, min(n + 1, cfg.window_frames))
+                 for n in range(10, n_frames)) / (n_frames - 10)
     for r in rolls:
         r["share_of_peak"] = avg * r["frames_per_s"] / (peak * 1e9)
+        r["kv_gbps"] = avg_kv * r["frames_per_s"] / 1e9
     print(f"{fpf / 1e6:.2f} MFLOP a simulated frame (full window); matmul peak {peak:.1f} "
           f"GFLOP/s; achieved share " + ", ".join(f"B={r['b']}: {100 * r['share_of_peak']:.1f} %"
                                                 for r in rolls))
@@ -234,13 +261,20 @@ def bench_simulation(quick: bool, model: Path = BUNDLED, threads: int = 2,
               f"FLOPs of one simulated frame at a full window: {fpf / 1e6:.2f} MFLOP "
               f"(`flops_per_frame`; {avg / 1e6:.2f} MFLOP on average over these rollouts, "
               f"which the shares below use); this machine's matmul peak ({threads} threads, 1024^2 "
-              f"float32): {peak:.1f} GFLOP/s.", "",
-              "| B | frames/s | x B=1 | ms a step | share of matmul peak | peak RSS MB |",
-              "|---:|---:|---:|---:|---:|---:|"]
+              f"float32): {peak:.1f} GFLOP/s. Attention reads every cached key and value of "
+              f"every layer for 3 queries a rally: {kv_full / 1e6:.2f} MB a frame at a full "
+              f"window ({avg_kv / 1e6:.2f} MB on average here, `kv_bytes_per_frame`), "
+              f"against this machine's read bandwidth ({threads} threads, 256 MB sum): "
+              f"{bandwidth:.1f} GB/s, which bounds a full-window rollout at "
+              f"{bandwidth * 1e9 / kv_full:.0f} frames/s "
+              "however large the batch.", "",
+              "| B | frames/s | x B=1 | ms a step | share of matmul peak | key/value reads GB/s "
+              "| peak RSS MB |",
+              "|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rolls:
         lines.append(f"| {r['b']} | {r['frames_per_s']:.0f} | {r['frames_per_s'] / base:.1f} | "
                      f"{r['ms_per_step']:.2f} | {100 * r['share_of_peak']:.1f} % | "
-                     f"{r['peak_rss_mb']:.0f} |")
+                     f"{r['kv_gbps']:.1f} | {r['peak_rss_mb']:.0f} |")
     if e2e:
         lines += ["", "End to end (`Simulator`: rollouts, rally-end rules, event labels, tables), "
                   "Roger Federer v Rafael Nadal on hard, seed 0:", "",
@@ -256,7 +290,7 @@ def bench_simulation(quick: bool, model: Path = BUNDLED, threads: int = 2,
                   f"{e2e['forced']} points decided without a realistic rally); peak RSS "
                   f"{e2e['peak_rss_mb']:.0f} MB"]
     return lines, {"steps": steps, "rollouts": rolls, "end_to_end": e2e, "peak_gflops": peak,
-                   "flops_per_frame": fpf}
+                   "flops_per_frame": fpf, "read_gbps": bandwidth}
 
 
 def main() -> None:

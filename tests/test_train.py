@@ -277,3 +277,19 @@ def test_data_configs_of_train_yaml_and_evaluate():
     assert data_config(str(REPO / "tests"))["source"] == "folder"
     with pytest.raises(ValueError, match="neither a config in conf/data"):
         data_config("no_such_data")
+
+
+def test_contact_weight_counts_the_balls_contact_tokens_more(toy):
+    mod, batch, _ = module_and_batch(toy)
+    near = batch["near_contact"] & batch["has_next"]
+    assert near.any()
+    with torch.no_grad():
+        _, _, _, p_nll, b_nll = mod._forward(batch)
+        base = mod.loss(p_nll, b_nll, batch)
+        mod.hparams.contact_weight = 4.0
+        weighted = mod.loss(p_nll, b_nll, batch)
+    # Only the ball's near-contact tokens change, each by (4 - 1) times its NLL.
+    extra = 3.0 * (b_nll * near).sum() / batch["has_next"].sum() / 3.0
+    torch.testing.assert_close(weighted - base, extra, rtol=1e-5, atol=1e-6)
+    with pytest.raises(ValueError, match="contact_weight"):
+        module_and_batch(toy, contact_weight=0.0)
