@@ -18,7 +18,7 @@ from sportsngen.eval.stats import serve_stats
 from sportsngen.model.export import load_model, save_model
 from sportsngen.sim import Simulator
 from sportsngen.sim.initial import InitialConditions
-from sportsngen.sim.rollout import RolloutInputs, rollout
+from sportsngen.sim.rollout import RolloutInputs, cpu_threads, rollout
 from sportsngen.tennis.scoring import MatchFormat, MatchState
 
 REPO = Path(__file__).resolve().parents[1]
@@ -261,3 +261,15 @@ def test_concat_renumber_makes_ids_unique_and_leaves_parts_alone():
     assert a.rallies["rally_id"].tolist() == ids_a                 # parts unchanged
     # Points stay points: the same count as the two parts' points together.
     assert len(both.points()) == len(a.points()) + len(b.points())
+
+
+def test_cpu_threads_lowers_then_restores_the_thread_count():
+    before = torch.get_num_threads()
+    with cpu_threads(1):
+        assert torch.get_num_threads() == 1
+    assert torch.get_num_threads() == before
+    with pytest.raises(RuntimeError, match="boom"), cpu_threads(1):
+        raise RuntimeError("boom")
+    assert torch.get_num_threads() == before
+    with cpu_threads(before + 4):          # never raises the count
+        assert torch.get_num_threads() == before

@@ -19,6 +19,8 @@ rallies cost.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -30,6 +32,23 @@ from sportsngen.data.tokens import object_features
 from sportsngen.model.decoder import SportsNGEN
 
 MODES = ("cache", "recompute", "window")
+# Up to this many rallies a rollout runs on one CPU thread: a step is then ~100 tiny operations
+# whose thread hand-offs cost more than the second thread gives (docs/benchmarks.md).
+SINGLE_THREAD_ROWS = 8
+
+
+@contextmanager
+def cpu_threads(n: int | None) -> Iterator[None]:
+    """Run the block with at most `n` torch CPU threads (None: unchanged), then restore."""
+    old = torch.get_num_threads()
+    if n is None or n >= old:
+        yield
+        return
+    torch.set_num_threads(n)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(old)
 
 
 class Tracker(Protocol):
@@ -143,7 +162,6 @@ def _window_features(hist: torch.Tensor, lo: int, n: int, fps: float) -> torch.T
     return object_features(pos, (pos - prev) * fps, t)
 
 
-@torch.inference_mode()
 def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             tracker: Tracker | None = None, top_p_player: float = 1.0,
             top_p_ball: float = 1.0, seed: int | None = 0,
@@ -156,8 +174,22 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
     sampled frames (counterfactuals): rows whose sample it rejects are sampled again from the
     same distribution, which samples the distribution restricted to the accepted set.
     `generator` (or `seed`) makes the rollout reproducible: the same inputs, seed and batch
-    give the same tracks.
+    give the same tracks. Cached rollouts of up to `SINGLE_THREAD_ROWS` rallies run on one CPU
+    thread.
     """
+    small = (mode == "cache" and len(inputs.init_pos_m) <= SINGLE_THREAD_ROWS
+             and next(model.parameters()).device.type == "cpu")
+    with cpu_threads(1 if small else None):
+        return _rollout(model, inputs, max_frames, tracker, top_p_player, top_p_ball, seed,
+                        generator, mode, progress, constraint)
+
+
+@torch.inference_mode()
+def _rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
+            tracker: Tracker | None = None, top_p_player: float = 1.0,
+            top_p_ball: float = 1.0, seed: int | None = 0,
+            generator: torch.Generator | None = None, mode: str = "cache",
+            progress: bool = False, constraint: Constraint | None = None) -> Rollout:
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
     model.eval()
