@@ -26,12 +26,12 @@ import torch
 
 from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.eval.physical import shot_quantities
+from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.eval.stats import serve_stats
 from sportsngen.sim import Simulator
 from sportsngen.sim.assemble import realistic_points
 from sportsngen.sim.events import classifier_winner, frame_labels, shot_labels
 from sportsngen.synth.generate import generate_matches
-from sportsngen.tennis.rally import analyse_rally_data
 
 PLAYERS = ("Roger Federer", "Rafael Nadal")
 COLUMNS = (("first_serve_in", "1st in %", 100), ("ace", "ace %", 100),

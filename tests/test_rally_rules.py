@@ -12,13 +12,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.synth import generate_matches
 from sportsngen.tennis.court import BALL_RADIUS_M, BASELINE_X_M, net_height_m
 from sportsngen.tennis.rally import (
     CHECKS,
     RallyTracker,
     analyse_rallies,
-    analyse_rally_data,
     end_class,
 )
 

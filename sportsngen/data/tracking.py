@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 
 from sportsngen.data.points import as_points_table
+from sportsngen.tennis.rally import END_DETAILS, END_REASONS
 from sportsngen.tennis.scoring import point_label
 
 FPS_DEFAULT = 25.0
@@ -40,8 +41,6 @@ DIRECTIONS = ("none", "wide", "body", "T", "cross_court", "down_the_line", "midd
               "inside_out", "inside_in")
 OUTCOMES = ("none", "in_play", "winner", "error")
 ERROR_KINDS = ("none", "forced", "unforced", "fault")
-END_REASONS = ("fault", "ace", "double_fault", "winner", "forced_error", "unforced_error")
-END_DETAILS = ("none", "net", "out", "unreached")
 
 FRAME_COLUMNS: dict[str, str] = {
     "rally_id": "int64", "frame": "int64", "t": "float64", "object": "string",

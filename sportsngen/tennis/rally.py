@@ -1,7 +1,8 @@
 """Rally-end rules from tracking: who won a rally and why, judged from the positions alone.
 
 `RallyTracker` follows B rallies at once, one `update` a frame, as the simulator rolls a model
-forward; `analyse_rallies` / `analyse_rally_data` run the same tracker over whole recorded tracks.
+forward; `analyse_rallies` runs the same tracker over whole recorded tracks
+(`sportsngen.eval.rules.analyse_rally_data` over a `RallyData`).
 A rally is one serve and what follows; its track starts at the toss. Objects are in the order
 [server, receiver, ball], positions in metres in the `court` frame.
 
@@ -45,7 +46,6 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from sportsngen.data.tracking import END_DETAILS, END_REASONS
 from sportsngen.tennis import court
 from sportsngen.tennis.court import BALL_RADIUS_M, BASELINE_X_M, SINGLES_HALF_WIDTH_M
 
@@ -92,6 +92,9 @@ REASONS = ("none",) + END_CLASSES
 CHECKS = ("through_net", "through_ground", "position_jump", "contact_out_of_reach",
           "serve_position", "no_serve", "duration_cap")
 _R = {name: i for i, name in enumerate(REASONS)}
+# How a recorded rally ended (the tracking schema's `end_reason` / `end_detail` columns).
+END_REASONS = ("fault", "ace", "double_fault", "winner", "forced_error", "unforced_error")
+END_DETAILS = ("none", "net", "out", "unreached")
 _D = {name: i for i, name in enumerate(END_DETAILS)}
 _C = {name: 1 << i for i, name in enumerate(CHECKS)}
 _HIST = 6  # frames of history: t-5 .. t
@@ -491,23 +494,3 @@ def analyse_rallies(pos_m, length, server_end, side, serve_number, fps: float,
         if (tracker.update(pos[:, t], active) | ~active).all():
             break
     return tracker.results()
-
-
-def analyse_rally_data(data, max_duration_s: float = 30.0) -> pd.DataFrame:
-    """`analyse_rallies` over a `RallyData`, indexed by rally_id, with the rally's server_end,
-    side and serve_number alongside."""
-    # Imported here: the tokens module pulls in torch, which the rules themselves never need.
-    from sportsngen.data.tokens import Vocab, rally_arrays
-
-    arr = rally_arrays(data, Vocab.from_data(data, generic=True))
-    n, t_max = len(arr), int(arr.length.max())
-    pos = np.full((n, t_max, 3, 3), np.nan)
-    cols = np.concatenate([np.arange(k) for k in arr.length])  # rows are packed in rally order
-    pos[np.repeat(np.arange(n), arr.length), cols] = arr.pos_m
-    r = data.rallies.set_index("rally_id").loc[arr.rally_id]
-    out = analyse_rallies(pos, arr.length, r["server_end"].to_numpy(), r["side"].to_numpy(),
-                          r["serve_number"].to_numpy(), data.fps, max_duration_s)
-    out.insert(0, "rally_id", arr.rally_id)
-    for col in ("serve_number", "side", "server_end"):
-        out.insert(1, col, r[col].to_numpy())
-    return out.set_index("rally_id")
