@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from sportsngen.eval.calibration import (
+    IsotonicCalibrator,
     brier_score,
     expected_calibration_error,
     plot_reliability,
@@ -40,3 +41,26 @@ def test_bad_input_and_plot(tmp_path):
         brier_score([0.2], [0.5])
     out = plot_reliability({"a": np.array([0.2, 0.8])}, np.array([0, 1]), tmp_path / "r.png")
     assert out.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_isotonic_pools_adjacent_violators_exactly():
+    cal = IsotonicCalibrator([0.1, 0.2, 0.3, 0.4], [1, 0, 1, 1])
+    # (0.1, 1) and (0.2, 0) violate the order and pool to 0.5 at mean prediction 0.15.
+    np.testing.assert_allclose(cal.x, [0.15, 0.3, 0.4])
+    np.testing.assert_allclose(cal.y, [0.5, 1.0, 1.0])
+    np.testing.assert_allclose(cal([0.0, 0.15, 0.225, 0.9]), [0.5, 0.5, 0.75, 1.0])
+    with pytest.raises(ValueError):
+        IsotonicCalibrator([], [])
+
+
+def test_isotonic_recalibrates_a_biased_predictor_on_new_data():
+    rng = np.random.default_rng(3)
+    truth = rng.uniform(0.05, 0.95, 8000)
+    y = (rng.uniform(size=8000) < truth).astype(float)
+    raw = truth ** 3                     # right order, wrong level
+    cal = IsotonicCalibrator(raw[:4000], y[:4000])
+    fixed = cal(raw[4000:])
+    assert np.all(np.diff(cal.y) >= 0)
+    assert expected_calibration_error(raw[4000:], y[4000:]) > 0.2
+    assert expected_calibration_error(fixed, y[4000:]) < 0.03
+    assert brier_score(fixed, y[4000:]) < brier_score(raw[4000:], y[4000:])

@@ -1,5 +1,6 @@
 """Calibration of probabilistic predictions: reliability table, expected calibration error,
-Brier score, and the paper's reliability diagram with the histogram of predictions (Fig. 14/15).
+Brier score, isotonic recalibration, and the paper's reliability diagram with the histogram of
+predictions (Fig. 14/15).
 
 Pure numpy (plots with matplotlib, imported when drawing).
 """
@@ -51,6 +52,42 @@ def brier_score(pred, outcome) -> float:
     """Mean squared difference between the probability and the 0/1 outcome."""
     p, y = _check(pred, outcome)
     return float(np.mean((p - y) ** 2))
+
+
+class IsotonicCalibrator:
+    """A monotone map from raw probabilities to observed frequencies, fitted by pool-adjacent-
+    violators on (prediction, outcome) pairs; new predictions are interpolated linearly between
+    the fitted blocks' mean predictions (constant beyond them).
+
+    For win probabilities on a broadcast: a simulator that is right about which situations are
+    better but biased in level (its receivers return too few serves, say) keeps its ranking
+    and gets the level from data. Fit on one set of rallies, judge on another.
+    """
+
+    def __init__(self, pred, outcome):
+        p, y = _check(pred, outcome)
+        if len(p) == 0:
+            raise ValueError("fitting a calibrator needs at least one prediction")
+        order = np.argsort(p, kind="stable")
+        # Blocks as (sum of outcomes, sum of predictions, count); merge while they decrease.
+        ys, ps, ns = [], [], []
+        for pi, yi in zip(p[order], y[order]):
+            ys.append(yi)
+            ps.append(pi)
+            ns.append(1)
+            while len(ys) > 1 and ys[-2] / ns[-2] > ys[-1] / ns[-1]:
+                y_last, p_last, n_last = ys.pop(), ps.pop(), ns.pop()
+                ys[-1] += y_last
+                ps[-1] += p_last
+                ns[-1] += n_last
+        n = np.asarray(ns, dtype=float)
+        self.x = np.asarray(ps) / n          # mean raw prediction of each block (increasing)
+        self.y = np.asarray(ys) / n          # observed frequency of each block (non-decreasing)
+        self.n = n.astype(int)
+
+    def __call__(self, pred) -> np.ndarray:
+        p = np.asarray(pred, dtype=float)
+        return np.interp(p, self.x, self.y)
 
 
 def plot_reliability(preds: dict[str, np.ndarray], outcome, path: str | Path,
