@@ -15,6 +15,11 @@ run() { echo "+ $*"; "$@"; }
 if [ -z "${SKIP_TOP_P:-}" ]; then
     run "$PY" scripts/top_p_sweep.py --points 60 --values 0.5 0.6 0.7 0.8 0.9 0.95 1.0 \
         --write-default
+    # then the players' top-p alone, the ball's held at the value just chosen
+    ball=$("$PY" -c "from sportsngen.model.export import read_extra; print(read_extra(
+        'sportsngen/model/bundled/sportsngen-small.pt')['sim_defaults']['top_p_ball'])")
+    run "$PY" scripts/top_p_sweep.py --points 60 --kind player --other "$ball" \
+        --values 0.7 0.8 0.9 1.0 --write-default --out docs/figures/top_p_player
 fi
 run "$PY" scripts/check_simulation.py --points 500 --json docs/figures/check_simulation.json
 run "$PY" scripts/check_simulation.py --points 500 --no-physical-limits \

@@ -2,8 +2,10 @@
 
     .venv/bin/python scripts/top_p_sweep.py [--model PATH] [--values 0.5 0.6 0.7 0.8 0.9 0.95 1.0]
         [--points 100] [--out docs/figures/top_p] [--write-default]
+        [--kind both|player|ball] [--other P]
 
-For each top-p (the same for players and ball), `--points` simulated service points of each of
+For each top-p (`--kind both`: the same for players and ball; `player` or `ball`: that kind's,
+the other kind held at `--other`), `--points` simulated service points of each of
 Roger Federer and Rafael Nadal against the other on hard, compared with the generator's ground
 truth of the same matchup (`sportsngen.eval.physical.compare_data`): the non-realistic rally
 share, serve statistics and the physical metrics (Wasserstein distances). The default top-p is
@@ -64,13 +66,22 @@ def main() -> None:
     ap.add_argument("--threads", type=int, default=None)
     ap.add_argument("--out", type=Path, default=Path("docs/figures/top_p"))
     ap.add_argument("--write-default", action="store_true")
+    ap.add_argument("--kind", choices=("both", "player", "ball"), default="both",
+                    help="which object kind's top-p the values set")
+    ap.add_argument("--other", type=float, default=0.7,
+                    help="the other kind's top-p when --kind is player or ball")
     args = ap.parse_args()
+
+    def top_ps(p: float) -> dict[str, float]:
+        return {"top_p_player": p if args.kind in ("both", "player") else args.other,
+                "top_p_ball": p if args.kind in ("both", "ball") else args.other}
+
     if args.threads:
         torch.set_num_threads(args.threads)
     truth = generate_matches([PLAYERS], "hard", 2000, seed=40_000 + args.seed, workers=2)
     rows = []
     for p in args.values:
-        sim = Simulator.from_pretrained(args.model, top_p_player=p, top_p_ball=p)
+        sim = Simulator.from_pretrained(args.model, **top_ps(p))
         t0 = time.perf_counter()
         d = sim.simulate_both_serving(*PLAYERS, "hard", args.points, seed=args.seed)
         unreal = float((~d.rallies["realistic"].astype(bool)).mean())
@@ -80,6 +91,7 @@ def main() -> None:
         print(f"top-p {p:.2f}: non-realistic {100 * unreal:.1f} %, score {row['score']:.3f}, "
               f"{row['wall_s']:.0f} s", flush=True)
     df = pd.DataFrame(rows)
+    chosen = top_ps(float(df.loc[df["score"].idxmin(), "top_p"]))
     args.out.mkdir(parents=True, exist_ok=True)
     df.to_csv(args.out / "top_p.csv", index=False)
     best = float(df.loc[df["score"].idxmin(), "top_p"])
@@ -101,15 +113,20 @@ def main() -> None:
     fig.tight_layout()
     fig.savefig(args.out / "top_p.png", dpi=100)
     plt.close(fig)
+    swept = {"both": "players and ball", "player": f"the players (ball {args.other:g})",
+             "ball": f"the ball (players {args.other:g})"}[args.kind]
     show = ["top_p", "non_realistic", "d_first_serve_in", "d_ace", "d_double_fault",
             "d_serve_points_won", "score"]
     show = [c for c in show if c in df.columns]
     lines = ["# Top-p sweep", "",
-             f"`python scripts/top_p_sweep.py --points {args.points} --seed {args.seed}`: "
+             f"`python scripts/top_p_sweep.py --points {args.points} --seed {args.seed} "
+             f"--kind {args.kind}" + (f" --other {args.other:g}`" if args.kind != "both"
+                                      else "`") + f": top-p of {swept}; "
              f"{args.points} service points per server (Federer v Nadal, hard) per value; "
              "ground truth 2000 generated points. Score = non-realistic share + mean "
              "Wasserstein/IQR of the physical metrics + mean |sim - truth| of the serve "
-             f"statistics. Best: **top-p {best:g}**.", "",
+             f"statistics. Best: **top-p {best:g}** (player {chosen['top_p_player']:g}, ball "
+             f"{chosen['top_p_ball']:g}).", "",
              "| " + " | ".join(show) + " |", "|" + "---:|" * len(show)]
     for _, r in df.iterrows():
         lines.append("| " + " | ".join(f"{r[c]:.3f}" for c in show) + " |")
@@ -118,8 +135,8 @@ def main() -> None:
     print("\n".join(lines))
     if args.write_default:
         path = BUNDLED_NAMES.get(args.model or DEFAULT_MODEL, Path(args.model or ""))
-        update_extra(path, sim_defaults={"top_p_player": best, "top_p_ball": best})
-        print(f"stored top-p {best:g} as the default of {path}")
+        update_extra(path, sim_defaults=chosen)
+        print(f"stored top-p {chosen} as the default of {path}")
 
 
 if __name__ == "__main__":
