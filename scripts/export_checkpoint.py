@@ -1,0 +1,38 @@
+"""Export a decoder checkpoint as a model file, with another model file's event classifier and
+extras (serve starts, simulation defaults, split).
+
+    .venv/bin/python scripts/export_checkpoint.py CHECKPOINT OUT [--from MODEL_FILE]
+
+For a training stopped at a chosen checkpoint (`outputs/.../checkpoints_decoder/*.ckpt`, which
+hold the decoder only): the decoder's weights from CHECKPOINT, everything else from --from
+(default: the bundled model). The two must share the vocabulary.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from sportsngen.model.export import load_model, read_extra, save_model
+from sportsngen.sim.simulator import BUNDLED_NAMES, DEFAULT_MODEL
+from sportsngen.train.finetune import load_pretrained
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("checkpoint", type=Path)
+    ap.add_argument("out", type=Path)
+    ap.add_argument("--from", dest="source", type=Path, default=BUNDLED_NAMES[DEFAULT_MODEL])
+    args = ap.parse_args()
+    model, _, vocab, _ = load_pretrained(args.checkpoint)
+    _, event_model, vocab_src, _ = load_model(args.source)
+    if vocab.to_dict() != vocab_src.to_dict():
+        raise SystemExit(f"{args.checkpoint} and {args.source} have different vocabularies")
+    extra = read_extra(args.source)
+    save_model(args.out, model, vocab, event_model, extra=extra)
+    print(f"wrote {args.out} (decoder of {args.checkpoint}; event classifier and "
+          f"{sorted(extra)} of {args.source})")
+
+
+if __name__ == "__main__":
+    main()
