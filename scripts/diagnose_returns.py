@@ -10,6 +10,10 @@ the receiver has moved from his start when the serve bounces, his closest horizo
 to the ball in the 30 frames after the bounce, and whether he returned it (a second racket
 contact, from the rally-end rules). A model whose receivers stand still or are near the ball
 but do not strike it shows here.
+
+Then, teacher-forced on the ground-truth rallies: at the ball tokens around each return's
+contact, the model's probability of a reversal (an x offset of more than 0.5 m from the
+constant-velocity extrapolation) against how often the recorded next frame has one.
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ import argparse
 import numpy as np
 import torch
 
+from sportsngen.data.tokens import BALL, WindowDataset, centre_m, object_features, rally_arrays
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.sim import Simulator
 from sportsngen.synth.generate import generate_matches
@@ -59,6 +64,37 @@ def describe(name: str, t: np.ndarray) -> None:
           f"{100 * t[near, 2].mean():.0f} % (of {int(near.sum())})")
 
 
+@torch.no_grad()
+def contact_mass(sim: Simulator, data, offsets=range(-3, 2)) -> dict[int, tuple[float, float]]:
+    """Teacher-forced: {offset: (mean P(reversal), recorded share)} at the ball tokens
+    `offset` frames from each return's contact (returns within the first window only)."""
+    model, cfg = sim.model, sim.model.cfg
+    rules = analyse_rally_data(data).reset_index(drop=True)
+    arr = rally_arrays(data, sim.vocab, unknown="generic")
+    windows = WindowDataset(arr, cfg.window_frames)
+    first = {ri: i for i, (ri, s) in enumerate(windows.items) if s == 0}
+    edges = model.ball_bins.edges[0]
+    far = ((edges[:-1] + edges[1:]) / 2).abs() > 0.5
+    out = {k: [] for k in offsets}
+    for ri in range(len(arr)):
+        contacts = rules["contact_frames"].iat[ri]
+        if len(contacts) < 2 or contacts[1] + max(offsets) >= cfg.window_frames - 1:
+            continue
+        w = windows[first[ri]]
+        t = {k: torch.as_tensor(v)[None] for k, v in w.items() if k != "rally_id"}
+        ctx = model.context_tokens(t["surface"], t["tournament"], t["serve"], t["score"])
+        vel = t["vel_mps"]
+        h = model(object_features(t["pos_m"], vel, t["t_s"]), t["ident"], ctx)[0, :, BALL]
+        p = model.ball_head.dim_logits(h, torch.zeros(len(h), 3, dtype=torch.long), 0)
+        p = p.softmax(-1)
+        off = w["next_pos_m"][:, BALL, 0] - centre_m(t["pos_m"][0], vel[0], cfg.fps,
+                                                      cfg.bin_centre)[:, BALL, 0].numpy()
+        for k in offsets:
+            f = contacts[1] + k
+            out[k].append((float(p[f][far].sum()), float(abs(off[f]) > 0.5)))
+    return {k: tuple(np.mean(v, axis=0)) for k, v in out.items() if v}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--model", default=None)
@@ -82,6 +118,9 @@ def main() -> None:
     truth = truth.subset(r.loc[(r["serve_number"] == 1) & (r["server"] == SERVER), "rally_id"])
     describe("sim", receiver_table(simd))
     describe("truth", receiver_table(truth))
+    print("teacher-forced on the ground truth's returns: P(reversal) / recorded share")
+    for k, (p, share) in contact_mass(sim, truth).items():
+        print(f"  ball token {k:+d} from the contact: {p:.3f} / {share:.2f}")
 
 
 if __name__ == "__main__":
