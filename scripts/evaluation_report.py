@@ -33,6 +33,7 @@ from sportsngen.eval.report import load_real_points, write_report
 from sportsngen.sim import Simulator
 from sportsngen.synth.generate import generate_matches
 
+PROSE_MARKER = "## What this says about the bundled model"
 MATCHUPS = [("Roger Federer", "Rafael Nadal"), ("Novak Djokovic", "Roger Federer"),
             ("Rafael Nadal", "Novak Djokovic"), ("Serena Williams", "Maria Sharapova")]
 ROWS = [  # (section, metric, statistic, label, scale)
@@ -120,7 +121,11 @@ def main() -> None:
               f"shot-cycle {timing['shot_cycle']:.0f} s (fitting included).", "",
               "Full SportsNGEN report for Federer v Nadal (figures, every statistic, the real "
               "2011 column): [figures/evaluation/report.md](figures/evaluation/report.md)."]
-    (args.out / "evaluation.md").write_text("\n".join(lines) + "\n")
+    doc = args.out / "evaluation.md"
+    # The hand-written reading of the figures (from PROSE_MARKER on) survives a re-run.
+    old = doc.read_text() if doc.is_file() else ""
+    prose = old[old.index(PROSE_MARKER):] if PROSE_MARKER in old else ""
+    doc.write_text("\n".join(lines) + "\n" + ("\n" + prose if prose else ""))
     cmp_ours.to_csv(args.out / "figures" / "evaluation_sportsngen.csv", index=False)
     cmp_base.to_csv(args.out / "figures" / "evaluation_shot_cycle.csv", index=False)
     try:
