@@ -170,8 +170,9 @@ _BANDWIDTH_CHILD = textwrap.dedent("""
 
 def kv_bytes_per_frame(cfg, n_frames_cached: int) -> float:
     """Bytes of cached keys and values one simulated frame of one rally reads (float32, every
-    layer): with 3 queries per rally against hundreds of keys, attention does ~1.5 FLOP a byte,
-    so at large B its bound is memory bandwidth, not matmul throughput."""
+    layer). With 3 queries per rally against hundreds of keys attention does ~1.5 FLOP a byte,
+    so its roofline is memory bandwidth, not matmul throughput; the table reports how much of
+    the measured bandwidth the rollout's key/value reads use."""
     n_keys = 4 + 3 * n_frames_cached
     return float(cfg.n_layers * 2 * n_keys * cfg.d_model * 4)
 
