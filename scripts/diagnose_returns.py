@@ -22,12 +22,14 @@ import argparse
 
 import numpy as np
 import torch
+from torch.utils.data import default_collate
 
-from sportsngen.data.tokens import BALL, WindowDataset, centre_m, object_features, rally_arrays
+from sportsngen.data.tokens import BALL, WindowDataset, centre_m, rally_arrays
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.sim import Simulator
 from sportsngen.synth.generate import generate_matches
 from sportsngen.tennis.court import SERVICE_LINE_X_M
+from sportsngen.train.metrics import window_states
 
 SERVER, RECEIVER = "Roger Federer", "Rafael Nadal"
 AFTER_BOUNCE_FRAMES = 30
@@ -81,14 +83,12 @@ def contact_mass(sim: Simulator, data, offsets=range(-3, 2)) -> dict[int, tuple[
         if len(contacts) < 2 or contacts[1] + max(offsets) >= cfg.window_frames - 1:
             continue
         w = windows[first[ri]]
-        t = {k: torch.as_tensor(v)[None] for k, v in w.items() if k != "rally_id"}
-        ctx = model.context_tokens(t["surface"], t["tournament"], t["serve"], t["score"])
-        vel = t["vel_mps"]
-        h = model(object_features(t["pos_m"], vel, t["t_s"]), t["ident"], ctx)[0, :, BALL]
+        h = window_states(model, default_collate([w]))[0, :, BALL]
         p = model.ball_head.dim_logits(h, torch.zeros(len(h), 3, dtype=torch.long), 0)
         p = p.softmax(-1)
-        off = w["next_pos_m"][:, BALL, 0] - centre_m(t["pos_m"][0], vel[0], cfg.fps,
-                                                      cfg.bin_centre)[:, BALL, 0].numpy()
+        off = w["next_pos_m"][:, BALL, 0] - centre_m(
+            torch.as_tensor(w["pos_m"]), torch.as_tensor(w["vel_mps"]), cfg.fps,
+            cfg.bin_centre)[:, BALL, 0].numpy()
         for k in offsets:
             f = contacts[1] + k
             out[k].append((float(p[f][far].sum()), float(abs(off[f]) > 0.5)))

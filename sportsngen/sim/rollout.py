@@ -162,6 +162,7 @@ def _window_features(hist: torch.Tensor, lo: int, n: int, fps: float) -> torch.T
     return object_features(pos, (pos - prev) * fps, t)
 
 
+@torch.inference_mode()
 def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             tracker: Tracker | None = None, top_p_player: float = 1.0,
             top_p_ball: float = 1.0, seed: int | None = 0,
@@ -180,93 +181,84 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
     small = (mode == "cache" and len(inputs.init_pos_m) <= SINGLE_THREAD_ROWS
              and next(model.parameters()).device.type == "cpu")
     with cpu_threads(1 if small else None):
-        return _rollout(model, inputs, max_frames, tracker, top_p_player, top_p_ball, seed,
-                        generator, mode, progress, constraint)
+        if mode not in MODES:
+            raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+        model.eval()
+        dev = next(model.parameters()).device
+        b, t0 = inputs.init_pos_m.shape[:2]
+        if max_frames < t0:
+            raise ValueError(f"max_frames ({max_frames}) is shorter than the initial frames ({t0})")
+        if generator is None:
+            generator = torch.Generator(device=dev)
+            generator.manual_seed(0 if seed is None else int(seed))
+        tracker = tracker or _NoTracker()
+        fps = model.cfg.fps
 
+        def tens(x, dtype):
+            return torch.as_tensor(np.array(x), dtype=dtype, device=dev)
 
-@torch.inference_mode()
-def _rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
-            tracker: Tracker | None = None, top_p_player: float = 1.0,
-            top_p_ball: float = 1.0, seed: int | None = 0,
-            generator: torch.Generator | None = None, mode: str = "cache",
-            progress: bool = False, constraint: Constraint | None = None) -> Rollout:
-    if mode not in MODES:
-        raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
-    model.eval()
-    dev = next(model.parameters()).device
-    b, t0 = inputs.init_pos_m.shape[:2]
-    if max_frames < t0:
-        raise ValueError(f"max_frames ({max_frames}) is shorter than the initial frames ({t0})")
-    if generator is None:
-        generator = torch.Generator(device=dev)
-        generator.manual_seed(0 if seed is None else int(seed))
-    tracker = tracker or _NoTracker()
-    fps = model.cfg.fps
+        ident = tens(inputs.ident, torch.long)
+        ctx = model.context_tokens(tens(inputs.surface, torch.long),
+                                   tens(inputs.tournament, torch.long),
+                                   tens(inputs.serve, torch.long),
+                                   tens(inputs.score, torch.float32))
+        hist = torch.full((b, max_frames, 3, 3), float("nan"), device=dev)
+        hist[:, :t0] = tens(inputs.init_pos_m, torch.float32)
+        out = np.full((b, max_frames, 3, 3), np.nan, dtype=np.float32)
+        out[:, :t0] = inputs.init_pos_m
+        length = np.full(b, t0, dtype=np.int64)
+        ended = np.zeros(b, dtype=bool)
+        alive = np.arange(b)                      # original row of each live batch row
 
-    def tens(x, dtype):
-        return torch.as_tensor(np.array(x), dtype=dtype, device=dev)
-
-    ident = tens(inputs.ident, torch.long)
-    ctx = model.context_tokens(tens(inputs.surface, torch.long),
-                               tens(inputs.tournament, torch.long),
-                               tens(inputs.serve, torch.long), tens(inputs.score, torch.float32))
-    hist = torch.full((b, max_frames, 3, 3), float("nan"), device=dev)
-    hist[:, :t0] = tens(inputs.init_pos_m, torch.float32)
-    out = np.full((b, max_frames, 3, 3), np.nan, dtype=np.float32)
-    out[:, :t0] = inputs.init_pos_m
-    length = np.full(b, t0, dtype=np.int64)
-    ended = np.zeros(b, dtype=bool)
-    alive = np.arange(b)                      # original row of each live batch row
-
-    done = np.zeros(b, dtype=bool)
-    for k in range(t0):
-        done = tracker.update(inputs.init_pos_m[:, k], ~done)
-    latest = inputs.init_pos_m[:, -1].astype(np.float32)   # every rally's newest frame
-    cache, h = None, None
-    if mode == "cache":
-        hs, cache = model(_window_features(hist, 0, t0, fps), ident, ctx, return_cache=True)
-        h = hs[:, -1]
-    n, steps, frames = t0, 0, 0
-    resampled = np.zeros(b, dtype=np.int64)
-    bar = tqdm(total=max_frames - t0, desc="frames", disable=not progress, leave=False)
-    while True:
-        if done.any():
-            ended[alive[done]] = True
-            keep = np.flatnonzero(~done)
-            alive = alive[keep]
-            if len(alive) == 0:
-                break
-            kt = torch.as_tensor(keep, device=dev)
-            hist, ident, ctx = hist[kt], ident[kt], ctx[kt]
-            if cache is not None:
-                cache, h = cache.select(kt), h[kt]
-        if n >= max_frames:
-            break
+        done = np.zeros(b, dtype=bool)
+        for k in range(t0):
+            done = tracker.update(inputs.init_pos_m[:, k], ~done)
+        latest = inputs.init_pos_m[:, -1].astype(np.float32)   # every rally's newest frame
+        cache, h = None, None
         if mode == "cache":
-            if steps:
-                h = model.forward_step(_features(hist, n, fps), cache)[0]
-        else:
-            lo = max(0, n - model.cfg.window_frames) if mode == "window" else 0
-            h = model(_window_features(hist, lo, n, fps), ident, ctx)[:, -1]
-        pos = hist[:, n - 1]
-        prev = hist[:, n - 2] if n >= 2 else pos
-        vel = (pos - prev) * fps
-        nxt = model.sample_next(h, pos, vel, top_p_player, top_p_ball, generator)
-        if constraint is not None:
-            nxt, drawn = _constrain(model, constraint, alive, n, h, pos, vel, nxt,
-                                    top_p_player, top_p_ball, generator)
-            resampled[alive] += drawn
-        hist[:, n] = nxt
-        nxt_np = nxt.cpu().numpy()
-        out[alive, n] = nxt_np
-        length[alive] = n + 1
-        latest[alive] = nxt_np
-        active = np.zeros(b, dtype=bool)
-        active[alive] = True
-        done = tracker.update(latest, active)[alive]
-        n += 1
-        steps += 1
-        frames += len(alive)
-        bar.update(1)
-    bar.close()
-    return Rollout(out[:, :int(length.max())], length, ended, steps, frames, resampled)
+            hs, cache = model(_window_features(hist, 0, t0, fps), ident, ctx, return_cache=True)
+            h = hs[:, -1]
+        n, steps, frames = t0, 0, 0
+        resampled = np.zeros(b, dtype=np.int64)
+        bar = tqdm(total=max_frames - t0, desc="frames", disable=not progress, leave=False)
+        while True:
+            if done.any():
+                ended[alive[done]] = True
+                keep = np.flatnonzero(~done)
+                alive = alive[keep]
+                if len(alive) == 0:
+                    break
+                kt = torch.as_tensor(keep, device=dev)
+                hist, ident, ctx = hist[kt], ident[kt], ctx[kt]
+                if cache is not None:
+                    cache, h = cache.select(kt), h[kt]
+            if n >= max_frames:
+                break
+            if mode == "cache":
+                if steps:
+                    h = model.forward_step(_features(hist, n, fps), cache)[0]
+            else:
+                lo = max(0, n - model.cfg.window_frames) if mode == "window" else 0
+                h = model(_window_features(hist, lo, n, fps), ident, ctx)[:, -1]
+            pos = hist[:, n - 1]
+            prev = hist[:, n - 2] if n >= 2 else pos
+            vel = (pos - prev) * fps
+            nxt = model.sample_next(h, pos, vel, top_p_player, top_p_ball, generator)
+            if constraint is not None:
+                nxt, drawn = _constrain(model, constraint, alive, n, h, pos, vel, nxt,
+                                        top_p_player, top_p_ball, generator)
+                resampled[alive] += drawn
+            hist[:, n] = nxt
+            nxt_np = nxt.cpu().numpy()
+            out[alive, n] = nxt_np
+            length[alive] = n + 1
+            latest[alive] = nxt_np
+            active = np.zeros(b, dtype=bool)
+            active[alive] = True
+            done = tracker.update(latest, active)[alive]
+            n += 1
+            steps += 1
+            frames += len(alive)
+            bar.update(1)
+        bar.close()
+        return Rollout(out[:, :int(length.max())], length, ended, steps, frames, resampled)

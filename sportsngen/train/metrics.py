@@ -28,6 +28,16 @@ _SCALARS = ("n", "nll", "hit", "cv_hit")
 _DIMS = {"player": 2, "flight": 3, "contact": 3}
 
 
+def window_states(model: SportsNGEN, batch: dict) -> torch.Tensor:
+    """The decoder's output states (B, T, 3, d) for a collated batch of `WindowDataset` items
+    (raises naming the rally on NaN)."""
+    check_finite(batch)
+    feats = object_features(batch["pos_m"], batch["vel_mps"], batch["t_s"])
+    ctx = model.context_tokens(batch["surface"], batch["tournament"], batch["serve"],
+                               batch["score"])
+    return model(feats, batch["ident"], ctx)
+
+
 class NextFrameMetrics:
     """Accumulates token sums over batches; `compute()` turns them into per-token means.
 
@@ -58,10 +68,7 @@ class NextFrameMetrics:
         """Add one batch (a `WindowDataset` collate; `h` the decoder's output if computed)."""
         cfg = model.cfg
         if h is None:
-            feats = object_features(batch["pos_m"], batch["vel_mps"], batch["t_s"])
-            ctx = model.context_tokens(batch["surface"], batch["tournament"], batch["serve"],
-                                       batch["score"])
-            h = model(feats, batch["ident"], ctx)
+            h = window_states(model, batch)
         pos, vel, nxt = batch["pos_m"], batch["vel_mps"], batch["next_pos_m"]
         p_idx, b_idx = model.target_bins(pos, vel, nxt)
         p_nll, b_nll = model.nll(h, p_idx, b_idx)

@@ -12,7 +12,7 @@ from sportsngen.data.tokens import Vocab, check_finite, object_features
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.model.event_classifier import EventClassifier
-from sportsngen.train.metrics import NextFrameMetrics
+from sportsngen.train.metrics import NextFrameMetrics, window_states
 
 
 def _masked_mean(x: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
@@ -54,10 +54,7 @@ class DecoderModule(L.LightningModule):
         self._val_metrics = NextFrameMetrics()
 
     def _forward(self, batch: dict):
-        feats = batch_inputs(self.cfg, batch)
-        ctx = self.model.context_tokens(batch["surface"], batch["tournament"], batch["serve"],
-                                        batch["score"])
-        h = self.model(feats, batch["ident"], ctx)
+        h = window_states(self.model, batch)
         p_idx, b_idx = self.model.target_bins(batch["pos_m"], batch["vel_mps"],
                                               batch["next_pos_m"])
         p_nll, b_nll = self.model.nll(h, p_idx, b_idx)
@@ -112,10 +109,7 @@ class DecoderModule(L.LightningModule):
 
     @torch.no_grad()
     def validation_step(self, batch: dict, batch_idx: int) -> None:
-        h = self.model(batch_inputs(self.cfg, batch), batch["ident"],
-                       self.model.context_tokens(batch["surface"], batch["tournament"],
-                                                 batch["serve"], batch["score"]))
-        self._val_metrics.update(self.model, batch, h)
+        self._val_metrics.update(self.model, batch, window_states(self.model, batch))
 
     def on_validation_epoch_end(self) -> None:
         m = self._val_metrics
