@@ -5,7 +5,9 @@ extras (serve starts, simulation defaults, split).
 
 For a training stopped at a chosen checkpoint (`outputs/.../checkpoints_decoder/*.ckpt`, which
 hold the decoder only): the decoder's weights from CHECKPOINT, everything else from --from
-(default: the bundled model). The two must share the vocabulary.
+(default: the bundled model). The two must share the vocabulary. CHECKPOINT may also be a
+model file: re-exporting one sets its generic identity to the mean of its players' rows
+(`sportsngen.train.finetune.average_generic_identity`), as training now does.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from pathlib import Path
 
 from sportsngen.model.export import load_model, read_extra, save_model
 from sportsngen.sim.simulator import BUNDLED_NAMES, DEFAULT_MODEL
-from sportsngen.train.finetune import load_pretrained
+from sportsngen.train.finetune import average_generic_identity, load_pretrained
 
 
 def main() -> None:
@@ -29,6 +31,7 @@ def main() -> None:
     if vocab.to_dict() != vocab_src.to_dict():
         raise SystemExit(f"{args.checkpoint} and {args.source} have different vocabularies")
     extra = read_extra(args.source)
+    average_generic_identity(model, vocab)
     save_model(args.out, model, vocab, event_model, extra=extra)
     print(f"wrote {args.out} (decoder of {args.checkpoint}; event classifier and "
           f"{sorted(extra)} of {args.source})")

@@ -4,9 +4,15 @@
         [--base-steps 1500] [--ft-steps 300] [--points 150] [--out docs/figures/finetune]
         [--base-points 15000] [--player-points 2000]
         [--work outputs/finetune_study] [--threads 2] [--reuse]
+    .venv/bin/python scripts/finetune_study.py --base bundled --player "Unseen M 002"
+        [--population-seed 200] ...
 
 1. Base: a generic `small` decoder (`model.generic_identity=true`: one identity for every
    player) trained on `synthetic_small` generated without the player (`--base-steps` steps).
+   Or `--base MODEL` (a model file, or `bundled`): a trained model used as it is, which plays
+   an unknown player as the mean of its players' identities; the player must then be one it
+   never saw: a population player named "Unseen M 000", ... (`players.population_prefix`),
+   drawn with `--population-seed`, whom the study's data pits against the other two.
 2. For each k > 0: `train.py experiment=finetune_player` from the base, learning only the new
    identity row from the player's first k rallies (serving or receiving) of a separate
    generated set (the player and two population players, round robin).
@@ -65,16 +71,26 @@ def train(args: list[str], run_dir: Path, reuse: bool) -> Path:
     return model
 
 
-def player_data(player: str, n_points: int) -> dict[str, object]:
+UNSEEN = "Unseen"
+
+
+def player_data(player: str, n_points: int, population_seed: int) -> dict[str, object]:
     """Overrides of conf/data/synthetic_small.yaml: the player against the population, a
-    generator seed the base never saw."""
-    return {"name": f"finetune_{player.replace(' ', '_')}", "players.named": [player],
+    generator seed the base never saw. An unseen player is one of 3 renamed population players
+    (the other two are his opponents)."""
+    name = f"finetune_{player.replace(' ', '_')}"
+    if player.startswith(UNSEEN + " "):
+        return {"name": f"{name}_{population_seed}", "players.named": [],
+                "players.population": {"men": 3, "women": 0},
+                "players.population_seed": population_seed,
+                "players.population_prefix": UNSEEN, "n_points": n_points, "seed": 11}
+    return {"name": name, "players.named": [player],
             "players.population": {"men": 2, "women": 0}, "n_points": n_points, "seed": 11}
 
 
 def data_args(overrides: dict[str, object]) -> list[str]:
     return ["data=synthetic_small"] + [
-        f"data.{k}={_hydra(v)}" for k, v in overrides.items()]
+        f"++data.{k}={_hydra(v)}" for k, v in overrides.items()]
 
 
 def evaluate(model_path: Path, player: str, opponent: str, truth, initial, n_points: int,
@@ -136,28 +152,42 @@ def main() -> None:
     ap.add_argument("--work", default="outputs/finetune_study")
     ap.add_argument("--out", default="docs/figures/finetune")
     ap.add_argument("--reuse", action="store_true")
+    ap.add_argument("--base", default=None,
+                    help="a trained model file (or 'bundled') to use as the base")
+    ap.add_argument("--population-seed", type=int, default=200,
+                    help="population seed of an 'Unseen M 00k' player")
     args = ap.parse_args()
-    if args.player not in NAMED:
+    unseen = [f"{UNSEEN} M {i:03d}" for i in range(3)]
+    if args.base is None and args.player not in NAMED:
         raise SystemExit(f"--player must be one of the generator's named players {NAMED}")
+    if args.base is not None and args.player not in unseen:
+        raise SystemExit(f"with --base, --player must be one the base never saw: {unseen}")
     torch.set_num_threads(args.threads)
     work, out = ROOT / args.work, ROOT / args.out
     work.mkdir(parents=True, exist_ok=True)
     out.mkdir(parents=True, exist_ok=True)
     t_start = time.perf_counter()
-    others = [p for p in NAMED if p != args.player]
-    without = {"name": f"synthetic_small_without_{args.player.replace(' ', '_')}",
-               "players.named": others, "n_points": args.base_points}
-    base = train([*data_args(without), "model=small", "model.generic_identity=true",
-                  "events.enabled=true",
-                  f"trainer.max_steps={args.base_steps}", "trainer.val_check_interval=500",
-                  f"threads={args.threads}", f"seed={args.seed}"], work / "base", args.reuse)
+    pdata_overrides = player_data(args.player, args.player_points, args.population_seed)
+    if args.base is not None:
+        from sportsngen.sim.simulator import BUNDLED_NAMES, DEFAULT_MODEL
+
+        base = Path(BUNDLED_NAMES[DEFAULT_MODEL] if args.base == "bundled" else args.base)
+    else:
+        others = [p for p in NAMED if p != args.player]
+        without = {"name": f"synthetic_small_without_{args.player.replace(' ', '_')}",
+                   "players.named": others, "n_points": args.base_points}
+        base = train([*data_args(without), "model=small", "model.generic_identity=true",
+                      "events.enabled=true",
+                      f"trainer.max_steps={args.base_steps}", "trainer.val_check_interval=500",
+                      f"threads={args.threads}", f"seed={args.seed}"], work / "base",
+                     args.reuse)
     models = {0: base}
     for k in args.ks:
         if k > 0:
             models[k] = train(["experiment=finetune_player", f"player={args.player}",
                                f"init={base}", f"finetune.n_sequences={k}",
                                f"trainer.max_steps={args.ft_steps}", f"threads={args.threads}",
-                               *data_args(player_data(args.player, args.player_points))],
+                               *data_args(pdata_overrides)],
                               work / f"k{k}", args.reuse)
 
     from omegaconf import OmegaConf
@@ -167,7 +197,7 @@ def main() -> None:
     from sportsngen.synth.generate import generate_matches
 
     cfg = OmegaConf.load(ROOT / "conf/data/synthetic_small.yaml")
-    for key, value in player_data(args.player, args.player_points).items():
+    for key, value in pdata_overrides.items():
         OmegaConf.update(cfg, key, value)
     pdata = load_synthetic(OmegaConf.to_container(cfg, resolve=True))
     initial = InitialConditions.from_rally_data(pdata)
@@ -190,15 +220,21 @@ def main() -> None:
     table = pd.DataFrame(rows)
     table.to_csv(out / "finetune.csv", index=False)
     plot(table, out / "finetune.png")
+    if args.base is None:
+        how = (f"--base-steps {args.base_steps}", f"A generic `small` model trained "
+               f"{args.base_steps} steps without {args.player}")
+    else:
+        how = (f"--base {args.base} --population-seed {args.population_seed}",
+               f"The trained model `{base.name}`, which never saw {args.player} (a population "
+               "player; at k = 0 he plays as the mean of its players' identities)")
     lines = ["# Fine-tuning study", "",
              f"`python scripts/finetune_study.py --player \"{args.player}\" --ks "
-             f"{' '.join(map(str, args.ks))} --base-steps {args.base_steps} --ft-steps "
+             f"{' '.join(map(str, args.ks))} {how[0]} --ft-steps "
              f"{args.ft_steps} --points {args.points} --seed {args.seed}` "
-             f"({time.perf_counter() - t_start:.0f} s). A generic `small` model trained "
-             f"{args.base_steps} steps without {args.player}; k of his sequences teach it one new "
-             f"identity row ({args.ft_steps} steps, the rest frozen). {args.points} simulated "
-             f"service points of {args.player} v {opponent} (hard) per model against the "
-             "generator's ground truth of the same matchup (|sim - truth| in brackets).", "",
+             f"({time.perf_counter() - t_start:.0f} s). {how[1]}; k of his sequences teach it "
+             f"one new identity row ({args.ft_steps} steps, the rest frozen). {args.points} "
+             f"simulated service points of {args.player} v {opponent} (hard) per model against "
+             "the generator's ground truth of the same matchup (|sim - truth| in brackets).", "",
              "| k | " + " | ".join(label for _, label, _ in METRICS) + " | non-realistic % |",
              "|---:|" + "---:|" * (len(METRICS) + 1)]
     for row in rows:

@@ -13,7 +13,7 @@ import pytest
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.stats import serve_stats
 from sportsngen.synth import generate_matches, get_profile, sample_population, service_points
-from sportsngen.synth.dataset import load_synthetic
+from sportsngen.synth.dataset import load_synthetic, matchups
 from sportsngen.synth.physics import BALL_RADIUS_M
 from sportsngen.synth.rally import AFTER_END_S, play_rally
 from sportsngen.tennis.court import BASELINE_X_M, net_height_m
@@ -258,3 +258,15 @@ def test_a_ball_rolling_into_the_net_stops_on_its_side():
     _stop_roll_at_net(roll, side=-1.0)
     np.testing.assert_allclose(roll[:, 0], [-0.6, -0.2, -BALL_RADIUS_M, -BALL_RADIUS_M])
     np.testing.assert_allclose(roll[:, 1], [1.0, 1.1, 1.1, 1.1])
+
+
+def test_population_prefix_renames_the_same_players():
+    cfg = {"players": {"population": {"men": 3}, "population_seed": 5}, "seed": 0}
+    plain = {p.name: p for pair in matchups(cfg) for p in pair}
+    cfg["players"]["population_prefix"] = "Unseen"
+    renamed = {p.name: p for pair in matchups(cfg) for p in pair}
+    assert sorted(plain) == ["Pop M 000", "Pop M 001", "Pop M 002"]
+    assert sorted(renamed) == ["Unseen M 000", "Unseen M 001", "Unseen M 002"]
+    for i in range(3):
+        a, b = plain[f"Pop M {i:03d}"], renamed[f"Unseen M {i:03d}"]
+        assert dataclasses.replace(a, name=b.name) == b

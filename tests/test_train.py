@@ -12,14 +12,19 @@ import torch
 from hydra import compose, initialize_config_dir
 from torch.utils.data import default_collate
 
-from sportsngen.data.tokens import GENERIC_ID, Vocab, WindowDataset, rally_arrays
+from sportsngen.data.tokens import GENERIC_ID, N_SPECIAL_IDS, Vocab, WindowDataset, rally_arrays
 from sportsngen.data.toy import make_toy_rallies
 from sportsngen.model import load_model
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.train.datamodule import load_rally_data
 from sportsngen.train.evaluate import data_config, evaluate_held_out, metrics_table
-from sportsngen.train.finetune import add_player, check_data_matches, player_rallies
+from sportsngen.train.finetune import (
+    add_player,
+    average_generic_identity,
+    check_data_matches,
+    player_rallies,
+)
 from sportsngen.train.metrics import NextFrameMetrics
 from sportsngen.train.module import DecoderModule
 from sportsngen.train.run import build_model_config, train_from_config
@@ -89,6 +94,19 @@ def test_frozen_finetuning_changes_only_the_new_identity(toy):
     w0, w1 = before["embed.identity.weight"], after["embed.identity.weight"]
     moved = (w0 != w1).any(dim=1).nonzero().flatten().tolist()
     assert moved == [row]
+
+
+def test_unknown_players_of_a_named_model_play_as_the_players_mean(toy):
+    named, _, vocab = module_and_batch(toy)
+    w = named.model.embed.identity.weight
+    assert vocab.players and average_generic_identity(named.model, vocab)
+    torch.testing.assert_close(w[GENERIC_ID], w[N_SPECIAL_IDS:].mean(dim=0))
+    model, _, row = add_player(named.model, vocab, "Somebody New")
+    assert torch.equal(model.embed.identity.weight[row], w[GENERIC_ID])
+    generic, _, gvocab = module_and_batch(toy, generic=True)   # its generic row is trained
+    before = generic.model.embed.identity.weight.detach().clone()
+    assert not average_generic_identity(generic.model, gvocab)
+    assert torch.equal(generic.model.embed.identity.weight, before)
 
 
 def test_nan_in_a_batch_raises_naming_the_rally(toy):

@@ -11,7 +11,9 @@ Config fields (see ``conf/data/synthetic_small.yaml``):
 
 - ``source: synthetic``, ``name``
 - ``players.named``: named players (`named_profiles()`); ``players.population``: how many
-  population players per gender (``{men: 20, women: 8}``); ``players.population_seed``
+  population players per gender (``{men: 20, women: 8}``); ``players.population_seed``;
+  ``players.population_prefix`` (optional: names "<prefix> M 000", ... instead of "Pop M 000",
+  for players no model trained on the default names has seen)
 - ``surfaces``: list of surfaces, cycled over matches
 - ``n_points``, ``seed``, ``workers`` (null: 1 process), ``fps``
 - ``format``: `MatchFormat` fields (``best_of``, ``final_set``, ...)
@@ -44,7 +46,8 @@ from sportsngen.synth.profiles import (
 )
 from sportsngen.tennis.scoring import MatchFormat
 
-GENERATOR_VERSION = "3"  # bump when the generated tracks change (3: still through the toss)
+GENERATOR_VERSION = "4"  # bump when the generated tracks change (3: still through the toss;
+#                           4: players run at balls they cannot reach)
 _ARROW = {"int64": pa.int64(), "float64": pa.float64(), "string": pa.string(), "bool": pa.bool_()}
 
 
@@ -89,12 +92,15 @@ def matchups(cfg) -> list[tuple[PlayerProfile, PlayerProfile]]:
     if unknown:
         raise ValueError(f"players.population genders {unknown} unknown; use {list(GENDERS)}")
     pop_seed = int(players.get("population_seed", 0))
+    prefix = players.get("population_prefix")
     pairs = []
     for k, gender in enumerate(GENDERS):
         group = [p for p in named if p.gender == gender]
         n_pop = int(population.get(gender, 0))
         if n_pop:
-            group += sample_population(n_pop, seed=pop_seed + k, gender=gender)
+            group += sample_population(
+                n_pop, seed=pop_seed + k, gender=gender,
+                prefix=None if prefix is None else f"{prefix} {gender[0].upper()}")
         pairs += list(itertools.combinations(group, 2))
     if not pairs:
         raise ValueError("the config's players give no matchup: list at least two named players "

@@ -5,7 +5,8 @@ launch that lands on the aim point, execution noise rotates that launch, and the
 (`physics.fly`). If it hits the net or lands out, the hitter made an error (a fault on a serve).
 Otherwise the opponent, who only starts moving after his reaction delay, searches the flight for
 contact points he can reach in time within his height and lateral limits (`players`); none means
-a winner (an ace on a serve). Meanwhile the hitter recovers toward his recovery position.
+a winner (an ace on a serve), though he still runs at the ball (`_chase_spot`), as players do.
+Meanwhile the hitter recovers toward his recovery position.
 
 Players move frame by frame at the tracking rate, so the tracks obey the speed and acceleration
 limits exactly; the ball is sampled from the flights at the same frame times.
@@ -139,6 +140,26 @@ class _Intercept:
     ball_m: np.ndarray
     volley: bool
     duress: float
+
+
+def _chase_spot(flight, t_react_local: float, pos: np.ndarray, end: int, t_stop: float,
+                stand_off_m: float) -> tuple[float, float, float] | None:
+    """Where a player who cannot reach the ball runs anyway (local time, x, y): toward the point
+    of the flight on his side nearest to him, stopping `stand_off_m` short of it, so that his
+    track never shows a ball within reach that he did not play. None when he is already that
+    close or the ball never comes to his side."""
+    tau = np.arange(max(t_react_local, 0.05), t_stop, SEARCH_STEP_S)
+    if len(tau) == 0:
+        return None
+    ball = flight.at(tau)
+    gap = np.where(ball[:, 0] * end > 0.5,
+                   np.hypot(ball[:, 0] - pos[0], ball[:, 1] - pos[1]), np.inf)
+    k = int(np.argmin(gap))
+    if not np.isfinite(gap[k]) or gap[k] <= stand_off_m:
+        return None
+    keep = stand_off_m / gap[k]
+    bx, by = float(ball[k, 0]), float(ball[k, 1])
+    return float(tau[k]), bx + (pos[0] - bx) * keep, by + (pos[1] - by) * keep
 
 
 def _find_intercept(flight, t_react_local: float, pos: np.ndarray, vel: tuple[float, float],
@@ -297,7 +318,14 @@ def play_rally(server: PlayerProfile, receiver: PlayerProfile, server_end: int,
         hit = _find_intercept(flight, k_react * dt - t_contact, movers[opp].pos,
                               (movers[opp].vx, movers[opp].vy), profiles[opp],
                               ends[opp], at_net[opp], first.t_s, t_stop)
-        if hit is not None:
+        if hit is None:
+            # He cannot reach it but still goes for it (no random draw: outcomes unchanged).
+            spot = _chase_spot(flight, k_react * dt - t_contact, movers[opp].pos, ends[opp],
+                               t_stop, profiles[opp].reach_m + REACH_TOLERANCE_M)
+            if spot is not None:
+                movers[opp].run_to(max(int(round((t_contact + spot[0]) * fps)), k_react),
+                                   spot[1], spot[2], hurry=True)
+        else:
             t_next = t_contact + hit.t_s
             k_next = int(round(t_next * fps))
             stroke = bh.choose_stroke(profiles[opp], ends[opp], movers[opp].y, hit.ball_m[1],

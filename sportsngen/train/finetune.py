@@ -5,6 +5,11 @@ one learned generic identity. `add_player` appends a new identity row, initialis
 generic one, without touching the others; `freeze_except_identity` then leaves only chosen rows
 trainable (a gradient hook zeroes the other rows' gradients, and the optimiser gives embeddings
 no weight decay, so the other rows stay bit-identical).
+
+A model trained on named players never uses its generic row (every training player has a row
+of its own), so `average_generic_identity` sets that row to the mean of the players' rows
+before the model is saved: an unknown player then plays as the average trained player rather
+than as a random embedding, and `add_player` starts a new player from there.
 """
 
 from __future__ import annotations
@@ -15,7 +20,7 @@ from pathlib import Path
 import torch
 from torch import nn
 
-from sportsngen.data.tokens import GENERIC_ID, Vocab
+from sportsngen.data.tokens import GENERIC_ID, N_SPECIAL_IDS, Vocab
 from sportsngen.data.tracking import RallyData
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.decoder import SportsNGEN
@@ -77,6 +82,19 @@ def add_player(model: SportsNGEN, vocab: Vocab, name: str):
     return new, new_vocab, new_vocab.player_index(name)
 
 
+@torch.no_grad()
+def average_generic_identity(model: SportsNGEN, vocab: Vocab) -> bool:
+    """Set the generic identity row to the mean of the named players' rows, in place, for a
+    model trained on named players (its generic row was never trained). A generic model
+    (`generic_identity`, whose generic row is the trained one) or a vocabulary without players
+    is left alone. -> whether the row was set."""
+    if model.cfg.generic_identity or not vocab.players:
+        return False
+    w = model.embed.identity.weight
+    w[GENERIC_ID] = w[N_SPECIAL_IDS:].mean(dim=0)
+    return True
+
+
 def freeze_except_identity(model: SportsNGEN, rows: list[int]) -> None:
     """Freeze everything but the identity rows `rows` (gradients of other rows are zeroed)."""
     for p in model.parameters():
@@ -98,5 +116,5 @@ def player_rallies(data: RallyData, player: str, n_sequences: int | None) -> Ral
     return data.subset(ids[:n_sequences] if n_sequences else ids)
 
 
-__all__ = ["add_player", "check_data_matches", "freeze_except_identity",
+__all__ = ["add_player", "average_generic_identity", "check_data_matches", "freeze_except_identity",
            "load_pretrained", "player_rallies"]

@@ -24,6 +24,7 @@ from sportsngen.sim.initial import InitialConditions
 from sportsngen.train.datamodule import TrackingDataModule, data_fingerprint, load_rally_data
 from sportsngen.train.finetune import (
     add_player,
+    average_generic_identity,
     check_data_matches,
     load_pretrained,
     player_rallies,
@@ -158,6 +159,7 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
         if base is not None:
             init = InitialConditions.from_dict(base).merged(init)
         init = init.to_dict()
+        average_generic_identity(module.model, vocab)   # unknown players play as the average
         path = save_model(out_dir / "model.pt", module.model.cpu(), vocab, event_model,
                           extra={"summary": summary, "split": split,
                                  "initial_conditions": init})
