@@ -25,13 +25,14 @@ run "$PY" scripts/check_simulation.py --points 500 --json docs/figures/check_sim
 run "$PY" scripts/check_simulation.py --points 500 --no-physical-limits \
     --json docs/figures/check_simulation_free.json
 run "$PY" scripts/evaluation_report.py --points 100 --truth-points 1000 --seed 0
-run "$PY" scripts/rally_outcome_study.py --rallies 140 --n 16
+run "$PY" scripts/rally_outcome_study.py --rallies 400 --n 16
 run "$PY" scripts/horizon_study.py --rallies 40 --n 4
 run "$PY" scripts/counterfactual_demo.py --n 100
 run "$PY" scripts/render_style_graphs.py --simulated outputs/eval/sportsngen_sim \
     --out docs/figures/style_sportsngen
 run "$PY" scripts/render_style_graphs.py --out docs/figures/style
-run "$PY" scripts/finetune_study.py --reuse
+run "$PY" scripts/finetune_study.py --base bundled --player "Unseen M 002" --population-seed 200 \
+    --work outputs/finetune_bundled --reuse
 # The model studies train many tiny models (about 45 min together); results are cached in
 # outputs/ and reused, so a second run only re-scores.
 run "$PY" scripts/run_ablations.py --steps 800 --seeds 0 1 2

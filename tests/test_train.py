@@ -26,7 +26,7 @@ from sportsngen.train.finetune import (
     player_rallies,
 )
 from sportsngen.train.metrics import NextFrameMetrics
-from sportsngen.train.module import DecoderModule
+from sportsngen.train.module import DecoderModule, movement_onsets
 from sportsngen.train.run import build_model_config, train_from_config
 
 torch.set_num_threads(1)
@@ -311,3 +311,33 @@ def test_contact_weight_counts_the_balls_contact_tokens_more(toy):
     torch.testing.assert_close(weighted - base, extra, rtol=1e-5, atol=1e-6)
     with pytest.raises(ValueError, match="contact_weight"):
         module_and_batch(toy, contact_weight=0.0)
+
+
+def test_movement_onsets_are_the_frames_that_start_a_run():
+    fps = 25.0
+    x = torch.tensor([0.0, 0.0, 0.0, 0.004, 0.012, 0.024, 0.024, 0.024])  # still, runs, stops
+    pos = torch.zeros(1, 8, 3, 3)
+    pos[0, :, 1, 0] = x
+    vel = torch.zeros_like(pos)
+    vel[:, 1:] = (pos[:, 1:] - pos[:, :-1]) * fps
+    nxt = torch.cat([pos[:, 1:], pos[:, -1:]], dim=1)
+    starts = movement_onsets(vel, pos, nxt, fps)
+    assert starts[0, :, 1].tolist() == [False, False, True, False, False, False, False, False]
+    assert not starts[..., 0].any()         # the server never moves
+
+
+def test_onset_weight_counts_the_players_starts_more(toy):
+    mod, batch, _ = module_and_batch(toy, onset_weight=3.0)
+    starts = movement_onsets(batch["vel_mps"], batch["pos_m"], batch["next_pos_m"], mod.cfg.fps)
+    starts &= batch["has_next"][..., None]
+    assert starts.any()
+    with torch.no_grad():
+        _, _, _, p_nll, b_nll = mod._forward(batch)
+        weighted = mod.loss(p_nll, b_nll, batch)
+        mod.hparams.onset_weight = 1.0
+        base = mod.loss(p_nll, b_nll, batch)
+    extra = 2.0 * (p_nll * starts).sum() / batch["has_next"].sum() / 3.0
+    torch.testing.assert_close(weighted - base, extra, rtol=1e-5, atol=1e-6)
+    with pytest.raises(ValueError, match="onset_weight"):
+        module_and_batch(toy, onset_weight=-1.0)
+

@@ -122,7 +122,8 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
     module = DecoderModule(model_cfg.to_dict(), vocab.to_dict(), lr=float(opt.lr),
                            weight_decay=float(opt.weight_decay),
                            warmup_steps=int(opt.warmup_steps), trainable_id_rows=trainable_rows,
-                           contact_weight=float(opt.get("contact_weight", 1.0)))
+                           contact_weight=float(opt.get("contact_weight", 1.0)),
+                           onset_weight=float(opt.get("onset_weight", 1.0)))
     if init_state is not None:
         module.model.load_state_dict(init_state)
     resume = cfg.get("resume")
