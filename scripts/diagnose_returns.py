@@ -13,7 +13,10 @@ but do not strike it shows here.
 
 Then, teacher-forced on the ground-truth rallies: at the ball tokens around each return's
 contact, the model's probability of a reversal (an x offset of more than 0.5 m from the
-constant-velocity extrapolation) against how often the recorded next frame has one.
+constant-velocity extrapolation) against how often the recorded next frame has one; and at the
+receiver's tokens around the frame where he starts to run after the serve
+(`sportsngen.train.module.movement_onsets`), the model's probability that he accelerates (an x
+offset of at least 1 mm from the constant-velocity extrapolation) against the recorded share.
 """
 
 from __future__ import annotations
@@ -30,9 +33,11 @@ from sportsngen.sim import Simulator
 from sportsngen.synth.generate import generate_matches
 from sportsngen.tennis.court import SERVICE_LINE_X_M
 from sportsngen.train.metrics import window_states
+from sportsngen.train.module import movement_onsets
 
 SERVER, RECEIVER = "Roger Federer", "Rafael Nadal"
 AFTER_BOUNCE_FRAMES = 30
+N_TOSS_FRAMES = 10       # nobody moves through the toss
 
 
 def receiver_table(data) -> np.ndarray:
@@ -95,6 +100,37 @@ def contact_mass(sim: Simulator, data, offsets=range(-3, 2)) -> dict[int, tuple[
     return {k: tuple(np.mean(v, axis=0)) for k, v in out.items() if v}
 
 
+@torch.no_grad()
+def onset_mass(sim: Simulator, data, offsets=range(-2, 2)) -> dict[int, tuple[float, float]]:
+    """Teacher-forced: {offset: (mean P(receiver accelerates), recorded share)} at the
+    receiver's tokens `offset` frames from his first start after the serve (first window)."""
+    model, cfg = sim.model, sim.model.cfg
+    arr = rally_arrays(data, sim.vocab, unknown="generic")
+    windows = WindowDataset(arr, cfg.window_frames)
+    edges = model.player_bins.edges[0]
+    still = ((edges[:-1] + edges[1:]) / 2).abs() < 1e-3
+    out = {k: [] for k in offsets}
+    for i, (_, s) in enumerate(windows.items):
+        if s != 0:
+            continue
+        w = default_collate([windows[i]])
+        starts = movement_onsets(w["vel_mps"], w["pos_m"], w["next_pos_m"], cfg.fps)[0, :, 1]
+        starts &= w["has_next"][0]
+        starts[:N_TOSS_FRAMES] = False
+        if not starts.any():
+            continue
+        f0 = int(torch.nonzero(starts)[0])
+        h = window_states(model, w)[0, :, 1]
+        p = model.player_head.dim_logits(h, torch.zeros(len(h), 2, dtype=torch.long), 0)
+        moving = 1.0 - p.softmax(-1)[:, still].sum(-1)
+        off = w["next_pos_m"][0, :, 1, 0] - centre_m(w["pos_m"][0], w["vel_mps"][0], cfg.fps,
+                                                     cfg.bin_centre)[:, 1, 0]
+        for k in offsets:
+            if 0 <= f0 + k < len(h) and bool(w["has_next"][0, f0 + k]):
+                out[k].append((float(moving[f0 + k]), float(abs(off[f0 + k]) >= 1e-3)))
+    return {k: tuple(np.mean(v, axis=0)) for k, v in out.items() if v}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--model", default=None)
@@ -121,6 +157,9 @@ def main() -> None:
     print("teacher-forced on the ground truth's returns: P(reversal) / recorded share")
     for k, (p, share) in contact_mass(sim, truth).items():
         print(f"  ball token {k:+d} from the contact: {p:.3f} / {share:.2f}")
+    print("teacher-forced at the receiver's start after the serve: P(accelerates) / recorded")
+    for k, (p, share) in onset_mass(sim, truth).items():
+        print(f"  receiver token {k:+d} from the start: {p:.3f} / {share:.2f}")
 
 
 if __name__ == "__main__":

@@ -6,8 +6,10 @@ extras (serve starts, simulation defaults, split).
 For a training stopped at a chosen checkpoint (`outputs/.../checkpoints_decoder/*.ckpt`, which
 hold the decoder only): the decoder's weights from CHECKPOINT, everything else from --from
 (default: the bundled model). The two must share the vocabulary. CHECKPOINT may also be a
-model file: re-exporting one sets its generic identity to the mean of its players' rows
-(`sportsngen.train.finetune.average_generic_identity`), as training now does.
+model file. `--average-generic-identity` sets the generic identity row to the mean of the
+players' rows (`sportsngen.train.finetune.average_generic_identity`, what training from scratch
+does), for a model trained on named players whose generic row was never trained; not for a
+player fine-tuned onto a generic model, whose generic row is the trained one.
 """
 
 from __future__ import annotations
@@ -25,13 +27,15 @@ def main() -> None:
     ap.add_argument("checkpoint", type=Path)
     ap.add_argument("out", type=Path)
     ap.add_argument("--from", dest="source", type=Path, default=BUNDLED_NAMES[DEFAULT_MODEL])
+    ap.add_argument("--average-generic-identity", action="store_true")
     args = ap.parse_args()
     model, _, vocab, _ = load_pretrained(args.checkpoint)
     _, event_model, vocab_src, _ = load_model(args.source)
     if vocab.to_dict() != vocab_src.to_dict():
         raise SystemExit(f"{args.checkpoint} and {args.source} have different vocabularies")
     extra = read_extra(args.source)
-    average_generic_identity(model, vocab)
+    if args.average_generic_identity:
+        average_generic_identity(model, vocab)
     save_model(args.out, model, vocab, event_model, extra=extra)
     print(f"wrote {args.out} (decoder of {args.checkpoint}; event classifier and "
           f"{sorted(extra)} of {args.source})")

@@ -160,7 +160,8 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
         if base is not None:
             init = InitialConditions.from_dict(base).merged(init)
         init = init.to_dict()
-        average_generic_identity(module.model, vocab)   # unknown players play as the average
+        if not cfg.get("init"):   # from `init`, the generic row is the base model's
+            average_generic_identity(module.model, vocab)   # unknown players: the average
         path = save_model(out_dir / "model.pt", module.model.cpu(), vocab, event_model,
                           extra={"summary": summary, "split": split,
                                  "initial_conditions": init})
