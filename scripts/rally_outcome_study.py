@@ -16,7 +16,8 @@ Recalibration: the rallies are split in two halves (alternately, in sampling ord
 isotonic map (`sportsngen.eval.calibration.IsotonicCalibrator`) fitted on the first half's
 rollout probabilities is judged on the second half, beside the raw rollouts and the baselines
 on the same half. Writes reliability.png (diagram + histogram, second half), outcome.md and
-outcome.json into --out.
+outcome.json into --out. `--save-calibrator` also stores the fitted map in the model file, where
+`Simulator.rally_win_probability(..., calibrated=True)` uses it.
 """
 
 from __future__ import annotations
@@ -52,6 +53,8 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--threads", type=int, default=None)
     ap.add_argument("--out", type=Path, default=Path("docs/figures/outcome"))
+    ap.add_argument("--save-calibrator", action="store_true",
+                    help="store the isotonic map in the model file (outcome_calibrator)")
     args = ap.parse_args()
     if args.threads:
         torch.set_num_threads(args.threads)
@@ -120,6 +123,13 @@ def main() -> None:
          "calibrator": {"x": cal.x.tolist(), "y": cal.y.tolist()},
          "mean_ok_rollouts": float(res["n"].mean()), "base_rate": base}, indent=2))
     print("\n".join(lines))
+    if args.save_calibrator:
+        from sportsngen.model.export import update_extra
+        from sportsngen.sim.simulator import BUNDLED_NAMES, DEFAULT_MODEL
+
+        name = DEFAULT_MODEL if args.model is None else args.model
+        path = update_extra(BUNDLED_NAMES.get(name, Path(name)), outcome_calibrator=cal.to_dict())
+        print(f"stored the calibrator ({len(cal.x)} blocks) in {path}")
 
 
 if __name__ == "__main__":

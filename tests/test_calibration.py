@@ -64,3 +64,13 @@ def test_isotonic_recalibrates_a_biased_predictor_on_new_data():
     assert expected_calibration_error(raw[4000:], y[4000:]) > 0.2
     assert expected_calibration_error(fixed, y[4000:]) < 0.03
     assert brier_score(fixed, y[4000:]) < brier_score(raw[4000:], y[4000:])
+
+
+def test_calibrator_round_trips_through_a_dict_and_rejects_bad_maps():
+    cal = IsotonicCalibrator([0.1, 0.2, 0.6, 0.9], [0, 1, 0, 1])
+    again = IsotonicCalibrator.from_dict(cal.to_dict())
+    grid = np.linspace(0, 1, 11)
+    np.testing.assert_array_equal(again(grid), cal(grid))
+    assert cal.to_dict() == {"x": [0.1, 0.4, 0.9], "y": [0.0, 0.5, 1.0], "n": [1, 2, 1]}
+    with pytest.raises(ValueError, match="non-decreasing"):
+        IsotonicCalibrator.from_dict({"x": [0.5, 0.2], "y": [0.1, 0.3]})

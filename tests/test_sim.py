@@ -202,6 +202,29 @@ def test_rally_win_probability_and_counterfactual_run_on_a_real_rally(tiny_model
         sim.counterfactual(data, rid, shot_index=99, n=2)
 
 
+def test_calibrated_rally_win_probability_maps_the_raw_one(tiny_model_file, monkeypatch,
+                                                          tmp_path):
+    import shutil
+
+    from sportsngen.eval.calibration import IsotonicCalibrator
+    from sportsngen.model.export import update_extra
+    from sportsngen.sim import whatif
+
+    data = make_toy_rallies(2, seed=3)
+    rid = int(data.rallies["rally_id"].iat[0])
+    with pytest.raises(ValueError, match="no outcome calibrator"):
+        _sim(tiny_model_file).rally_win_probability(data, rid, 10, n=2, calibrated=True)
+    path = shutil.copy(tiny_model_file, tmp_path / "calibrated.pt")
+    update_extra(path, outcome_calibrator=IsotonicCalibrator.from_dict(
+        {"x": [0.2, 0.6], "y": [0.3, 0.5]}).to_dict())
+    sim = _sim(path)
+    monkeypatch.setattr(whatif, "rally_win_probability", lambda *a, **k: 0.4)
+    assert sim.rally_win_probability(data, rid, 10, n=2) == 0.4
+    assert sim.rally_win_probability(data, rid, 10, n=2, calibrated=True) == pytest.approx(0.4)
+    monkeypatch.setattr(whatif, "rally_win_probability", lambda *a, **k: 0.9)
+    assert sim.rally_win_probability(data, rid, 10, n=2, calibrated=True) == pytest.approx(0.5)
+
+
 def test_counterfactual_plot(tiny_model_file, tmp_path):
     from sportsngen.sim.whatif import counterfactual
     from sportsngen.viz.counterfactual_plot import plot_counterfactual

@@ -89,6 +89,22 @@ class IsotonicCalibrator:
         p = np.asarray(pred, dtype=float)
         return np.interp(p, self.x, self.y)
 
+    def to_dict(self) -> dict:
+        """Plain lists (a model file's extras, JSON)."""
+        return {"x": self.x.tolist(), "y": self.y.tolist(), "n": self.n.tolist()}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> IsotonicCalibrator:
+        """The calibrator `to_dict` wrote (no refit)."""
+        x, y = np.asarray(d["x"], dtype=float), np.asarray(d["y"], dtype=float)
+        if x.ndim != 1 or x.shape != y.shape or len(x) == 0 or (np.diff(x) < 0).any() \
+                or (np.diff(y) < 0).any():
+            raise ValueError("a calibrator needs equally long, non-decreasing x and y")
+        out = cls.__new__(cls)
+        out.x, out.y = x, y
+        out.n = np.asarray(d.get("n", np.ones(len(x))), dtype=int)
+        return out
+
 
 def plot_reliability(preds: dict[str, np.ndarray], outcome, path: str | Path,
                      n_bins: int = 10, title: str = "") -> Path:

@@ -24,6 +24,7 @@ import torch
 
 from sportsngen.data.tokens import SCORE_FIELDS, Vocab, score_vector
 from sportsngen.data.tracking import RallyData
+from sportsngen.eval.calibration import IsotonicCalibrator
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.model.event_classifier import EventClassifier
 from sportsngen.model.export import load_model, read_extra
@@ -66,6 +67,9 @@ class Simulator:
         self.max_retries = int(max_retries)
         self.unknown = unknown or model.cfg.unknown
         self.physical_limits = bool(physical_limits)
+        # Raw rollout win probabilities -> observed frequencies, when the model file has one
+        # (`scripts/rally_outcome_study.py --save-calibrator`).
+        self.outcome_calibrator: IsotonicCalibrator | None = None
 
     @classmethod
     def from_pretrained(cls, path_or_name: str | Path | None = None, **kwargs) -> Simulator:
@@ -81,8 +85,12 @@ class Simulator:
                              "with scripts/add_initial_conditions.py --model ... --data ...")
         for key, value in (extra.get("sim_defaults") or {}).items():
             kwargs.setdefault(key, float(value))
-        return cls(model, ec, vocab, InitialConditions.from_dict(extra["initial_conditions"]),
-                   **kwargs)
+        sim = cls(model, ec, vocab, InitialConditions.from_dict(extra["initial_conditions"]),
+                  **kwargs)
+        if extra.get("outcome_calibrator") is not None:
+            sim.outcome_calibrator = IsotonicCalibrator.from_dict(
+                {k: [float(v) for v in vals] for k, vals in extra["outcome_calibrator"].items()})
+        return sim
 
     @property
     def fps(self) -> float:
@@ -211,10 +219,16 @@ class Simulator:
 
     # --- what if -------------------------------------------------------------------------------
     def rally_win_probability(self, rally_data: RallyData, rally_id: int, frame: int,
-                              n: int = 100, seed: int = 0) -> float:
+                              n: int = 100, seed: int = 0, calibrated: bool = False) -> float:
         """P(the rally's server wins the point) from `n` rollouts after frame `frame` of the
-        rally (see `sportsngen.sim.whatif.rally_win_probability`)."""
-        return whatif.rally_win_probability(self, rally_data, rally_id, frame, n, seed)
+        rally (see `sportsngen.sim.whatif.rally_win_probability`). `calibrated`: mapped
+        through the model file's outcome calibrator (fitted on held-out rallies; an error when
+        the file has none)."""
+        if calibrated and self.outcome_calibrator is None:
+            raise ValueError("this model has no outcome calibrator: fit one with "
+                             "scripts/rally_outcome_study.py --save-calibrator")
+        p = whatif.rally_win_probability(self, rally_data, rally_id, frame, n, seed)
+        return float(self.outcome_calibrator(p)) if calibrated and p == p else p
 
     def counterfactual(self, rally_data: RallyData, rally_id: int, shot_index: int,
                        options=("cross_court", "down_the_line"), n: int = 100,
