@@ -25,7 +25,7 @@ run "$PY" scripts/check_simulation.py --points 500 --json docs/figures/check_sim
 run "$PY" scripts/check_simulation.py --points 500 --no-physical-limits \
     --json docs/figures/check_simulation_free.json
 run "$PY" scripts/evaluation_report.py --points 100 --truth-points 1000 --seed 0
-run "$PY" scripts/rally_outcome_study.py --rallies 400 --n 16
+run "$PY" scripts/rally_outcome_study.py --rallies 400 --n 16 --save-calibrator
 run "$PY" scripts/horizon_study.py --rallies 40 --n 4
 run "$PY" scripts/counterfactual_demo.py --n 100
 run "$PY" scripts/render_style_graphs.py --simulated outputs/eval/sportsngen_sim \
