@@ -297,20 +297,30 @@ def test_data_configs_of_train_yaml_and_evaluate():
         data_config("no_such_data")
 
 
-def test_contact_weight_counts_the_balls_contact_tokens_more(toy):
+def _weighted_tokens(kind: str, batch: dict, fps: float) -> torch.Tensor:
+    """The tokens a loss weight applies to: the ball's near a contact, the players' starts."""
+    if kind == "contact_weight":
+        return batch["near_contact"] & batch["has_next"]
+    starts = movement_onsets(batch["vel_mps"], batch["pos_m"], batch["next_pos_m"], fps)
+    return starts & batch["has_next"][..., None]
+
+
+@pytest.mark.parametrize("kind", ["contact_weight", "onset_weight"])
+def test_loss_weights_count_only_their_tokens_more(toy, kind):
     mod, batch, _ = module_and_batch(toy)
-    near = batch["near_contact"] & batch["has_next"]
-    assert near.any()
+    tokens = _weighted_tokens(kind, batch, mod.cfg.fps)
+    assert tokens.any()
     with torch.no_grad():
         _, _, _, p_nll, b_nll = mod._forward(batch)
         base = mod.loss(p_nll, b_nll, batch)
-        mod.hparams.contact_weight = 4.0
+        mod.hparams[kind] = 4.0
         weighted = mod.loss(p_nll, b_nll, batch)
-    # Only the ball's near-contact tokens change, each by (4 - 1) times its NLL.
-    extra = 3.0 * (b_nll * near).sum() / batch["has_next"].sum() / 3.0
+    # Only those tokens change, each by (4 - 1) times its NLL.
+    nll = b_nll if kind == "contact_weight" else p_nll
+    extra = 3.0 * (nll * tokens).sum() / batch["has_next"].sum() / 3.0
     torch.testing.assert_close(weighted - base, extra, rtol=1e-5, atol=1e-6)
-    with pytest.raises(ValueError, match="contact_weight"):
-        module_and_batch(toy, contact_weight=0.0)
+    with pytest.raises(ValueError, match=kind):
+        module_and_batch(toy, **{kind: 0.0})
 
 
 def test_movement_onsets_are_the_frames_that_start_a_run():
@@ -324,20 +334,3 @@ def test_movement_onsets_are_the_frames_that_start_a_run():
     starts = movement_onsets(vel, pos, nxt, fps)
     assert starts[0, :, 1].tolist() == [False, False, True, False, False, False, False, False]
     assert not starts[..., 0].any()         # the server never moves
-
-
-def test_onset_weight_counts_the_players_starts_more(toy):
-    mod, batch, _ = module_and_batch(toy, onset_weight=3.0)
-    starts = movement_onsets(batch["vel_mps"], batch["pos_m"], batch["next_pos_m"], mod.cfg.fps)
-    starts &= batch["has_next"][..., None]
-    assert starts.any()
-    with torch.no_grad():
-        _, _, _, p_nll, b_nll = mod._forward(batch)
-        weighted = mod.loss(p_nll, b_nll, batch)
-        mod.hparams.onset_weight = 1.0
-        base = mod.loss(p_nll, b_nll, batch)
-    extra = 2.0 * (p_nll * starts).sum() / batch["has_next"].sum() / 3.0
-    torch.testing.assert_close(weighted - base, extra, rtol=1e-5, atol=1e-6)
-    with pytest.raises(ValueError, match="onset_weight"):
-        module_and_batch(toy, onset_weight=-1.0)
-
