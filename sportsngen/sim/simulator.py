@@ -228,7 +228,9 @@ class Simulator:
             raise ValueError("this model has no outcome calibrator: fit one with "
                              "scripts/rally_outcome_study.py --save-calibrator")
         p = whatif.rally_win_probability(self, rally_data, rally_id, frame, n, seed)
-        return float(self.outcome_calibrator(p)) if calibrated and p == p else p
+        if not calibrated or math.isnan(p):   # NaN: no realistic decided rollout
+            return p
+        return float(self.outcome_calibrator(p))
 
     def counterfactual(self, rally_data: RallyData, rally_id: int, shot_index: int,
                        options=("cross_court", "down_the_line"), n: int = 100,
