@@ -8,8 +8,9 @@ no weight decay, so the other rows stay bit-identical).
 
 A model trained on named players never uses its generic row (every training player has a row
 of its own), so training from scratch sets that row to the mean of the players' rows
-(`average_generic_identity`) before the model is saved: an unknown player then plays as the average trained player rather
-than as a random embedding, and `add_player` starts a new player from there.
+(`average_generic_identity`) before the model is saved: an unknown player then plays as the
+average trained player rather than as a random embedding, and `add_player` starts a new player
+from there.
 """
 
 from __future__ import annotations
