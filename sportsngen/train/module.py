@@ -81,8 +81,9 @@ class DecoderModule(L.LightningModule):
 
         Both are rare one-frame decisions (a contact is ~1 ball token in 30, a start one
         receiver token a shot) that a rollout must not miss: a model unsure when the ball will
-        be struck lets it fly past the player, and one unsure on which frame the receiver reacts leaves
-        him standing (a receiver who has not moved by then is, in the data, watching an ace).
+        be struck lets it fly past the player, and one unsure on which frame the receiver
+        reacts leaves him standing (a receiver who has not moved by then is, in the data,
+        watching an ace).
         Weighting them spends more of the training on them and raises their probability."""
         m = batch["has_next"]
         w = self.hparams.contact_weight
