@@ -26,7 +26,7 @@ from sportsngen.train.finetune import (
     player_rallies,
 )
 from sportsngen.train.metrics import NextFrameMetrics
-from sportsngen.train.module import DecoderModule, movement_onsets
+from sportsngen.train.module import DecoderModule, movement_changes, movement_onsets
 from sportsngen.train.run import build_model_config, train_from_config
 
 torch.set_num_threads(1)
@@ -301,11 +301,12 @@ def _weighted_tokens(kind: str, batch: dict, fps: float) -> torch.Tensor:
     """The tokens a loss weight applies to: the ball's near a contact, the players' starts."""
     if kind == "contact_weight":
         return batch["near_contact"] & batch["has_next"]
-    starts = movement_onsets(batch["vel_mps"], batch["pos_m"], batch["next_pos_m"], fps)
-    return starts & batch["has_next"][..., None]
+    find = movement_onsets if kind == "onset_weight" else movement_changes
+    return find(batch["vel_mps"], batch["pos_m"], batch["next_pos_m"], fps) \
+        & batch["has_next"][..., None]
 
 
-@pytest.mark.parametrize("kind", ["contact_weight", "onset_weight"])
+@pytest.mark.parametrize("kind", ["contact_weight", "onset_weight", "change_weight"])
 def test_loss_weights_count_only_their_tokens_more(toy, kind):
     mod, batch, _ = module_and_batch(toy)
     tokens = _weighted_tokens(kind, batch, mod.cfg.fps)
@@ -325,7 +326,7 @@ def test_loss_weights_count_only_their_tokens_more(toy, kind):
 
 def test_movement_onsets_are_the_frames_that_start_a_run():
     fps = 25.0
-    x = torch.tensor([0.0, 0.0, 0.0, 0.004, 0.012, 0.024, 0.024, 0.024])  # still, runs, stops
+    x = torch.tensor([0.0, 0.0, 0.0, 0.008, 0.024, 0.048, 0.048, 0.048])  # still, runs, stops
     pos = torch.zeros(1, 8, 3, 3)
     pos[0, :, 1, 0] = x
     vel = torch.zeros_like(pos)
@@ -334,3 +335,8 @@ def test_movement_onsets_are_the_frames_that_start_a_run():
     starts = movement_onsets(vel, pos, nxt, fps)
     assert starts[0, :, 1].tolist() == [False, False, True, False, False, False, False, False]
     assert not starts[..., 0].any()         # the server never moves
+    # Velocity 0, 0, 0, 0.2, 0.4, 0.6, 0, 0 m/s: the acceleration jumps where the run starts
+    # (frame 2: +0.2 a frame after 0), where it stops dead (frame 5: -0.6 after +0.2) and
+    # where the stop ends (frame 6: 0 after -0.6).
+    changes = movement_changes(vel, pos, nxt, fps)
+    assert changes[0, :, 1].tolist() == [False, False, True, False, False, True, True, False]

@@ -38,6 +38,23 @@ def movement_onsets(vel_mps: torch.Tensor, pos_m: torch.Tensor, next_pos_m: torc
     return still & (step * fps >= STILL_MPS)
 
 
+CHANGE_MPS = 0.12  # a change of a player's per-frame velocity change (m/s) that marks a new run
+
+
+def movement_changes(vel_mps: torch.Tensor, pos_m: torch.Tensor, next_pos_m: torch.Tensor,
+                     fps: float) -> torch.Tensor:
+    """(B, T, 2) bool: the player tokens at which his acceleration jumps (by CHANGE_MPS of
+    velocity a frame or more): a new run, braking, a turn. Not known at a window's first frame.
+    """
+    vel = vel_mps[..., :2, :2]
+    acc_next = (next_pos_m[..., :2, :2] - pos_m[..., :2, :2]) * fps - vel
+    acc_prev = torch.zeros_like(vel)
+    acc_prev[:, 1:] = vel[:, 1:] - vel[:, :-1]
+    out = torch.linalg.vector_norm(acc_next - acc_prev, dim=-1) >= CHANGE_MPS
+    out[:, 0] = False
+    return out
+
+
 class DecoderModule(L.LightningModule):
     """Trains `SportsNGEN` on next-frame bins; validation reports per object kind NLL, top-1
     bin accuracy (the ball also in flight and at racket contact) and the constant-velocity
@@ -46,9 +63,10 @@ class DecoderModule(L.LightningModule):
     def __init__(self, model_cfg: dict, vocab: dict, lr: float = 3e-4,
                  weight_decay: float = 0.01, warmup_steps: int = 50,
                  trainable_id_rows: list[int] | None = None, contact_weight: float = 1.0,
-                 onset_weight: float = 1.0):
+                 onset_weight: float = 1.0, change_weight: float = 1.0):
         super().__init__()
-        for name, value in (("contact_weight", contact_weight), ("onset_weight", onset_weight)):
+        for name, value in (("contact_weight", contact_weight), ("onset_weight", onset_weight),
+                            ("change_weight", change_weight)):
             if not value > 0:
                 raise ValueError(f"{name} must be positive, got {value}")
         self.save_hyperparameters()
@@ -94,6 +112,11 @@ class DecoderModule(L.LightningModule):
             starts = movement_onsets(batch["vel_mps"], batch["pos_m"], batch["next_pos_m"],
                                      self.cfg.fps)
             p_nll = p_nll * (1.0 + (w - 1.0) * starts.to(p_nll.dtype))
+        w = self.hparams.get("change_weight", 1.0)
+        if w != 1.0:
+            changes = movement_changes(batch["vel_mps"], batch["pos_m"], batch["next_pos_m"],
+                                       self.cfg.fps)
+            p_nll = p_nll * (1.0 + (w - 1.0) * changes.to(p_nll.dtype))
         return (_masked_mean(p_nll.sum(-1), m) + _masked_mean(b_nll, m)) / 3.0
 
     def training_step(self, batch: dict, batch_idx: int) -> torch.Tensor:

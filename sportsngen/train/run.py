@@ -123,7 +123,8 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
                            weight_decay=float(opt.weight_decay),
                            warmup_steps=int(opt.warmup_steps), trainable_id_rows=trainable_rows,
                            contact_weight=float(opt.get("contact_weight", 1.0)),
-                           onset_weight=float(opt.get("onset_weight", 1.0)))
+                           onset_weight=float(opt.get("onset_weight", 1.0)),
+                           change_weight=float(opt.get("change_weight", 1.0)))
     if init_state is not None:
         module.model.load_state_dict(init_state)
     resume = cfg.get("resume")
