@@ -18,11 +18,11 @@ import argparse
 
 import pandas as pd
 import torch
+from diagnose_returns import first_serves  # scripts/ is on the path of a script it runs
 
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.sim import Simulator
 from sportsngen.sim.assemble import realistic_points
-from sportsngen.synth.generate import generate_matches
 
 MAX_SHOTS_ROW = 5   # longer rallies are pooled into this row
 
@@ -50,14 +50,8 @@ def main() -> None:
     if args.threads:
         torch.set_num_threads(args.threads)
     sim = Simulator.from_pretrained(args.model)
-    simulated = realistic_points(sim.simulate_points(args.server, args.receiver, "hard",
-                                                     args.points, seed=args.seed,
-                                                     serve_number=1))
-    truth = generate_matches([(args.server, args.receiver)], "hard", 2 * args.points,
-                             seed=args.seed, workers=1)
-    r = truth.rallies
-    truth = truth.subset(r.loc[(r["serve_number"] == 1) & (r["server"] == args.server),
-                               "rally_id"])
+    simulated, truth = first_serves(sim, args.server, args.receiver, args.points, args.seed)
+    simulated = realistic_points(simulated)
     for name, data in (("simulated", simulated), ("ground truth", truth)):
         table, won, n = returned_rally_table(data)
         print(f"{name}: {n} returned first serves of {args.server}; the server won "

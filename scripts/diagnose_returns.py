@@ -62,6 +62,17 @@ def receiver_table(data) -> np.ndarray:
     return np.asarray(rows)
 
 
+def first_serves(sim: Simulator, server: str, receiver: str, n_points: int, seed: int):
+    """-> (`n_points` simulated first serves of `server` on hard, the generator's first serves
+    of `server` in `2 * n_points` points of the same matchup)."""
+    simulated = sim.simulate_points(server, receiver, "hard", n_points, seed=seed,
+                                    serve_number=1)
+    truth = generate_matches([(server, receiver)], "hard", 2 * n_points, seed=seed, workers=1)
+    r = truth.rallies
+    truth = truth.subset(r.loc[(r["serve_number"] == 1) & (r["server"] == server), "rally_id"])
+    return simulated, truth
+
+
 def describe(name: str, t: np.ndarray) -> None:
     near = t[:, 1] < 1.0
     print(f"{name:<6} serves in the box {len(t):>4}; receiver moved by the bounce: median "
@@ -146,12 +157,7 @@ def main() -> None:
                             ("top_p_ball", args.top_p_ball)) if v is not None}
     sim = Simulator.from_pretrained(args.model, **kw)
     print(f"top-p player {sim.top_p_player}, ball {sim.top_p_ball}")
-    simd = sim.simulate_points(SERVER, RECEIVER, "hard", args.points, seed=args.seed,
-                               serve_number=1)
-    truth = generate_matches([(SERVER, RECEIVER)], "hard", 2 * args.points, seed=args.seed,
-                             workers=1)
-    r = truth.rallies
-    truth = truth.subset(r.loc[(r["serve_number"] == 1) & (r["server"] == SERVER), "rally_id"])
+    simd, truth = first_serves(sim, SERVER, RECEIVER, args.points, args.seed)
     describe("sim", receiver_table(simd))
     describe("truth", receiver_table(truth))
     print("teacher-forced on the ground truth's returns: P(reversal) / recorded share")

@@ -18,7 +18,7 @@ import argparse
 from pathlib import Path
 
 from sportsngen.model.export import load_model, read_extra, save_model
-from sportsngen.sim.simulator import BUNDLED_NAMES, DEFAULT_MODEL
+from sportsngen.sim.simulator import model_path
 from sportsngen.train.finetune import average_generic_identity, load_pretrained
 
 
@@ -26,7 +26,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("checkpoint", type=Path)
     ap.add_argument("out", type=Path)
-    ap.add_argument("--from", dest="source", type=Path, default=BUNDLED_NAMES[DEFAULT_MODEL])
+    ap.add_argument("--from", dest="source", type=Path, default=model_path())
     ap.add_argument("--average-generic-identity", action="store_true")
     args = ap.parse_args()
     model, _, vocab, _ = load_pretrained(args.checkpoint)

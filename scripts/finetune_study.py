@@ -169,9 +169,9 @@ def main() -> None:
     t_start = time.perf_counter()
     pdata_overrides = player_data(args.player, args.player_points, args.population_seed)
     if args.base is not None:
-        from sportsngen.sim.simulator import BUNDLED_NAMES, DEFAULT_MODEL
+        from sportsngen.sim.simulator import model_path
 
-        base = Path(BUNDLED_NAMES[DEFAULT_MODEL] if args.base == "bundled" else args.base)
+        base = model_path(None if args.base == "bundled" else args.base)
     else:
         others = [p for p in NAMED if p != args.player]
         without = {"name": f"synthetic_small_without_{args.player.replace(' ', '_')}",

@@ -125,10 +125,9 @@ def main() -> None:
     print("\n".join(lines))
     if args.save_calibrator:
         from sportsngen.model.export import update_extra
-        from sportsngen.sim.simulator import BUNDLED_NAMES, DEFAULT_MODEL
+        from sportsngen.sim.simulator import model_path
 
-        name = DEFAULT_MODEL if args.model is None else args.model
-        path = update_extra(BUNDLED_NAMES.get(name, Path(name)), outcome_calibrator=cal.to_dict())
+        path = update_extra(model_path(args.model), outcome_calibrator=cal.to_dict())
         print(f"stored the calibrator ({len(cal.x)} blocks) in {path}")
 
 

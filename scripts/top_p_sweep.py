@@ -28,7 +28,7 @@ import torch
 from sportsngen.eval.physical import compare_data
 from sportsngen.model.export import update_extra
 from sportsngen.sim import Simulator
-from sportsngen.sim.simulator import BUNDLED_NAMES, DEFAULT_MODEL
+from sportsngen.sim.simulator import model_path
 from sportsngen.synth.generate import generate_matches
 
 PLAYERS = ("Roger Federer", "Rafael Nadal")
@@ -134,7 +134,7 @@ def main() -> None:
     (args.out / "top_p.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     if args.write_default:
-        path = BUNDLED_NAMES.get(args.model or DEFAULT_MODEL, Path(args.model or ""))
+        path = model_path(args.model)
         update_extra(path, sim_defaults=chosen)
         print(f"stored top-p {chosen} as the default of {path}")
 

@@ -26,7 +26,12 @@ from sportsngen.train.finetune import (
     player_rallies,
 )
 from sportsngen.train.metrics import NextFrameMetrics
-from sportsngen.train.module import DecoderModule, movement_changes, movement_onsets
+from sportsngen.train.module import (
+    PLAYER_TOKEN_WEIGHTS,
+    DecoderModule,
+    movement_changes,
+    movement_onsets,
+)
 from sportsngen.train.run import build_model_config, train_from_config
 
 torch.set_num_threads(1)
@@ -301,12 +306,12 @@ def _weighted_tokens(kind: str, batch: dict, fps: float) -> torch.Tensor:
     """The tokens a loss weight applies to: the ball's near a contact, the players' starts."""
     if kind == "contact_weight":
         return batch["near_contact"] & batch["has_next"]
-    find = movement_onsets if kind == "onset_weight" else movement_changes
+    find = PLAYER_TOKEN_WEIGHTS[kind]
     return find(batch["vel_mps"], batch["pos_m"], batch["next_pos_m"], fps) \
         & batch["has_next"][..., None]
 
 
-@pytest.mark.parametrize("kind", ["contact_weight", "onset_weight", "change_weight"])
+@pytest.mark.parametrize("kind", ["contact_weight", *PLAYER_TOKEN_WEIGHTS])
 def test_loss_weights_count_only_their_tokens_more(toy, kind):
     mod, batch, _ = module_and_batch(toy)
     tokens = _weighted_tokens(kind, batch, mod.cfg.fps)

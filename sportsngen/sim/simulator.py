@@ -40,6 +40,12 @@ from sportsngen.tennis.rally import RallyTracker
 BUNDLED_DIR = Path(__file__).resolve().parents[1] / "model" / "bundled"
 BUNDLED_NAMES = {"sportsngen-small": BUNDLED_DIR / "sportsngen-small.pt"}
 DEFAULT_MODEL = "sportsngen-small"
+
+
+def model_path(path_or_name: str | Path | None = None) -> Path:
+    """The file of a bundled model name (None: the default bundled model), or the path given."""
+    name = DEFAULT_MODEL if path_or_name is None else str(path_or_name)
+    return BUNDLED_NAMES.get(name, Path(name))
 TOURNAMENT = "synthetic"
 
 
@@ -76,8 +82,7 @@ class Simulator:
         """Load a model file (or a bundled model by name; None: the default bundled model).
         Keyword arguments go to `Simulator` (top_p_player, top_p_ball, max_duration_s, ...);
         top-p defaults to the values stored with the model, if any."""
-        name = DEFAULT_MODEL if path_or_name is None else str(path_or_name)
-        path = BUNDLED_NAMES.get(name, Path(name))
+        path = model_path(path_or_name)
         model, ec, vocab, _ = load_model(path)
         extra = read_extra(path)
         if "initial_conditions" not in extra:
@@ -88,8 +93,7 @@ class Simulator:
         sim = cls(model, ec, vocab, InitialConditions.from_dict(extra["initial_conditions"]),
                   **kwargs)
         if extra.get("outcome_calibrator") is not None:
-            sim.outcome_calibrator = IsotonicCalibrator.from_dict(
-                {k: [float(v) for v in vals] for k, vals in extra["outcome_calibrator"].items()})
+            sim.outcome_calibrator = IsotonicCalibrator.from_dict(extra["outcome_calibrator"])
         return sim
 
     @property

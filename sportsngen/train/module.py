@@ -27,18 +27,22 @@ def batch_inputs(model_cfg: ModelConfig, batch: dict):
 
 
 STILL_MPS = 0.05   # a player slower than this is standing
+CHANGE_MPS = 0.12  # a jump of a player's velocity change a frame (m/s) that marks a new run
+
+
+def _player_velocities(vel_mps: torch.Tensor, pos_m: torch.Tensor, next_pos_m: torch.Tensor,
+                       fps: float) -> tuple[torch.Tensor, torch.Tensor]:
+    """The players' (B, T, 2, 2) horizontal velocity now and over the next frame (m/s)."""
+    return vel_mps[..., :2, :2], (next_pos_m[..., :2, :2] - pos_m[..., :2, :2]) * fps
 
 
 def movement_onsets(vel_mps: torch.Tensor, pos_m: torch.Tensor, next_pos_m: torch.Tensor,
                     fps: float) -> torch.Tensor:
     """(B, T, 2) bool: the player tokens whose next frame starts a run, standing now
     (speed < STILL_MPS) and moving by the next frame."""
-    still = torch.linalg.vector_norm(vel_mps[..., :2, :2], dim=-1) < STILL_MPS
-    step = torch.linalg.vector_norm(next_pos_m[..., :2, :2] - pos_m[..., :2, :2], dim=-1)
-    return still & (step * fps >= STILL_MPS)
-
-
-CHANGE_MPS = 0.12  # a change of a player's per-frame velocity change (m/s) that marks a new run
+    now, nxt = _player_velocities(vel_mps, pos_m, next_pos_m, fps)
+    return (torch.linalg.vector_norm(now, dim=-1) < STILL_MPS) & \
+        (torch.linalg.vector_norm(nxt, dim=-1) >= STILL_MPS)
 
 
 def movement_changes(vel_mps: torch.Tensor, pos_m: torch.Tensor, next_pos_m: torch.Tensor,
@@ -46,13 +50,16 @@ def movement_changes(vel_mps: torch.Tensor, pos_m: torch.Tensor, next_pos_m: tor
     """(B, T, 2) bool: the player tokens at which his acceleration jumps (by CHANGE_MPS of
     velocity a frame or more): a new run, braking, a turn. Not known at a window's first frame.
     """
-    vel = vel_mps[..., :2, :2]
-    acc_next = (next_pos_m[..., :2, :2] - pos_m[..., :2, :2]) * fps - vel
-    acc_prev = torch.zeros_like(vel)
-    acc_prev[:, 1:] = vel[:, 1:] - vel[:, :-1]
-    out = torch.linalg.vector_norm(acc_next - acc_prev, dim=-1) >= CHANGE_MPS
+    now, nxt = _player_velocities(vel_mps, pos_m, next_pos_m, fps)
+    acc_prev = torch.zeros_like(now)
+    acc_prev[:, 1:] = now[:, 1:] - now[:, :-1]
+    out = torch.linalg.vector_norm(nxt - now - acc_prev, dim=-1) >= CHANGE_MPS
     out[:, 0] = False
     return out
+
+
+# Loss weights of player tokens: hyper-parameter -> the tokens it weights.
+PLAYER_TOKEN_WEIGHTS = {"onset_weight": movement_onsets, "change_weight": movement_changes}
 
 
 class DecoderModule(L.LightningModule):
@@ -66,7 +73,7 @@ class DecoderModule(L.LightningModule):
                  onset_weight: float = 1.0, change_weight: float = 1.0):
         super().__init__()
         for name, value in (("contact_weight", contact_weight), ("onset_weight", onset_weight),
-                            ("change_weight", change_weight)):
+                            ("change_weight", change_weight)):   # PLAYER_TOKEN_WEIGHTS too
             if not value > 0:
                 raise ValueError(f"{name} must be positive, got {value}")
         self.save_hyperparameters()
@@ -94,8 +101,9 @@ class DecoderModule(L.LightningModule):
 
     def loss(self, p_nll: torch.Tensor, b_nll: torch.Tensor, batch: dict) -> torch.Tensor:
         """Mean NLL over object tokens (2 players + 1 ball a frame); the ball's tokens within a
-        frame of a racket contact count `contact_weight` times, and a player's tokens that
-        start a run from standing (`movement_onsets`) `onset_weight` times.
+        frame of a racket contact count `contact_weight` times, a player's tokens that start a
+        run from standing (`movement_onsets`) `onset_weight` times, and those where his
+        acceleration jumps (`movement_changes`) `change_weight` times.
 
         Both are rare one-frame decisions (a contact is ~1 ball token in 30, a start one
         receiver token a shot) that a rollout must not miss: a model unsure when the ball will
@@ -107,16 +115,11 @@ class DecoderModule(L.LightningModule):
         w = self.hparams.contact_weight
         if w != 1.0:
             b_nll = b_nll * (1.0 + (w - 1.0) * batch["near_contact"].to(b_nll.dtype))
-        w = self.hparams.get("onset_weight", 1.0)
-        if w != 1.0:
-            starts = movement_onsets(batch["vel_mps"], batch["pos_m"], batch["next_pos_m"],
-                                     self.cfg.fps)
-            p_nll = p_nll * (1.0 + (w - 1.0) * starts.to(p_nll.dtype))
-        w = self.hparams.get("change_weight", 1.0)
-        if w != 1.0:
-            changes = movement_changes(batch["vel_mps"], batch["pos_m"], batch["next_pos_m"],
-                                       self.cfg.fps)
-            p_nll = p_nll * (1.0 + (w - 1.0) * changes.to(p_nll.dtype))
+        for name, tokens in PLAYER_TOKEN_WEIGHTS.items():
+            w = self.hparams.get(name, 1.0)
+            if w != 1.0:
+                mask = tokens(batch["vel_mps"], batch["pos_m"], batch["next_pos_m"], self.cfg.fps)
+                p_nll = p_nll * (1.0 + (w - 1.0) * mask.to(p_nll.dtype))
         return (_masked_mean(p_nll.sum(-1), m) + _masked_mean(b_nll, m)) / 3.0
 
     def training_step(self, batch: dict, batch_idx: int) -> torch.Tensor:
