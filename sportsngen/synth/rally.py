@@ -15,6 +15,7 @@ limits exactly; the ball is sampled from the flights at the same frame times.
 from __future__ import annotations
 
 import math
+import zlib
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -33,7 +34,10 @@ FENCE_Y_M = 9.5
 GROUND_Z_RANGE_M = (0.15, 2.3)   # contact heights of a groundstroke after the bounce
 VOLLEY_Z_RANGE_M = (0.3, 3.0)    # before the bounce, for a player at the net
 IDEAL_CONTACT_Z_M = 1.0
-IDEAL_LATERAL_M = 0.75       # centre of mass to ball at a comfortable contact
+# Centre of mass to ball at contact: uniform in this range per shot (a single value taught
+# the decoder that a ball passing nearer the body is never struck, so rollouts whose receiver
+# stood in the ball's path let it through).
+CONTACT_LATERAL_RANGE_M = (0.3, 1.2)
 REACH_PLAN_FACTOR = 0.85     # plan contacts within this share of the reach (slack for steering)
 REACH_TOLERANCE_M = 0.15
 SEARCH_STEP_S = 0.02
@@ -225,6 +229,11 @@ def _difficulty(n_shots: int, previous: float, server: PlayerProfile, serve_numb
     return min(max(d, 0.2), 10.0)
 
 
+def _stream_key(rng: np.random.Generator) -> int:
+    """An integer fixed by `rng`'s current state, read without drawing from it."""
+    return zlib.crc32(repr(rng.bit_generator.state).encode())
+
+
 def play_rally(server: PlayerProfile, receiver: PlayerProfile, server_end: int,
                serving_side: str, serve_number: int, surface: str,
                rng: np.random.Generator, fps: float = 25.0, render: bool = True,
@@ -244,6 +253,9 @@ def play_rally(server: PlayerProfile, receiver: PlayerProfile, server_end: int,
                     receiver.max_speed_mps, receiver.max_accel_mps2, dt)]
     targets = [(movers[0].x, movers[0].y), (movers[1].x, movers[1].y)]
     at_net = [False, False]
+    # Draws that shape the tracks but not the play come from a side stream keyed on the
+    # rally's position in `rng`, so they leave every outcome draw where it was.
+    shape_rng = np.random.default_rng(_stream_key(rng))
 
     # -- the toss and the serve
     contact = np.array([server_end * (BASELINE_X_M - 0.25), stance[1] * 0.9,
@@ -333,9 +345,10 @@ def play_rally(server: PlayerProfile, receiver: PlayerProfile, server_end: int,
             # Run to the point at a comfortable distance from the ball on the way to it.
             bx, by = hit.ball_m[0], hit.ball_m[1]
             away = math.hypot(movers[opp].x - bx, movers[opp].y - by)
-            if away > IDEAL_LATERAL_M:
-                spot = (bx + (movers[opp].x - bx) * IDEAL_LATERAL_M / away,
-                        by + (movers[opp].y - by) * IDEAL_LATERAL_M / away)
+            lateral = shape_rng.uniform(*CONTACT_LATERAL_RANGE_M)
+            if away > lateral:
+                spot = (bx + (movers[opp].x - bx) * lateral / away,
+                        by + (movers[opp].y - by) * lateral / away)
             else:
                 spot = (movers[opp].x, movers[opp].y)
             movers[opp].run_to(max(k_next, k_react), *spot, hurry=True)
