@@ -17,6 +17,9 @@ constant-velocity extrapolation) against how often the recorded next frame has o
 receiver's tokens around the frame where he starts to run after the serve
 (`sportsngen.train.module.movement_onsets`), the model's probability that he accelerates (an x
 offset of at least 1 mm from the constant-velocity extrapolation) against the recorded share.
+And for serves that came within 1 m of the receiver, simulated or recorded: the model's largest
+probability of a contact on the track itself, returned or not (a near serve the model would not
+strike shows a state it never saw a contact from).
 """
 
 from __future__ import annotations
@@ -38,6 +41,8 @@ from sportsngen.train.module import movement_onsets
 SERVER, RECEIVER = "Roger Federer", "Rafael Nadal"
 AFTER_BOUNCE_FRAMES = 30
 N_TOSS_FRAMES = 10       # nobody moves through the toss
+REVERSAL_M = 0.5         # an x offset this far from free flight is a racket contact
+STILL_M = 0.05           # a receiver who moved less by the bounce has not started
 
 
 def receiver_table(data) -> np.ndarray:
@@ -75,11 +80,65 @@ def first_serves(sim: Simulator, server: str, receiver: str, n_points: int, seed
 
 def describe(name: str, t: np.ndarray) -> None:
     near = t[:, 1] < 1.0
+    moving = t[:, 0] >= STILL_M
     print(f"{name:<6} serves in the box {len(t):>4}; receiver moved by the bounce: median "
-          f"{np.median(t[:, 0]):.2f} m; closest gap: median {np.median(t[:, 1]):.2f} m "
+          f"{np.median(t[:, 0]):.2f} m, still (< {STILL_M} m) {100 * (~moving).mean():.0f} %; "
+          f"closest gap: median {np.median(t[:, 1]):.2f} m "
           f"(IQR {np.percentile(t[:, 1], 25):.2f}-{np.percentile(t[:, 1], 75):.2f}); returned "
-          f"{100 * t[:, 2].mean():.0f} %; returned when the ball came within 1 m "
-          f"{100 * t[near, 2].mean():.0f} % (of {int(near.sum())})")
+          f"{100 * t[:, 2].mean():.0f} %, {100 * t[moving, 2].mean():.0f} % of those moving; "
+          f"returned when the ball came within 1 m {100 * t[near, 2].mean():.0f} % "
+          f"(of {int(near.sum())})")
+
+
+def reversal_prob(model, h_ball: torch.Tensor) -> torch.Tensor:
+    """(T, d) ball output states -> (T,) the model's probability that the next frame's x
+    offset from the constant-velocity extrapolation exceeds REVERSAL_M (a racket contact)."""
+    edges = model.ball_bins.edges[0]
+    far = ((edges[:-1] + edges[1:]) / 2).abs() > REVERSAL_M
+    p = model.ball_head.dim_logits(h_ball, torch.zeros(len(h_ball), 3, dtype=torch.long), 0)
+    return p.softmax(-1)[:, far].sum(-1)
+
+
+@torch.no_grad()
+def near_serves(sim: Simulator, data) -> np.ndarray:
+    """Serves in the box that came within 1 m of the receiver (first window only) -> (n, 4):
+    returned (0/1), closest gap (m), the receiver's speed there (m/s), and the model's
+    largest P(reversal) from the bounce to 30 frames after it, teacher-forced on the track
+    itself: low on an unreturned near serve means the model judged the state unplayable."""
+    model, cfg = sim.model, sim.model.cfg
+    rules = analyse_rally_data(data)
+    arr = rally_arrays(data, sim.vocab, unknown="generic")
+    windows = WindowDataset(arr, cfg.window_frames)
+    first = {ri: i for i, (ri, s) in enumerate(windows.items) if s == 0}
+    rows = []
+    for ri, rid in enumerate(arr.rally_id):
+        bounces = rules.at[rid, "bounce_frames"]
+        if not len(bounces):
+            continue
+        w = windows[first[ri]]
+        pos = np.asarray(w["pos_m"])
+        fb = bounces[0]
+        hi = min(fb + AFTER_BOUNCE_FRAMES, cfg.window_frames - 1, int(arr.length[ri]) - 1)
+        if hi <= fb or abs(pos[fb, BALL, 0]) > SERVICE_LINE_X_M:
+            continue
+        gap = np.hypot(*(pos[fb:hi, BALL, :2] - pos[fb:hi, 1, :2]).T)
+        if gap.min() > 1.0:
+            continue
+        k = fb + int(np.argmin(gap))
+        p_rev = reversal_prob(model, window_states(model, default_collate([w]))[0, :, BALL])
+        rows.append((float(rules.at[rid, "n_shots"] >= 2), gap.min(),
+                     np.hypot(*(pos[k, 1, :2] - pos[k - 1, 1, :2])) * cfg.fps,
+                     float(p_rev[fb:hi].max())))
+    return np.asarray(rows).reshape(-1, 4)
+
+
+def describe_near(name: str, t: np.ndarray) -> None:
+    for returned, label in ((1, "returned"), (0, "not returned")):
+        s = t[t[:, 0] == returned]
+        if len(s):
+            print(f"  {name:<6} {label:<13} {len(s):>4}: closest gap {np.median(s[:, 1]):.2f} m, "
+                  f"receiver speed there {np.median(s[:, 2]):.2f} m/s, largest P(reversal) "
+                  f"{np.median(s[:, 3]):.2f} (medians)")
 
 
 @torch.no_grad()
@@ -91,23 +150,19 @@ def contact_mass(sim: Simulator, data, offsets=range(-3, 2)) -> dict[int, tuple[
     arr = rally_arrays(data, sim.vocab, unknown="generic")
     windows = WindowDataset(arr, cfg.window_frames)
     first = {ri: i for i, (ri, s) in enumerate(windows.items) if s == 0}
-    edges = model.ball_bins.edges[0]
-    far = ((edges[:-1] + edges[1:]) / 2).abs() > 0.5
     out = {k: [] for k in offsets}
     for ri in range(len(arr)):
         contacts = rules["contact_frames"].iat[ri]
         if len(contacts) < 2 or contacts[1] + max(offsets) >= cfg.window_frames - 1:
             continue
         w = windows[first[ri]]
-        h = window_states(model, default_collate([w]))[0, :, BALL]
-        p = model.ball_head.dim_logits(h, torch.zeros(len(h), 3, dtype=torch.long), 0)
-        p = p.softmax(-1)
+        p_rev = reversal_prob(model, window_states(model, default_collate([w]))[0, :, BALL])
         off = w["next_pos_m"][:, BALL, 0] - centre_m(
             torch.as_tensor(w["pos_m"]), torch.as_tensor(w["vel_mps"]), cfg.fps,
             cfg.bin_centre)[:, BALL, 0].numpy()
         for k in offsets:
             f = contacts[1] + k
-            out[k].append((float(p[f][far].sum()), float(abs(off[f]) > 0.5)))
+            out[k].append((float(p_rev[f]), float(abs(off[f]) > REVERSAL_M)))
     return {k: tuple(np.mean(v, axis=0)) for k, v in out.items() if v}
 
 
@@ -160,6 +215,9 @@ def main() -> None:
     simd, truth = first_serves(sim, SERVER, RECEIVER, args.points, args.seed)
     describe("sim", receiver_table(simd))
     describe("truth", receiver_table(truth))
+    print("serves that came within 1 m of the receiver, teacher-forced on their own tracks:")
+    describe_near("sim", near_serves(sim, simd))
+    describe_near("truth", near_serves(sim, truth))
     print("teacher-forced on the ground truth's returns: P(reversal) / recorded share")
     for k, (p, share) in contact_mass(sim, truth).items():
         print(f"  ball token {k:+d} from the contact: {p:.3f} / {share:.2f}")

@@ -9,6 +9,7 @@ replaces the four context tokens by learned constants of the same shape (B, 4, d
 from __future__ import annotations
 
 import torch
+import torch.nn.functional as F
 from torch import nn
 
 from sportsngen.data.tokens import N_FEATURES, SCORE_FIELDS
@@ -25,6 +26,21 @@ def mlp(sizes: list[int], dropout: float = 0.0) -> nn.Sequential:
         if i < len(sizes) - 2:
             layers += [nn.GELU(), nn.Dropout(dropout)]
     return nn.Sequential(*layers)
+
+
+def run_mlp(seq: nn.Sequential, x: torch.Tensor) -> torch.Tensor:
+    """`seq(x)` for an `mlp` outside training, as plain functional calls: a rollout step is a
+    few hundred tiny operations at batch 1, and module-call overhead is a large share of it."""
+    if seq.training:
+        return seq(x)
+    for m in seq:
+        if isinstance(m, nn.Linear):
+            x = F.linear(x, m.weight, m.bias)
+        elif isinstance(m, nn.GELU):
+            x = F.gelu(x, approximate=m.approximate)
+        elif not isinstance(m, nn.Dropout):
+            x = m(x)
+    return x
 
 
 def feature_columns(features: tuple[str, ...]) -> list[int]:
@@ -59,9 +75,9 @@ class ObjectEmbedding(nn.Module):
             if ident is None:
                 raise ValueError("this embedding needs identity indices")
             if self.identity.embedding_dim > 0:
-                e = self.identity(ident)[:, None].expand(*feats.shape[:-1], -1)
-                feats = torch.cat([e, feats], dim=-1)
-        return self.mlp(feats)
+                e = F.embedding(ident, self.identity.weight)[:, None]
+                feats = torch.cat([e.expand(*feats.shape[:-1], -1), feats], dim=-1)
+        return run_mlp(self.mlp, feats)
 
 
 class ContextEmbedding(nn.Module):

@@ -15,6 +15,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from sportsngen.model.bins import flat_index, unflat_index
+from sportsngen.model.embedding import run_mlp
 from sportsngen.model.sampling import sample_top_p
 
 
@@ -60,9 +61,9 @@ class FactorisedHead(nn.Module):
     def dim_logits(self, h: torch.Tensor, prev: torch.Tensor, k: int) -> torch.Tensor:
         """Logits of dimension k given the bins `prev` (..., >= k) of dimensions 0..k-1."""
         if k == 0:
-            return self.first(h)
-        embs = [self.bin_emb[j](prev[..., j]) for j in range(k)]
-        return self.cond[k - 1](torch.cat([h, *embs], dim=-1))
+            return F.linear(h, self.first.weight, self.first.bias)
+        embs = [F.embedding(prev[..., j], self.bin_emb[j].weight) for j in range(k)]
+        return run_mlp(self.cond[k - 1], torch.cat([h, *embs], dim=-1))
 
     def nll(self, h: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:
         """Teacher-forced: sum over dimensions of -log p(idx_k | h, idx_<k)."""
