@@ -9,7 +9,8 @@ synthetic ground truth of the same matchup (`generate_matches`, 3000 points). Pr
 of non-realistic rallies (and which checks failed), then per server first serve in %, aces %,
 double faults %, serve points won % (over the realistic points), median first-serve speed and
 mean rally length, simulated beside ground truth (serve speeds from the ball tracks for both:
-all first serves, faults included, `sportsngen.eval.physical.shot_quantities`); and how often
+all first serves, faults included, `sportsngen.eval.physical.shot_quantities`), and which of
+them miss the acceptance tolerances (5 points, 8 km/h, 1 shot); and how often
 the event classifier's point winner agrees with the rules' winner on simulated rallies and on
 ground-truth rallies.
 """
@@ -37,6 +38,9 @@ PLAYERS = ("Roger Federer", "Rafael Nadal")
 COLUMNS = (("first_serve_in", "1st in %", 100), ("ace", "ace %", 100),
            ("double_fault", "DF %", 100), ("serve_points_won", "srv won %", 100),
            ("first_serve_kmh_median", "1st km/h", 1), ("rally_mean", "rally", 1))
+# The simulation issue's acceptance: |sim - truth| at most this, in the printed units.
+TOLERANCE = {"first_serve_in": 5.0, "ace": 5.0, "double_fault": 5.0, "serve_points_won": 5.0,
+             "first_serve_kmh_median": 8.0, "rally_mean": 1.0}
 
 
 def classifier_agreement_on_truth(sim: Simulator, data) -> float:
@@ -112,6 +116,16 @@ def main() -> None:
             n_pts = int(np.nan_to_num(st.loc[p, "n_points"]))
             rows.append({"server": p, "source": name, "n_points": n_pts,
                          **{c: float(st.loc[p, c]) for c, _, _ in COLUMNS}})
+    misses = []
+    for p in PLAYERS:
+        for c, h, f in COLUMNS:
+            gap = abs(s_sim.loc[p, c] - s_true.loc[p, c]) * f
+            if not gap <= TOLERANCE[c]:
+                misses.append(f"{p} {h} off by {gap:.1f} (tolerance {TOLERANCE[c]:g})")
+    print(f"\nwithin tolerance: {2 * len(COLUMNS) - len(misses)} of {2 * len(COLUMNS)}; "
+          f"non-realistic {'under' if unreal < 0.10 else 'NOT under'} 10 %")
+    for m in misses:
+        print(f"  outside: {m}")
     decided = r[(r["rules_winner"] >= 0)]
     agree_sim = float((decided["classifier_winner"] == decided["rules_winner"]).mean())
     sub = truth.subset(truth.rallies["rally_id"].iloc[:1000])
@@ -122,6 +136,7 @@ def main() -> None:
     if args.json:
         with open(args.json, "w") as fh:
             json.dump({"non_realistic": unreal, "failed_checks": dict(failed), "stats": rows,
+                       "outside_tolerance": misses,
                        "agreement_sim": agree_sim, "agreement_truth": agree_true,
                        "simulate_s": sim_s, "top_p_player": sim.top_p_player,
                        "top_p_ball": sim.top_p_ball}, fh, indent=2)
