@@ -211,6 +211,15 @@ def test_train_py_through_hydra_resume_mismatch_and_finetune(tmp_path, monkeypat
     m3 = load_model(ft3["model_file"])[0]
     assert not torch.equal(m3.ln_f.weight, model.ln_f.weight)
 
+    # Retrain the event classifier alone: no decoder steps, a new g.
+    g = train_from_config(_compose([*fast, f"init={out / 'model.pt'}", "trainer.max_steps=0",
+                                    "events.retrain=true", "events.max_steps=2"]),
+                          tmp_path / "g")
+    m4, ec4 = load_model(g["model_file"])[:2]
+    for k, v in model.state_dict().items():
+        assert torch.equal(v, m4.state_dict()[k]), k
+    assert not all(torch.equal(v, ec4.state_dict()[k]) for k, v in ec.state_dict().items())
+
 
 def test_same_seed_same_weights(tmp_path):
     over = ["experiment=tiny", "data=toy", "data.n_rallies=12", "trainer.max_steps=3",

@@ -137,7 +137,9 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
                "n_params": sum(p.numel() for p in module.model.parameters()),
                "out_dir": str(out_dir)}
     ev = cfg.get("events") or {}
-    if ev.get("enabled", False) and not cfg.get("init"):
+    # From `init` the base model's classifier is kept unless asked to retrain it
+    # (`events.retrain=true`, e.g. with trainer.max_steps=0 to retrain g alone).
+    if ev.get("enabled", False) and (not cfg.get("init") or ev.get("retrain", False)):
         em = EventModule(model_cfg.to_dict(), lr=float(ev.get("lr", 1e-3)))
         et = _trainer(cfg, out_dir, "events", int(ev.get("max_steps", 100)))
         et.fit(em, dm)
