@@ -2,14 +2,17 @@
 extras (serve starts, simulation defaults, split).
 
     .venv/bin/python scripts/export_checkpoint.py CHECKPOINT OUT [--from MODEL_FILE]
+        [--events-from MODEL_FILE] [--average-generic-identity]
 
 For a training stopped at a chosen checkpoint (`outputs/.../checkpoints_decoder/*.ckpt`, which
 hold the decoder only): the decoder's weights from CHECKPOINT, everything else from --from
-(default: the bundled model). The two must share the vocabulary. CHECKPOINT may also be a
-model file. `--average-generic-identity` sets the generic identity row to the mean of the
-players' rows (`sportsngen.train.finetune.average_generic_identity`, what training from scratch
-does), for a model trained on named players whose generic row was never trained; not for a
-player fine-tuned onto a generic model, whose generic row is the trained one.
+(default: the bundled model), the event classifier from --events-from when given (a model file
+whose g was retrained: `train.py init=... trainer.max_steps=0 events.retrain=true`). All must
+share the vocabulary. CHECKPOINT may also be a model file. `--average-generic-identity` sets the
+generic identity row to the mean of the players' rows
+(`sportsngen.train.finetune.average_generic_identity`, what training from scratch does), for a
+model trained on named players whose generic row was never trained; not for a player fine-tuned
+onto a generic model, whose generic row is the trained one.
 """
 
 from __future__ import annotations
@@ -27,17 +30,20 @@ def main() -> None:
     ap.add_argument("checkpoint", type=Path)
     ap.add_argument("out", type=Path)
     ap.add_argument("--from", dest="source", type=Path, default=model_path())
+    ap.add_argument("--events-from", type=Path, default=None)
     ap.add_argument("--average-generic-identity", action="store_true")
     args = ap.parse_args()
     model, _, vocab, _ = load_pretrained(args.checkpoint)
-    _, event_model, vocab_src, _ = load_model(args.source)
-    if vocab.to_dict() != vocab_src.to_dict():
-        raise SystemExit(f"{args.checkpoint} and {args.source} have different vocabularies")
+    events_from = args.events_from or args.source
+    for other in {args.source, events_from}:
+        if vocab.to_dict() != load_model(other)[2].to_dict():
+            raise SystemExit(f"{args.checkpoint} and {other} have different vocabularies")
+    event_model = load_model(events_from)[1]
     extra = read_extra(args.source)
     if args.average_generic_identity:
         average_generic_identity(model, vocab)
     save_model(args.out, model, vocab, event_model, extra=extra)
-    print(f"wrote {args.out} (decoder of {args.checkpoint}; event classifier and "
+    print(f"wrote {args.out} (decoder of {args.checkpoint}; event classifier of {events_from}; "
           f"{sorted(extra)} of {args.source})")
 
 
