@@ -47,7 +47,8 @@ from sportsngen.synth.profiles import (
 from sportsngen.tennis.scoring import MatchFormat
 
 GENERATOR_VERSION = "5"  # bump when the generated tracks change (3: still through the toss;
-#                           4: players run at balls they cannot reach)
+#                           4: players run at balls they cannot reach; 5: contacts from
+#                           0.3-1.2 m beside the body)
 _ARROW = {"int64": pa.int64(), "float64": pa.float64(), "string": pa.string(), "bool": pa.bool_()}
 
 
