@@ -90,6 +90,14 @@ def describe(name: str, t: np.ndarray) -> None:
           f"(of {int(near.sum())})")
 
 
+def first_windows(sim: Simulator, data) -> tuple[object, list[dict]]:
+    """-> (the rallies' arrays, each rally's first window, in the arrays' order)."""
+    arr = rally_arrays(data, sim.vocab, unknown="generic")
+    windows = WindowDataset(arr, sim.model.cfg.window_frames)
+    first = {ri: i for i, (ri, s) in enumerate(windows.items) if s == 0}
+    return arr, [windows[first[ri]] for ri in range(len(arr))]
+
+
 def reversal_prob(model, h_ball: torch.Tensor) -> torch.Tensor:
     """(T, d) ball output states -> (T,) the model's probability that the next frame's x
     offset from the constant-velocity extrapolation exceeds REVERSAL_M (a racket contact)."""
@@ -107,15 +115,12 @@ def near_serves(sim: Simulator, data) -> np.ndarray:
     itself: low on an unreturned near serve means the model judged the state unplayable."""
     model, cfg = sim.model, sim.model.cfg
     rules = analyse_rally_data(data)
-    arr = rally_arrays(data, sim.vocab, unknown="generic")
-    windows = WindowDataset(arr, cfg.window_frames)
-    first = {ri: i for i, (ri, s) in enumerate(windows.items) if s == 0}
+    arr, firsts = first_windows(sim, data)
     rows = []
-    for ri, rid in enumerate(arr.rally_id):
+    for ri, (rid, w) in enumerate(zip(arr.rally_id, firsts)):
         bounces = rules.at[rid, "bounce_frames"]
         if not len(bounces):
             continue
-        w = windows[first[ri]]
         pos = np.asarray(w["pos_m"])
         fb = bounces[0]
         hi = min(fb + AFTER_BOUNCE_FRAMES, cfg.window_frames - 1, int(arr.length[ri]) - 1)
@@ -147,15 +152,12 @@ def contact_mass(sim: Simulator, data, offsets=range(-3, 2)) -> dict[int, tuple[
     `offset` frames from each return's contact (returns within the first window only)."""
     model, cfg = sim.model, sim.model.cfg
     rules = analyse_rally_data(data).reset_index(drop=True)
-    arr = rally_arrays(data, sim.vocab, unknown="generic")
-    windows = WindowDataset(arr, cfg.window_frames)
-    first = {ri: i for i, (ri, s) in enumerate(windows.items) if s == 0}
+    _, firsts = first_windows(sim, data)
     out = {k: [] for k in offsets}
-    for ri in range(len(arr)):
+    for ri, w in enumerate(firsts):
         contacts = rules["contact_frames"].iat[ri]
         if len(contacts) < 2 or contacts[1] + max(offsets) >= cfg.window_frames - 1:
             continue
-        w = windows[first[ri]]
         p_rev = reversal_prob(model, window_states(model, default_collate([w]))[0, :, BALL])
         off = w["next_pos_m"][:, BALL, 0] - centre_m(
             torch.as_tensor(w["pos_m"]), torch.as_tensor(w["vel_mps"]), cfg.fps,
@@ -171,15 +173,11 @@ def onset_mass(sim: Simulator, data, offsets=range(-2, 2)) -> dict[int, tuple[fl
     """Teacher-forced: {offset: (mean P(receiver accelerates), recorded share)} at the
     receiver's tokens `offset` frames from his first start after the serve (first window)."""
     model, cfg = sim.model, sim.model.cfg
-    arr = rally_arrays(data, sim.vocab, unknown="generic")
-    windows = WindowDataset(arr, cfg.window_frames)
     edges = model.player_bins.edges[0]
     still = ((edges[:-1] + edges[1:]) / 2).abs() < 1e-3
     out = {k: [] for k in offsets}
-    for i, (_, s) in enumerate(windows.items):
-        if s != 0:
-            continue
-        w = default_collate([windows[i]])
+    for first in first_windows(sim, data)[1]:
+        w = default_collate([first])
         starts = movement_onsets(w["vel_mps"], w["pos_m"], w["next_pos_m"], cfg.fps)[0, :, 1]
         starts &= w["has_next"][0]
         starts[:N_TOSS_FRAMES] = False

@@ -35,10 +35,10 @@ def main() -> None:
     args = ap.parse_args()
     model, _, vocab, _ = load_pretrained(args.checkpoint)
     events_from = args.events_from or args.source
-    for other in {args.source, events_from}:
-        if vocab.to_dict() != load_model(other)[2].to_dict():
+    for other in dict.fromkeys((args.source, events_from)):
+        _, event_model, other_vocab, _ = load_model(other)   # the last is events_from's
+        if vocab.to_dict() != other_vocab.to_dict():
             raise SystemExit(f"{args.checkpoint} and {other} have different vocabularies")
-    event_model = load_model(events_from)[1]
     extra = read_extra(args.source)
     if args.average_generic_identity:
         average_generic_identity(model, vocab)
