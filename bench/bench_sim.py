@@ -85,6 +85,17 @@ _STEP_CHILD = _COMMON + textwrap.dedent("""
             out[kind + "_ms"] = 1000 * run(kind)
         with cpu_threads(1):   # what a rollout of a few rallies uses (SINGLE_THREAD_ROWS)
             out["cache_1t_ms"] = 1000 * run("cache")
+        # Both paths compiled (torch.compile; the first runs compile), each at the thread
+        # count a rollout gives it: the cache at one thread up to 8 rows, the window at all.
+        model.compile_step()
+        with cpu_threads(1 if b <= 8 else None):
+            run("cache")
+            out["cache_compiled_ms"] = 1000 * run("cache")
+        window = model
+        model = torch.compile(window)
+        run("window")
+        out["window_compiled_ms"] = 1000 * run("window")
+        model = window.compile_step(False)
         # The cached state equals the band recomputation on the same frames.
         cache = cache0.select(torch.arange(b))
         h_c, _ = model.forward_step(feats[:, n], cache)
@@ -98,12 +109,15 @@ _STEP_CHILD = _COMMON + textwrap.dedent("""
 """)
 
 _ROLLOUT_CHILD = _COMMON + textwrap.dedent("""
-    b, n_frames = int(sys.argv[3]), int(sys.argv[4])
+    b, n_frames, compiled = int(sys.argv[3]), int(sys.argv[4]), sys.argv[5] == "1"
+    if compiled:
+        model.compile_step()
+        rollout(model, inputs(b), n_frames, seed=0)           # compiles
     rollout(model, inputs(min(b, 4)), 20, seed=0)          # warm-up
     t0 = time.perf_counter()
     r = rollout(model, inputs(b), n_frames, seed=1)
     wall = time.perf_counter() - t0
-    print(json.dumps({"b": b, "frames": r.frames_simulated, "wall_s": wall,
+    print(json.dumps({"b": b, "compiled": compiled, "frames": r.frames_simulated, "wall_s": wall,
                       "frames_per_s": r.frames_simulated / wall,
                       "ms_per_step": 1000 * wall / r.n_steps, "peak_rss_mb": peak_mb()}))
 """)
@@ -211,11 +225,15 @@ def bench_simulation(quick: bool, model: Path = BUNDLED, threads: int = 2,
               f"(1 thread {s['cache_1t_ms']:.2f} ms), "
               f"window {s['window_ms']:.1f} ms ({s['window_ms'] / s['cache_ms']:.0f}x), "
               f"recompute {s['recompute_ms']:.1f} ms ({s['recompute_ms'] / s['cache_ms']:.0f}x)"
+              f"; compiled: cache {s['cache_compiled_ms']:.2f} ms, "
+              f"window {s['window_compiled_ms']:.1f} ms"
               f"; cache vs recompute max |diff| {s['max_abs_diff']:.1e}")
     n_frames = 100 if quick else 200
-    rolls = [_child(_ROLLOUT_CHILD, model, threads, b, n_frames) for b in (1, 64, 256)]
-    for r in rolls:
-        print(f"rollout B={r['b']}: {r['frames_per_s']:.0f} frames/s "
+    rolls = [_child(_ROLLOUT_CHILD, model, threads, b, n_frames, 0) for b in (1, 64, 256)]
+    compiled_roll = _child(_ROLLOUT_CHILD, model, threads, 1, n_frames, 1)
+    for r in rolls + [compiled_roll]:
+        print(f"rollout B={r['b']}{' compiled' if r['compiled'] else ''}: "
+              f"{r['frames_per_s']:.0f} frames/s "
               f"({r['ms_per_step']:.2f} ms a step), peak RSS {r['peak_rss_mb']:.0f} MB")
     e2e = _child(_SIM_CHILD, model, threads) if end_to_end else None
     from sportsngen.model.export import load_model
@@ -252,17 +270,22 @@ def bench_simulation(quick: bool, model: Path = BUNDLED, threads: int = 2,
         "",
         f"Cache ms is at {threads} threads; cache 1t at one thread, which is what a rollout of "
         "up to 8 rallies uses (`SINGLE_THREAD_ROWS`); the speed-ups are window (recompute) "
-        "at its own thread count over the cache as a rollout runs it.",
+        "at its own thread count over the cache as a rollout runs it. Compiled: both paths "
+        "through `torch.compile` (`SportsNGEN.compile_step` for the cache, each at the thread "
+        "count a rollout gives it), timed after their compilation.",
         "",
         "| B | cache ms | cache 1t ms | window ms | speed-up | recompute ms | speed-up | "
+        "compiled cache ms | compiled window ms | speed-up compiled | "
         "max abs diff (hidden) | max abs diff (logits) | peak RSS MB |",
-        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for s in steps:
         used = s["cache_1t_ms"] if s["b"] <= 8 else s["cache_ms"]
         lines.append(f"| {s['b']} | {s['cache_ms']:.2f} | {s['cache_1t_ms']:.2f} | "
                      f"{s['window_ms']:.1f} | {s['window_ms'] / used:.0f}x | "
                      f"{s['recompute_ms']:.1f} | {s['recompute_ms'] / used:.0f}x | "
+                     f"{s['cache_compiled_ms']:.2f} | {s['window_compiled_ms']:.1f} | "
+                     f"{s['window_compiled_ms'] / s['cache_compiled_ms']:.0f}x | "
                      f"{s['max_abs_diff']:.1e} | {s['max_abs_logit_diff']:.1e} | "
                      f"{s['peak_rss_mb']:.0f} |")
     base = rolls[0]["frames_per_s"]
@@ -285,6 +308,10 @@ def bench_simulation(quick: bool, model: Path = BUNDLED, threads: int = 2,
         lines.append(f"| {r['b']} | {r['frames_per_s']:.0f} | {r['frames_per_s'] / base:.1f} | "
                      f"{r['ms_per_step']:.2f} | {100 * r['share_of_peak']:.1f} % | "
                      f"{r['kv_gbps']:.1f} | {r['peak_rss_mb']:.0f} |")
+    lines += ["", f"With the compiled step (`compile_step`, timed after a compiling run), B = 1: "
+              f"{compiled_roll['frames_per_s']:.0f} frames/s "
+              f"({compiled_roll['ms_per_step']:.2f} ms a step); the step is about half of a "
+              "B = 1 frame, sampling and the rally tracker the rest."]
     if e2e:
         lines += ["", "End to end (`Simulator`: rollouts, rally-end rules, event labels, tables), "
                   "Roger Federer v Rafael Nadal on hard, seed 0:", "",
@@ -299,7 +326,8 @@ def bench_simulation(quick: bool, model: Path = BUNDLED, threads: int = 2,
                   f"({e2e['discarded']} set aside as non-realistic or undecided, "
                   f"{e2e['forced']} points decided without a realistic rally); peak RSS "
                   f"{e2e['peak_rss_mb']:.0f} MB"]
-    return lines, {"steps": steps, "rollouts": rolls, "end_to_end": e2e, "peak_gflops": peak,
+    return lines, {"steps": steps, "rollouts": rolls, "compiled_rollout": compiled_roll,
+                   "end_to_end": e2e, "peak_gflops": peak,
                    "flops_per_frame": fpf, "read_gbps": bandwidth}
 
 

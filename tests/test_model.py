@@ -1,6 +1,7 @@
 """Decoder f, mask, KV cache, bins, heads, top-p sampling, event classifier, export."""
 
 import math
+import shutil
 
 import pytest
 import torch
@@ -173,6 +174,38 @@ def test_ring_cache_equals_band_recompute_beyond_the_window(prefill):
             h, cache = model.forward_step(feats[:, k], cache)
             assert (h - full[:, k]).abs().max().item() < 1e-4
     assert cache.n_frames == t and cache.n_keys == 4 + 3 * w
+
+
+@pytest.mark.skipif(shutil.which("c++") is None and shutil.which("g++") is None,
+                    reason="torch.compile on CPU needs a C++ compiler")
+def test_compiled_step_equals_the_eager_step_past_the_window():
+    """`compile_step` changes how the cached step runs, not what it computes: through the ring's
+    wrap-around and a batch compaction, the compiled states equal the eager ones."""
+    model = make_model()
+    w = model.cfg.window_frames
+    feats, ident, ctx = inputs(model.cfg, b=3, t=w + 4)
+    c = model.context_tokens(*ctx)
+
+    def run():
+        _, cache = model(feats[:, :2], ident, c, return_cache=True)
+        states, rows = [], torch.arange(3)
+        for k in range(2, w + 4):
+            if k == w:      # a rally ends: the batch drops row 1
+                rows = torch.tensor([0, 2])
+                cache = cache.select(torch.tensor([0, 2]))
+            h, cache = model.forward_step(feats[rows, k], cache)
+            states.append(h)
+        return states, cache
+
+    with torch.no_grad():
+        eager, eager_cache = run()
+        model.compile_step()
+        compiled, compiled_cache = run()
+    assert model._compiled_step is not None
+    assert max((a - b).abs().max().item() for a, b in zip(eager, compiled)) < 1e-5
+    assert all(torch.allclose(a, b, atol=1e-5) for a, b in zip(eager_cache.k, compiled_cache.k))
+    model.compile_step(False)
+    assert model._compiled_step is None
 
 
 def test_band_mask_hides_frames_older_than_the_window():

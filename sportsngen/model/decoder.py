@@ -31,8 +31,6 @@ from sportsngen.model.embedding import ContextEmbedding, ObjectEmbedding, run_ml
 from sportsngen.model.heads import make_head
 from sportsngen.model.sampling import uniform_in_bin
 
-SMALL_BATCH_HEADS = 32      # rows x heads up to which a cached step uses plain matmuls
-
 
 class Attention(nn.Module):
     def __init__(self, d_model: int, n_heads: int, dropout: float):
@@ -64,19 +62,15 @@ class Attention(nn.Module):
             b, n, 3, self.n_heads, d // self.n_heads).permute(2, 0, 3, 1, 4)
         k_ring[:, :, lo:lo + n] = k
         v_ring[:, :, lo:lo + n] = v
-        if b * self.n_heads <= SMALL_BATCH_HEADS:
-            # For a handful of rows, two batched matmuls beat the fused CPU kernel's set-up
-            # cost (measured ~6x at B = 1); on (rows x heads)-major 3-D views with the scale
-            # inside the first, they take a third less again. The fused kernel wins on large
-            # batches.
-            bh, slots, dh = b * self.n_heads, k_ring.shape[2], q.shape[-1]
-            keys = k_ring.view(bh, slots, dh)[:, :n_keys]
-            values = v_ring.view(bh, slots, dh)[:, :n_keys]
-            att = torch.baddbmm(q.new_zeros(()), q.reshape(bh, n, dh), keys.transpose(1, 2),
-                                beta=0.0, alpha=dh ** -0.5)
-            y = torch.bmm(att.softmax(dim=-1), values).view(b, self.n_heads, n, dh)
-        else:
-            y = F.scaled_dot_product_attention(q, k_ring[:, :, :n_keys], v_ring[:, :, :n_keys])
+        # Two batched matmuls on (rows x heads)-major 3-D views, the scale inside the first:
+        # with 3 queries a row they beat the fused CPU kernel at every batch size (~6x at
+        # B = 1; rollouts 13-18 % faster at B = 64-256, docs/benchmarks.md).
+        bh, slots, dh = b * self.n_heads, k_ring.shape[2], q.shape[-1]
+        keys = k_ring.view(bh, slots, dh)[:, :n_keys]
+        values = v_ring.view(bh, slots, dh)[:, :n_keys]
+        att = torch.baddbmm(q.new_zeros(()), q.reshape(bh, n, dh), keys.transpose(1, 2),
+                            beta=0.0, alpha=dh ** -0.5)
+        y = torch.bmm(att.softmax(dim=-1), values).view(b, self.n_heads, n, dh)
         return F.linear(y.transpose(1, 2).reshape(b, n, d), self.out.weight, self.out.bias)
 
 
@@ -163,6 +157,7 @@ class SportsNGEN(nn.Module):
     def __init__(self, cfg: ModelConfig):
         super().__init__()
         self.cfg = cfg
+        self._compiled_step = None      # `compile_step`
         self.embed = ObjectEmbedding(cfg)
         self.context = ContextEmbedding(cfg)
         self.blocks = nn.ModuleList(Block(cfg.d_model, cfg.n_heads, cfg.ff_mult, cfg.dropout,
@@ -236,14 +231,33 @@ class SportsNGEN(nn.Module):
     def forward_step(self, new_frame_feats: torch.Tensor, cache: KVCache):
         """Append the next frame: new_frame_feats (B, 3, F) -> (h (B, 3, d), cache). Its three
         tokens attend to the context, to each other and to the cached frames of the band."""
-        b = new_frame_feats.shape[0]
-        x = self.embed(new_frame_feats[:, None], cache.ident).reshape(b, N_OBJECTS, -1)
         lo = cache.n_ctx + N_OBJECTS * (cache.n_frames % cache.max_frames)
         cache.n_frames += 1
-        n_keys = cache.n_keys
-        for i, blk in enumerate(self.blocks):
-            x = blk.step(x, cache.k[i], cache.v[i], lo, n_keys)
-        return _layer_norm(self.ln_f, x), cache
+        step = self._compiled_step if self._compiled_step is not None else self.step_tokens
+        return step(new_frame_feats, cache.ident, cache.k, cache.v, lo, cache.n_keys), cache
+
+    def step_tokens(self, new_frame_feats: torch.Tensor, ident: torch.Tensor,
+                    k_rings: list[torch.Tensor], v_rings: list[torch.Tensor], lo: int,
+                    n_keys: int) -> torch.Tensor:
+        """The cached step's computation (see `forward_step`): writes the frame's keys/values
+        into ring slots lo:lo+3 of every layer and returns the output states (B, 3, d)."""
+        b = new_frame_feats.shape[0]
+        x = self.embed(new_frame_feats[:, None], ident).reshape(b, N_OBJECTS, -1)
+        for blk, k_ring, v_ring in zip(self.blocks, k_rings, v_rings):
+            x = blk.step(x, k_ring, v_ring, lo, n_keys)
+        return _layer_norm(self.ln_f, x)
+
+    def compile_step(self, enable: bool = True) -> SportsNGEN:
+        """Run the cached step through `torch.compile` (or back to eager with enable=False).
+
+        On CPU, inductor fuses the layer norms, GELUs, residual adds and softmax between the
+        matmuls, which at a few rallies are most of the step: ~25 % off a B = 1 step, nothing
+        at B = 256 (docs/benchmarks.md). The first steps compile (~10 s; then cached on disk,
+        ~2 s), and a new batch size or cache length may recompile once, so it pays for long
+        jobs (many matches), not for one point. Needs a C++ compiler on CPU. Inference only:
+        the compiled step reads the weights as they are when it runs."""
+        self._compiled_step = torch.compile(self.step_tokens) if enable else None
+        return self
 
     # --- targets and sampling ------------------------------------------------------------
     def target_bins(self, pos_m, vel_mps, next_pos_m):
