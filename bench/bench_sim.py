@@ -313,8 +313,8 @@ def bench_simulation(quick: bool, model: Path = BUNDLED, threads: int = 2,
                      f"{r['kv_gbps']:.1f} | {r['peak_rss_mb']:.0f} |")
     lines += ["", f"With the compiled step (`compile_step`, timed after a compiling run), B = 1: "
               f"{compiled_roll['frames_per_s']:.0f} frames/s "
-              f"({compiled_roll['ms_per_step']:.2f} ms a step); the step is about half of a "
-              "B = 1 frame, sampling and the rally tracker the rest."]
+              f"({compiled_roll['ms_per_step']:.2f} ms a step); the decoder step is about "
+              "half of a B = 1 frame here, sampling and the per-frame bookkeeping the rest."]
     if e2e:
         lines += ["", "End to end (`Simulator`: rollouts, rally-end rules, event labels, tables), "
                   "Roger Federer v Rafael Nadal on hard, seed 0:", "",
