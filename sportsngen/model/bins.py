@@ -61,11 +61,16 @@ class Bins(nn.Module):
                for d in range(self.dims)]
         return torch.stack(out, dim=-1)
 
+    def _bounds(self, idx: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """(..., dims) bin indices -> their lower and upper edges, each (..., dims); one
+        gather per bound (a rollout asks twice a frame, so per-dimension indexing showed)."""
+        dim = torch.arange(self.dims, device=idx.device)
+        return self.edges[dim, idx], self.edges[dim, idx + 1]
+
     def value(self, idx: torch.Tensor, u: torch.Tensor | None = None) -> torch.Tensor:
         """(..., dims) bin indices -> offsets at fraction `u` in [0, 1) of each bin (default
         the centre)."""
-        lo = torch.stack([self.edges[d][idx[..., d]] for d in range(self.dims)], dim=-1)
-        hi = torch.stack([self.edges[d][idx[..., d] + 1] for d in range(self.dims)], dim=-1)
+        lo, hi = self._bounds(idx)
         if u is None:
             u = torch.full_like(lo, 0.5)
         return lo + u * (hi - lo)
@@ -82,8 +87,7 @@ class Bins(nn.Module):
         the tails). With `mean_m` a constant-velocity extrapolation this is the
         constant-velocity reference predictor."""
         idx = self.index(offset_m)
-        lo = torch.stack([self.edges[d][idx[..., d]] for d in range(self.dims)], dim=-1)
-        hi = torch.stack([self.edges[d][idx[..., d] + 1] for d in range(self.dims)], dim=-1)
+        lo, hi = self._bounds(idx)
         lo = torch.where(idx == 0, torch.full_like(lo, -math.inf), lo)
         hi = torch.where(idx == self.n_bins - 1, torch.full_like(hi, math.inf), hi)
         s = sigma_m.clamp_min(1e-6) * math.sqrt(2.0)
