@@ -252,7 +252,7 @@ class SportsNGEN(nn.Module):
 
         On CPU, inductor fuses the layer norms, GELUs, residual adds and softmax between the
         matmuls, which at a few rallies are most of the step: ~25 % off a B = 1 step, but only
-        ~2 % off a B = 1 rollout frame (sampling is the other half) and no gain at B >= 64
+        a few per cent off a B = 1 rollout frame (sampling is the other half) and no gain at B >= 64
         (docs/architecture.md, docs/benchmarks.md). The first steps compile (~10 s; then cached
         on disk, ~2 s), and a new batch size or cache length may recompile once. Needs a C++
         compiler on CPU. Inference only: the compiled step reads the weights as they are when
