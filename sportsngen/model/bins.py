@@ -54,6 +54,7 @@ class Bins(nn.Module):
         self.dims = len(half_range_m)
         edges = torch.stack([bin_edges(r, n_bins, spacing) for r in half_range_m])
         self.register_buffer("edges", edges, persistent=False)  # (dims, n_bins + 1)
+        self.register_buffer("_dim", torch.arange(self.dims), persistent=False)
 
     def index(self, offset_m: torch.Tensor) -> torch.Tensor:
         """(..., dims) offsets -> (..., dims) int64 bin indices (clamped to the outer bins)."""
@@ -64,8 +65,7 @@ class Bins(nn.Module):
     def _bounds(self, idx: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """(..., dims) bin indices -> their lower and upper edges, each (..., dims); one
         gather per bound (a rollout asks twice a frame, so per-dimension indexing showed)."""
-        dim = torch.arange(self.dims, device=idx.device)
-        return self.edges[dim, idx], self.edges[dim, idx + 1]
+        return self.edges[self._dim, idx], self.edges[self._dim, idx + 1]
 
     def value(self, idx: torch.Tensor, u: torch.Tensor | None = None) -> torch.Tensor:
         """(..., dims) bin indices -> offsets at fraction `u` in [0, 1) of each bin (default

@@ -40,13 +40,13 @@ from sportsngen.tennis.rally import RallyTracker
 BUNDLED_DIR = Path(__file__).resolve().parents[1] / "model" / "bundled"
 BUNDLED_NAMES = {"sportsngen-small": BUNDLED_DIR / "sportsngen-small.pt"}
 DEFAULT_MODEL = "sportsngen-small"
+TOURNAMENT = "synthetic"
 
 
 def model_path(path_or_name: str | Path | None = None) -> Path:
     """The file of a bundled model name (None: the default bundled model), or the path given."""
     name = DEFAULT_MODEL if path_or_name is None else str(path_or_name)
     return BUNDLED_NAMES.get(name, Path(name))
-TOURNAMENT = "synthetic"
 
 
 class Simulator:

@@ -60,6 +60,8 @@ def movement_changes(vel_mps: torch.Tensor, pos_m: torch.Tensor, next_pos_m: tor
 
 # Loss weights of player tokens: hyper-parameter -> the tokens it weights.
 PLAYER_TOKEN_WEIGHTS = {"onset_weight": movement_onsets, "change_weight": movement_changes}
+# Every token-weight hyper-parameter (`optim.<name>` in conf/train.yaml; 1.0: unweighted).
+TOKEN_WEIGHTS = ("contact_weight", *PLAYER_TOKEN_WEIGHTS)
 
 
 class DecoderModule(L.LightningModule):
@@ -72,8 +74,10 @@ class DecoderModule(L.LightningModule):
                  trainable_id_rows: list[int] | None = None, contact_weight: float = 1.0,
                  onset_weight: float = 1.0, change_weight: float = 1.0):
         super().__init__()
-        for name, value in (("contact_weight", contact_weight), ("onset_weight", onset_weight),
-                            ("change_weight", change_weight)):   # PLAYER_TOKEN_WEIGHTS too
+        weights = {"contact_weight": contact_weight, "onset_weight": onset_weight,
+                   "change_weight": change_weight}
+        assert set(weights) == set(TOKEN_WEIGHTS)
+        for name, value in weights.items():
             if not value > 0:
                 raise ValueError(f"{name} must be positive, got {value}")
         self.save_hyperparameters()

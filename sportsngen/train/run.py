@@ -29,7 +29,7 @@ from sportsngen.train.finetune import (
     load_pretrained,
     player_rallies,
 )
-from sportsngen.train.module import DecoderModule, EventModule
+from sportsngen.train.module import TOKEN_WEIGHTS, DecoderModule, EventModule
 
 log = logging.getLogger(__name__)
 
@@ -122,9 +122,7 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
     module = DecoderModule(model_cfg.to_dict(), vocab.to_dict(), lr=float(opt.lr),
                            weight_decay=float(opt.weight_decay),
                            warmup_steps=int(opt.warmup_steps), trainable_id_rows=trainable_rows,
-                           contact_weight=float(opt.get("contact_weight", 1.0)),
-                           onset_weight=float(opt.get("onset_weight", 1.0)),
-                           change_weight=float(opt.get("change_weight", 1.0)))
+                           **{k: float(opt.get(k, 1.0)) for k in TOKEN_WEIGHTS})
     if init_state is not None:
         module.model.load_state_dict(init_state)
     resume = cfg.get("resume")
