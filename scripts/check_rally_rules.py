@@ -21,7 +21,7 @@ import pandas as pd
 
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.synth import generate_matches
-from sportsngen.synth.rally import FENCE_X_M, FENCE_Y_M
+from sportsngen.tennis.court import FENCE_X_M, FENCE_Y_M
 from sportsngen.tennis.rally import CHECKS, CONTACT_REACH_M, end_class
 
 PLAYERS = ["Roger Federer", "Rafael Nadal", "Novak Djokovic", "Andy Murray", "John Isner"]

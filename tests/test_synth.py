@@ -252,7 +252,7 @@ def test_wide_run_past_the_fence_keeps_the_acceleration_limit():
 
 
 def test_a_ball_rolling_into_the_net_stops_on_its_side():
-    from sportsngen.synth.rally import _stop_roll_at_net
+    from sportsngen.synth.cycle import stop_roll_at_net as _stop_roll_at_net
 
     roll = np.array([[-0.6, 1.0, BALL_RADIUS_M], [-0.2, 1.1, BALL_RADIUS_M],
                      [0.1, 1.2, BALL_RADIUS_M], [0.3, 1.3, BALL_RADIUS_M]])
@@ -287,7 +287,7 @@ def test_contacts_are_struck_from_a_range_of_distances_beside_the_body():
 
 
 def test_the_side_stream_key_draws_nothing():
-    from sportsngen.synth.rally import _stream_key
+    from sportsngen.synth.cycle import stream_key as _stream_key
 
     a, b = np.random.default_rng(4), np.random.default_rng(4)
     key = _stream_key(a)

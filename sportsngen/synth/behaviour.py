@@ -13,34 +13,17 @@ Geometry reminders (project frame): a player's `end` is the sign of x of his bas
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
+from sportsngen.synth.cycle import ShotPlan
 from sportsngen.synth.profiles import PlayerProfile
 from sportsngen.tennis import court
 from sportsngen.tennis.court import BASELINE_X_M, SERVICE_LINE_X_M, SINGLES_HALF_WIDTH_M
 
-AZIMUTH_NOISE_RATIO = 1.6   # lateral aim errors are larger in angle than depth errors
 SERVE_DEPTH_MARGIN_M = 0.9  # serves are aimed this far inside the service line
 SERVE_ZONES = ("wide", "body", "T")
 KMH_PER_MPS = 3.6
-
-
-@dataclass(frozen=True)
-class ShotPlan:
-    """What the hitter tries: aim point, speed, spin, labels and execution noise (degrees)."""
-
-    target_x_m: float
-    target_y_m: float
-    speed_mps: float
-    spin_mps: float
-    stroke: str
-    spin_label: str
-    direction: str
-    noise_deg: float
-    net_clearance_m: float = 0.3
-    lob: bool = False
 
 
 def deuce_sign(server_end: int, serving_side: str) -> int:
@@ -177,22 +160,6 @@ def plan_rally_shot(p: PlayerProfile, end: int, stroke: str, contact_xyz: np.nda
                     spin_mps=float(spin), stroke=stroke, spin_label=spin_label,
                     direction=direction, noise_deg=float(noise), net_clearance_m=clearance,
                     lob=lob)
-
-
-def perturb_launch(vel_mps: np.ndarray, noise_deg: float,
-                   rng: np.random.Generator) -> np.ndarray:
-    """Execution noise: rotate the launch velocity by a random elevation (s.d. `noise_deg`) and
-    azimuth (s.d. `AZIMUTH_NOISE_RATIO * noise_deg`); speed unchanged. Zero noise: unchanged."""
-    if noise_deg <= 0.0:
-        return vel_mps
-    vx, vy, vz = (float(v) for v in vel_mps)
-    speed = math.sqrt(vx * vx + vy * vy + vz * vz)
-    h = math.hypot(vx, vy)
-    elev = math.atan2(vz, h) + math.radians(noise_deg) * rng.standard_normal()
-    azim = math.atan2(vy, vx) + math.radians(noise_deg * AZIMUTH_NOISE_RATIO) * \
-        rng.standard_normal()
-    return np.array([speed * math.cos(elev) * math.cos(azim),
-                     speed * math.cos(elev) * math.sin(azim), speed * math.sin(elev)])
 
 
 def error_kind(duress: float, is_return: bool) -> str:

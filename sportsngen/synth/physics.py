@@ -238,11 +238,14 @@ def _coeffs(spin: float, aero: Aero) -> tuple[float, float, float, float]:
 
 
 def fly(pos0_m, vel0_mps, spin_mps: float, surface: str, t_max_s: float, max_bounces: int = 2,
-        stop_when=None, aero: Aero = DEFAULT_AERO, step_s: float = STEP_S) -> Flight:
+        stop_when=None, aero: Aero = DEFAULT_AERO, step_s: float = STEP_S,
+        net: bool = True) -> Flight:
     """Integrate a ball from `pos0_m` with `vel0_mps` and `spin_mps` for up to `t_max_s` seconds
     (times start at 0), stopping at the `max_bounces`-th bounce or as soon as
     `stop_when(t, pos, vel)` (called after every step with 3-tuples of floats) returns True.
-    Bounces on `surface`, hits the net (see the module doc), rolls when it stops bouncing."""
+    Bounces on `surface`, hits the net (see the module doc), rolls when it stops bouncing.
+    `net=False` flies through the net: the flight a player reads from the launch before he can
+    see that the ball will meet the cord."""
     sb = _surface(surface)
     p = [float(c) for c in np.asarray(pos0_m, dtype=float).reshape(3)]
     v = [float(c) for c in np.asarray(vel0_mps, dtype=float).reshape(3)]
@@ -269,7 +272,7 @@ def fly(pos0_m, vel0_mps, spin_mps: float, surface: str, t_max_s: float, max_bou
     def net_target(ox: float, cx: float) -> float | None:
         # u at which the ball's leading surface reaches the net plane, if it heads there
         side = 1.0 if ox > 0 else -1.0
-        if abs(ox) <= r or side * cx >= 0:
+        if not net or abs(ox) <= r or side * cx >= 0:
             return None
         return (side * r - ox) / cx
 

@@ -63,16 +63,19 @@ class Mover:
     def n_frames(self) -> int:
         return len(self.track)
 
-    def run_to(self, frame: int, target_x: float, target_y: float, hurry: bool = False) -> None:
+    def run_to(self, frame: int, target_x: float, target_y: float, hurry: bool = False,
+               arrive_by: int | None = None) -> None:
         """Steer toward the target until the track has `frame + 1` rows (frame index `frame`).
 
-        `hurry`: the target must be reached by `frame` (a ball to play), so the player runs at
-        the average speed that gets him there in time when braking would be too late."""
+        `hurry`: the target must be reached by frame `arrive_by` (default `frame`; a ball to
+        play), so the player runs at the average speed that gets him there in time when
+        braking would be too late; past that frame he runs flat out to it."""
         v_max, a_max, dt = self.max_speed_mps, self.max_accel_mps2, self.dt_s
         dv_max = a_max * dt
         x, y, vx, vy = self.x, self.y, self.vx, self.vy
         append = self.track.append
         steps = frame + 1 - len(self.track)
+        due = (frame if arrive_by is None else arrive_by) + 1 - len(self.track)
         for i in range(steps):
             ex, ey = target_x - x, target_y - y
             dist = math.hypot(ex, ey)
@@ -82,7 +85,7 @@ class Mover:
                 # Braking law, discounted by one step so the discrete player stops in time.
                 speed = math.sqrt(max(2.0 * a_max * (dist - dv_max * dt), 0.0))
                 if hurry:
-                    speed = max(speed, dist / ((steps - i) * dt))
+                    speed = max(speed, dist / (max(due - i, 1) * dt))
                 speed = min(v_max, speed, dist / dt)
                 dx_, dy_ = ex / dist * speed - vx, ey / dist * speed - vy
             dv = math.hypot(dx_, dy_)

@@ -20,6 +20,8 @@ DOUBLES_HALF_WIDTH_M = 5.485
 NET_HEIGHT_CENTRE_M = 0.914
 NET_HEIGHT_POST_M = 1.07
 NET_POST_Y_M = 6.40  # doubles posts, as on a show court
+FENCE_X_M = 18.0     # back stop of a show court, from the net
+FENCE_Y_M = 9.5      # side stop, from the centre line
 
 
 def net_height_m(y_m):
