@@ -130,11 +130,12 @@ def _player(start_y: float, speed: float, contact_frames: list[int], n: int,
     return start_y + np.cumsum(vel)
 
 
-def planted(n_rallies: int = 32, leaky: bool = False) -> RallyData:
+def planted(n_rallies: int = 32, leaky: bool = False,
+            shots_each: int | None = None) -> RallyData:
     frames, rallies, shots = [], [], []
     names = ("Srv Player", "Rcv Player")
     for rid in range(n_rallies):
-        speed, n_shots = SPEEDS[rid % 4], 1 + (rid // 4) % 4
+        speed, n_shots = SPEEDS[rid % 4], shots_each or 1 + (rid // 4) % 4
         times = [0.8] + [1.72 + 1.32 * i for i in range(n_shots - 1)]
         targets = [(-5.0, -2.0)] + [((8.0 if i % 2 else -8.0), (-1.0) ** i)
                                     for i in range(1, n_shots)]
@@ -252,6 +253,13 @@ def test_features_use_only_frames_up_to_the_measured_one():
     assert receiver_speed(data) == list(SPEEDS)
     assert receiver_speed(freeze_receiver_from(27)) == list(SPEEDS)  # stops after frame 26
     assert receiver_speed(freeze_receiver_from(26)) == [0.0] * 4     # stopped by frame 26
+
+
+def test_a_rally_longer_than_the_rules_duration_cap_keeps_its_contacts():
+    data = planted(1, shots_each=26)  # the last contact 34.7 s after the toss
+    kin = contact_kinematics(data, ks=(6,))
+    assert len(kin) == 26 and (kin["land_frame"] > kin["frame"] + 6).all()
+    assert kin["winner_vs_returned"].tolist() == [-1] + [0] * 24 + [1]
 
 
 def test_k_scales_with_the_frame_rate(clean):

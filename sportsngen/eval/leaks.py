@@ -136,7 +136,9 @@ def contact_kinematics(data: RallyData, ks=DEFAULT_KS) -> pd.DataFrame:
         raise ValueError("the data has no shots (racket contacts) to check")
     c = contact_classes(data)
     arr = rally_arrays(data, Vocab.from_data(data, generic=True))
-    rules = analyse_rally_data(data).loc[arr.rally_id]
+    # No duration cap: a long clay rally's later contacts keep their events.
+    rules = analyse_rally_data(data, max_duration_s=(arr.length.max() + 1) / data.fps)
+    rules = rules.loc[arr.rally_id]
     first = data.frames.groupby("rally_id")["frame"].min().loc[arr.rally_id].to_numpy()
     where = pd.Series(np.arange(len(arr)), index=arr.rally_id)
     r = where.loc[c["rally_id"]].to_numpy()
