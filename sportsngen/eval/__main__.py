@@ -1,14 +1,18 @@
-"""Command line of `sportsngen.eval`: the realism report.
+"""Command line of `sportsngen.eval`: the realism report and the leak check.
 
     python -m sportsngen.eval report --sim FOLDER --ref FOLDER --out DIR
     python -m sportsngen.eval report --sim FOLDER --ref-synthetic "Roger Federer,Rafael Nadal" \\
         [--surface hard] [--points N] [--seed 0] [--real-year 2011 | --no-real] --out DIR
+    python -m sportsngen.eval leaks FOLDER [--k 6 12] [--boot N] [--seed S] [--csv PATH] \\
+        [--band 0.4 0.6]
 
 Folders are `RallyData.save` folders, read without physics validation (simulated rallies may
 break physics and are flagged, not refused). `--ref-synthetic` generates the reference with
 `sportsngen.synth.generate_matches` (default: the simulated data's surfaces and number of
 points). Real slam points of `--real-year` served by the same players form a third column when
 the shared data is present; without it the report is written without them and a note says why.
+`leaks` prints the AUC table of `sportsngen.eval.leaks` and exits with status 1 when some AUC
+lies outside the band (a gate for CI).
 Exit status 2 on a missing folder, empty data or a bad option.
 """
 
@@ -96,6 +100,31 @@ def run_report(args: argparse.Namespace) -> Path:
     return write_report(sim, ref, args.out, real_points=real, labels=labels)
 
 
+def run_leaks(args: argparse.Namespace) -> int:
+    """The leak check on a folder: prints the table, writes the CSV; 1 if an AUC is outside
+    the band, else 0."""
+    from sportsngen.eval.leaks import check_leaks, outside_band, render_leaks
+
+    lo, hi = args.band
+    if not 0.0 <= lo < hi <= 1.0:
+        raise UsageError(f"--band wants 0 <= LOW < HIGH <= 1, got {lo:g} {hi:g}")
+    if min(args.k) < 0:
+        raise UsageError(f"--k wants frame offsets >= 0, got {args.k}")
+    if args.boot < 0 or args.seed < 0:
+        raise UsageError(f"--boot and --seed must be >= 0, got {args.boot}, {args.seed}")
+    data = load_tracking(args.folder, "leaks")
+    try:
+        table = check_leaks(data, ks=args.k, n_boot=args.boot, seed=args.seed)
+    except ValueError as exc:
+        raise UsageError(f"leaks: {args.folder}: {exc}") from exc
+    print(render_leaks(table, (lo, hi)))
+    if args.csv is not None:
+        args.csv.parent.mkdir(parents=True, exist_ok=True)
+        table.to_csv(args.csv, index=False)
+        print(f"wrote {args.csv}")
+    return int(outside_band(table, (lo, hi)).any())
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="python -m sportsngen.eval",
                                  description="Realism evaluation of simulated tennis tracking.")
@@ -118,12 +147,24 @@ def build_parser() -> argparse.ArgumentParser:
     rep.add_argument("--labels", default=None,
                      help="names of the two sources, 'simulated,reference'")
     rep.add_argument("--out", required=True, type=Path, help="folder to write the report into")
+    leaks = sub.add_parser("leaks", help="do players move as if they knew a contact's outcome "
+                                         "before it is visible? AUC table; exit 1 outside band")
+    leaks.add_argument("folder", type=Path, help="RallyData folder (RallyData.save)")
+    leaks.add_argument("--k", type=int, nargs="+", default=[6, 12],
+                       help="frames after the contact, at 25 Hz (default 6 12)")
+    leaks.add_argument("--boot", type=int, default=1000, help="bootstrap resamples of rallies")
+    leaks.add_argument("--seed", type=int, default=0, help="seed of the bootstrap")
+    leaks.add_argument("--csv", type=Path, default=None, help="write the table as CSV here")
+    leaks.add_argument("--band", type=float, nargs=2, default=[0.4, 0.6],
+                       metavar=("LOW", "HIGH"), help="AUCs outside it fail (default 0.4 0.6)")
     return ap
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        if args.command == "leaks":
+            return run_leaks(args)
         path = run_report(args)
     except UsageError as exc:
         print(f"error: {exc}", file=sys.stderr)

@@ -1,0 +1,291 @@
+"""Leak check: does a player's movement after a racket contact tell the contact's outcome
+before that player could have seen it?
+
+Tracking in which players "know the future" (stop when the serve will be an ace, brake when the
+shot will be a winner) teaches a model to move on information it cannot have; rolled out, it
+then runs backwards. This check measures that on any `RallyData` before training.
+
+Classes of a contact (a row of the ``shots`` table), from the tables only:
+
+- ``error``: ``outcome == "error"`` (``error_kind`` "fault" on a serve, "forced"/"unforced"
+  after); ``in``: ``outcome`` "in_play" or "winner";
+- ``returned``: in, and the rally has a shot with ``shot_index + 1``;
+- ``unreturned``: in, no next shot, and the rally's ``end_reason`` is "ace" or "winner"
+  (an in-ball without a next shot in a rally ending otherwise is left out: the data is cut).
+
+Pairs (positive class first; serves are ``shot_index == 0``, rally shots ``>= 1``):
+``fault_vs_in`` serves error / in; ``ace_vs_returned`` serves unreturned / returned;
+``winner_vs_returned`` rally shots unreturned / returned; ``error_vs_in`` rally shots error / in.
+
+When the outcome becomes visible (frames, from the tracks only, through the rally-end rules of
+`sportsngen.tennis.rally`): for error/in pairs, the first of the first bounce, the next
+contact and the rally's end by the rules (the net, a ball at rest); for returned/unreturned
+pairs, the first of the next contact, the second bounce, the rally's end and the first frame at
+which the ball is farther from the net than the opponent (it has passed him). The next contact
+is the earlier of the shots table's and the rules' (which agree within a frame); the end of the
+track bounds both. A contact after the rules have ended its rally (rules and labels disagree)
+is left out.
+
+Features: each role's (``hitter``, ``opponent``; for a serve the server and the receiver)
+horizontal speed (m/s) and acceleration magnitude (m/s^2) at contact frame + k, from backward
+differences (frames t, t-1, t-2: only what has happened by frame t). A contact enters at k only
+if contact frame + k is strictly before its pair's visible frame. k is in frames at 25 Hz
+(scaled to the data's fps).
+
+An AUC far from 0.5 says the classes move differently before the outcome is visible; it is a
+prompt to look, not proof of a leak: the opponent sees the ball in flight, and a ball that sends
+him sprinting wide is more often a winner. The same AUC at k = 0 (the contact itself) tells a
+difference that was there before the shot from one that appears after it.
+
+`contact_kinematics` gives the per-contact table (one row a contact and k, saveable);
+`leak_auc` turns such a table into AUCs with rally-bootstrap intervals; `check_leaks` does
+both; `render_leaks` writes a markdown table.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from sportsngen.data.tokens import Vocab, rally_arrays
+from sportsngen.data.tracking import RallyData
+from sportsngen.eval.rules import analyse_rally_data
+
+BASE_FPS = 25.0
+DEFAULT_KS = (6, 12)
+ROLES = ("hitter", "opponent")
+FEATURES = ("speed_mps", "acc_mps2")
+# pair -> column holding the frame at which its outcome is visible
+PAIRS = {"fault_vs_in": "land_frame", "ace_vs_returned": "outcome_frame",
+         "winner_vs_returned": "outcome_frame", "error_vs_in": "land_frame"}
+FEATURE_COLUMNS = tuple(f"{r}_{f}" for r in ROLES for f in FEATURES)
+TABLE_COLUMNS = ("rally_id", "shot_index", "frame", "k", "at_frame", "land_frame",
+                 "outcome_frame") + tuple(PAIRS) + FEATURE_COLUMNS
+LABEL_TOL_FRAMES = 1  # a labelled contact and the rules' detected one differ by at most this
+_BOOT_CELLS = 4_000_000  # replicate x contact weights held at once
+
+
+def contact_classes(data: RallyData) -> pd.DataFrame:
+    """One row a contact: rally_id, shot_index, frame, hitter, opponent and one int8 column a
+    pair (1 positive, 0 negative, -1 not in the pair); definitions in the module doc."""
+    s = data.shots.sort_values(["rally_id", "shot_index"], kind="stable").reset_index(drop=True)
+    r = data.rallies.set_index("rally_id")
+    server = s["rally_id"].map(r["server"]).to_numpy(dtype=object)
+    receiver = s["rally_id"].map(r["receiver"]).to_numpy(dtype=object)
+    hitter = s["hitter"].to_numpy(dtype=object)
+    stranger = (hitter != server) & (hitter != receiver)
+    if stranger.any():
+        i = int(np.flatnonzero(stranger)[0])
+        raise ValueError(f"shots row {i} (rally {int(s['rally_id'].iat[i])}): hitter "
+                         f"{hitter[i]!r} is neither the rally's server nor its receiver")
+    outcome = s["outcome"].astype(str).to_numpy()
+    serve = s["shot_index"].to_numpy() == 0
+    error = outcome == "error"
+    landed = np.isin(outcome, ("in_play", "winner"))
+    nxt = pd.MultiIndex.from_arrays([s["rally_id"], s["shot_index"] + 1])
+    has_next = nxt.isin(pd.MultiIndex.from_arrays([s["rally_id"], s["shot_index"]]))
+    ended_won = s["rally_id"].map(r["end_reason"]).isin(("ace", "winner")).to_numpy()
+    returned, unreturned = landed & has_next, landed & ~has_next & ended_won
+
+    def pair(pos: np.ndarray, neg: np.ndarray, members: np.ndarray) -> np.ndarray:
+        return np.where(members & pos, 1, np.where(members & neg, 0, -1)).astype(np.int8)
+
+    return pd.DataFrame({
+        "rally_id": s["rally_id"].to_numpy(np.int64),
+        "shot_index": s["shot_index"].to_numpy(np.int64),
+        "frame": s["frame"].to_numpy(np.int64), "hitter": hitter,
+        "opponent": np.where(hitter == server, receiver, server),
+        "fault_vs_in": pair(error, landed, serve),
+        "ace_vs_returned": pair(unreturned, returned, serve),
+        "winner_vs_returned": pair(unreturned, returned, ~serve),
+        "error_vs_in": pair(error, landed, ~serve)})
+
+
+def _next_event(ev_rally: np.ndarray, ev_frame: np.ndarray, rally: np.ndarray,
+                after: np.ndarray, nth: int = 0) -> np.ndarray:
+    """Frame of the (nth + 1)-th event of the same rally strictly after frame `after`, else inf
+    (events given as parallel rally-index / frame arrays; one sorted search, no loops)."""
+    span = int(max(ev_frame.max(initial=0), after.max(initial=0))) + 2
+    keys = np.sort(ev_rally.astype(np.int64) * span + ev_frame)
+    i = np.searchsorted(keys, rally * span + after + 1, side="left") + nth
+    hit = keys[np.minimum(i, len(keys) - 1)] if len(keys) else np.zeros(len(rally), np.int64)
+    ok = (i < len(keys)) & (hit // span == rally)
+    return np.where(ok, hit - rally * span, np.inf)
+
+
+def _explode(rules: pd.DataFrame, column: str, first: np.ndarray) -> tuple[np.ndarray, ...]:
+    """(rally index, absolute frame) of every event in a list column of the rules' results."""
+    n = rules[column].map(len).to_numpy()
+    frames = np.concatenate([np.asarray(v, dtype=np.int64) for v in rules[column]] +
+                            [np.zeros(0, np.int64)])
+    rally = np.repeat(np.arange(len(rules)), n)
+    return rally, frames + first[rally]
+
+
+def contact_kinematics(data: RallyData, ks=DEFAULT_KS) -> pd.DataFrame:
+    """The per-contact table `leak_auc` works on: one row a contact and k (`TABLE_COLUMNS`,
+    plus hitter / opponent names). ``k`` is in frames at 25 Hz, ``at_frame`` the data frame
+    the features are measured at; ``land_frame`` / ``outcome_frame`` when the contact's
+    landing / whether it is returned becomes visible (module doc; a contact after the rules
+    have ended its rally gets its own frame: left out); features, rounded to 1 mm/s and
+    0.01 m/s^2, are NaN where the track lacks a frame of at_frame - 2 .. at_frame."""
+    ks = [int(k) for k in np.atleast_1d(ks)]
+    if not ks or min(ks) < 0:
+        raise ValueError(f"ks must be frame offsets >= 0, got {ks}")
+    if len(data.shots) == 0:
+        raise ValueError("the data has no shots (racket contacts) to check")
+    c = contact_classes(data)
+    arr = rally_arrays(data, Vocab.from_data(data, generic=True))
+    # No duration cap: a long clay rally's later contacts keep their events.
+    rules = analyse_rally_data(data, max_duration_s=(arr.length.max() + 1) / data.fps)
+    rules = rules.loc[arr.rally_id]
+    first = data.frames.groupby("rally_id")["frame"].min().loc[arr.rally_id].to_numpy()
+    where = pd.Series(np.arange(len(arr)), index=arr.rally_id)
+    r = where.loc[c["rally_id"]].to_numpy()
+    f = c["frame"].to_numpy()
+    row0 = arr.start[r] - first[r]                      # row of frame 0 of the contact's rally
+    track_end = (first + arr.length)[r].astype(float)  # one past the last frame
+
+    server = data.rallies.set_index("rally_id").loc[arr.rally_id, "server"].to_numpy(object)
+    hitter_slot = np.where(c["hitter"].to_numpy() == server[r], 0, 1)
+    pos = arr.pos_m.astype(np.float64)
+
+    # The ball has passed the opponent: farther from the net than him, on his side.
+    past = [(pos[:, 2, 0] - pos[:, s, 0]) * np.sign(pos[:, s, 0]) > 0 for s in (0, 1)]
+    rally_of_row = np.repeat(np.arange(len(arr)), arr.length)
+    frame_of_row = np.arange(len(pos)) - arr.start[rally_of_row] + first[rally_of_row]
+    opp_slot = 1 - hitter_slot
+    passed = np.full(len(c), np.inf)
+    for s in (0, 1):
+        m = opp_slot == s
+        passed[m] = _next_event(rally_of_row[past[s]], frame_of_row[past[s]], r[m], f[m])
+
+    bounce = _explode(rules, "bounce_frames", first)
+    bounce1 = _next_event(*bounce, r, f)
+    bounce2 = _next_event(*bounce, r, f, nth=1)
+    # The rules' contacts of this shot lie within a frame of its label: the next one is later.
+    rules_next = _next_event(*_explode(rules, "contact_frames", first), r, f + LABEL_TOL_FRAMES)
+    label_next = c.groupby("rally_id")["frame"].shift(-1).fillna(np.inf).to_numpy()
+    contact_next = np.minimum(rules_next, label_next)
+    end = np.where(rules["ended"].to_numpy(), rules["end_frame"].to_numpy() + first, np.inf)[r]
+    land = np.minimum.reduce([bounce1, contact_next, end, track_end])
+    outcome = np.minimum.reduce([contact_next, bounce2, passed, end, track_end])
+    # After the rules have ended the rally (they disagree with the labels) its events are
+    # unknown: such a contact is left out at every k.
+    land, outcome = (np.where(f < end, v, f) for v in (land, outcome))
+
+    parts = []
+    for k in ks:
+        at = f + int(round(k * data.fps / BASE_FPS))
+        ok = (at - 2 >= first[r]) & (at < track_end)
+        rows = np.where(ok, row0 + at, 0)
+        part = c.assign(k=k, at_frame=at, land_frame=land.astype(np.int64),
+                        outcome_frame=outcome.astype(np.int64))
+        for role, slot in (("hitter", hitter_slot), ("opponent", opp_slot)):
+            p0, p1, p2 = (pos[np.maximum(rows - j, 0), slot, :2] for j in range(3))
+            speed = np.hypot(*(p0 - p1).T) * data.fps
+            acc = np.hypot(*(p0 - 2.0 * p1 + p2).T) * data.fps ** 2
+            # Positions are float32 (rally_arrays): finer differences are rounding, not
+            # movement, and rounding them away lets equal movement tie.
+            part[f"{role}_speed_mps"] = np.where(ok, speed, np.nan).round(3)
+            part[f"{role}_acc_mps2"] = np.where(ok, acc, np.nan).round(2)
+        parts.append(part)
+    return pd.concat(parts, ignore_index=True)
+
+
+def weighted_auc(pos: np.ndarray, neg: np.ndarray, w_pos: np.ndarray,
+                 w_neg: np.ndarray) -> np.ndarray:
+    """Mann-Whitney AUC, P(pos > neg) + 0.5 P(pos == neg), with weights: `pos` (P,), `neg`
+    (N,), `w_pos` (B, P), `w_neg` (B, N) -> (B,); NaN where a class has zero weight. Exact
+    (one sort and cumulative sums; integer weights give the AUC of the repeated samples)."""
+    order = np.argsort(neg, kind="stable")
+    neg_sorted = neg[order]
+    cum = np.concatenate([np.zeros((w_neg.shape[0], 1)), np.cumsum(w_neg[:, order], axis=1)],
+                         axis=1)
+    lo = np.searchsorted(neg_sorted, pos, side="left")
+    hi = np.searchsorted(neg_sorted, pos, side="right")
+    below, ties = cum[:, lo], cum[:, hi] - cum[:, lo]
+    num = (w_pos * (below + 0.5 * ties)).sum(axis=1)
+    den = w_pos.sum(axis=1) * cum[:, -1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(den > 0, num / den, np.nan)
+
+
+def auc(pos, neg) -> float:
+    """Mann-Whitney AUC of two samples, P(pos > neg) + 0.5 P(pos == neg); NaN if one is empty."""
+    pos, neg = np.asarray(pos, dtype=float).ravel(), np.asarray(neg, dtype=float).ravel()
+    if not (np.isfinite(pos).all() and np.isfinite(neg).all()):
+        raise ValueError("auc: pos and neg must be finite")
+    return float(weighted_auc(pos, neg, np.ones((1, pos.size)), np.ones((1, neg.size)))[0])
+
+
+def leak_auc(kin: pd.DataFrame, n_boot: int = 1000, seed: int = 0,
+             level: float = 0.95) -> pd.DataFrame:
+    """AUC per (pair, role, k, feature) of a `contact_kinematics` table (rows whose at_frame is
+    not before the pair's visible frame left out; NaN features dropped), with `level` bootstrap
+    percentile intervals from `n_boot` resamples of whole rallies (all the contacts of a rally
+    share its weight, so shots of one rally are not taken as independent; n_pos and n_neg vary
+    between replicates). The generator is seeded per (seed, pair, k): fixed results."""
+    missing = [col for col in TABLE_COLUMNS if col not in kin.columns]
+    if missing:
+        raise ValueError(f"kinematics table lacks columns {missing}")
+    if n_boot < 0 or seed < 0 or not 0 < level < 1:
+        raise ValueError(f"need n_boot >= 0, seed >= 0, 0 < level < 1; got {n_boot}, {seed}, "
+                         f"{level}")
+    q = 50 * (1 - level), 50 * (1 + level)
+    out = []
+    for pi, (pair, visible) in enumerate(PAIRS.items()):
+        for k in sorted(int(v) for v in kin["k"].unique()):
+            sub = kin[(kin["k"] == k) & (kin[pair] >= 0) & (kin["at_frame"] < kin[visible])]
+            cls = sub[pair].to_numpy()
+            rallies, ridx = np.unique(sub["rally_id"].to_numpy(), return_inverse=True)
+            x = sub[list(FEATURE_COLUMNS)].to_numpy(dtype=float)
+            masks = [(np.isfinite(x[:, j]) & (cls == 1), np.isfinite(x[:, j]) & (cls == 0))
+                     for j in range(x.shape[1])]
+            boot = np.full((x.shape[1], n_boot), np.nan)
+            rng = np.random.default_rng([seed, pi, k])
+            step = max(1, _BOOT_CELLS // max(len(sub), 1))
+            for b0 in range(0, n_boot if len(rallies) else 0, step):
+                nb = min(step, n_boot - b0)
+                w = rng.multinomial(len(rallies), np.full(len(rallies), 1 / len(rallies)),
+                                    size=nb)[:, ridx].astype(float)
+                for j, (mp, mn) in enumerate(masks):
+                    boot[j, b0:b0 + nb] = weighted_auc(x[mp, j], x[mn, j], w[:, mp], w[:, mn])
+            for j, col in enumerate(FEATURE_COLUMNS):
+                role, feature = col.split("_", 1)
+                mp, mn = masks[j]
+                finite = np.isfinite(boot[j])
+                lo, hi = np.percentile(boot[j, finite], q) if finite.any() else (np.nan,) * 2
+                out.append({"pair": pair, "role": role, "feature": feature, "k": k,
+                            "auc": auc(x[mp, j], x[mn, j]), "lo": lo, "hi": hi,
+                            "n_pos": int(mp.sum()), "n_neg": int(mn.sum()),
+                            "mean_pos": x[mp, j].mean() if mp.any() else np.nan,
+                            "mean_neg": x[mn, j].mean() if mn.any() else np.nan})
+    return pd.DataFrame(out)
+
+
+def check_leaks(data: RallyData, ks=DEFAULT_KS, n_boot: int = 1000,
+                seed: int = 0) -> pd.DataFrame:
+    """`leak_auc` of `contact_kinematics`: the whole check on one `RallyData`."""
+    return leak_auc(contact_kinematics(data, ks), n_boot=n_boot, seed=seed)
+
+
+def outside_band(table: pd.DataFrame, band=(0.4, 0.6)) -> pd.Series:
+    """Rows whose AUC lies outside [band[0], band[1]] (NaN AUCs are not flagged)."""
+    lo, hi = band
+    return (table["auc"] < lo) | (table["auc"] > hi)
+
+
+def render_leaks(table: pd.DataFrame, band=(0.4, 0.6)) -> str:
+    """A markdown table of `leak_auc` rows, rows outside `band` marked LEAK, and a summary."""
+    flag = outside_band(table, band)
+    fmt = lambda v, d=2: "-" if pd.isna(v) else f"{v:.{d}f}"  # noqa: E731
+    lines = ["| pair | role | feature | k | AUC [interval] | n_pos | n_neg | mean pos | "
+             "mean neg | |", "|---|---|---|---|---|---|---|---|---|---|"]
+    for (_, row), bad in zip(table.iterrows(), flag):
+        lines.append(f"| {row['pair']} | {row['role']} | {row['feature']} | {row['k']} | "
+                     f"{fmt(row['auc'], 3)} [{fmt(row['lo'])}, {fmt(row['hi'])}] | "
+                     f"{row['n_pos']} | {row['n_neg']} | {fmt(row['mean_pos'])} | "
+                     f"{fmt(row['mean_neg'])} | {'LEAK' if bad else ''} |")
+    lines.append(f"\n{int(flag.sum())} of {len(table)} AUCs outside [{band[0]:g}, {band[1]:g}].")
+    return "\n".join(lines)

@@ -1,0 +1,304 @@
+"""The leak check (`sportsngen.eval.leaks`): exact AUCs, planted tracks, the visibility rule,
+the command line, and a pin of generator version 5's leaks (a committed kinematics table).
+
+Planted tracks are built here: the server at the +x end serves from the deuce court at 0.8 s
+(frame 20) into the box at (-5, -2), bouncing at 1.4 s (frame 35); returns at 1.72 s (frame 43),
+then a shot every 1.32 s, each landing 8 m from the net 1.0 s after its contact (gravity only,
+integrated at 1 ms; bounces keep 75 % of the speed; a curtain 20 m behind the net). Players
+stand at x = +-14.5 (behind every contact), still until the serve, then move along y at the
+rally's speed, turning at each contact. Rally i has speed SPEEDS[i % 4] and 1 + (i // 4) % 4
+shots (one shot: an ace; else the last is a winner), so every speed meets every length equally
+often: both classes of each pair move exactly alike. The leaky version stops the opponent dead
+at a contact that will not be returned.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from sportsngen.data.tracking import RallyData
+from sportsngen.eval.__main__ import main
+from sportsngen.eval.leaks import (
+    PAIRS,
+    TABLE_COLUMNS,
+    auc,
+    check_leaks,
+    contact_kinematics,
+    leak_auc,
+    outside_band,
+    render_leaks,
+    weighted_auc,
+)
+from sportsngen.tennis.court import BALL_RADIUS_M
+
+FPS = 25.0
+G = 9.81
+SPEEDS = (1.0, 2.0, 3.0, 4.0)
+PLAYER_X_M = 14.5
+FIXTURE = Path(__file__).parent / "data" / "leaks_v5_fvn_hard.csv"
+
+
+# -- exact AUCs ------------------------------------------------------------------------------
+def test_auc_exact_values():
+    assert auc([2.0, 3.0], [0.0, 1.0]) == 1.0
+    assert auc([0.0, 1.0], [2.0, 3.0]) == 0.0
+    assert auc([1.0, 1.0, 1.0], [1.0, 1.0]) == 0.5
+    # pairs (pos, neg): 1>2 no, 1>0 yes; 2=2 half, 2>0; 3>2, 3>0 -> 4.5 of 6
+    assert auc([1.0, 2.0, 3.0], [2.0, 0.0]) == 0.75
+    assert np.isnan(auc([], [1.0]))
+    with pytest.raises(ValueError, match="finite"):
+        auc([np.nan], [1.0])
+
+
+def test_weighted_auc_is_the_auc_of_repeated_samples():
+    rng = np.random.default_rng(0)
+    pos, neg = rng.integers(0, 5, 7).astype(float), rng.integers(0, 5, 9).astype(float)
+    wp, wn = rng.integers(0, 4, (3, 7)), rng.integers(0, 4, (3, 9))
+    got = weighted_auc(pos, neg, wp.astype(float), wn.astype(float))
+    for b in range(3):
+        assert got[b] == pytest.approx(auc(np.repeat(pos, wp[b]), np.repeat(neg, wn[b])),
+                                       abs=1e-12)
+    assert np.isnan(weighted_auc(pos, neg, np.zeros((1, 7)), np.ones((1, 9)))[0])
+
+
+def _table(rows) -> pd.DataFrame:
+    """A kinematics table for the error/in pair from (rally, at_frame, land_frame, class,
+    hitter speed) rows; other pairs empty, other features zero."""
+    df = pd.DataFrame(rows, columns=["rally_id", "at_frame", "land_frame", "error_vs_in",
+                                     "hitter_speed_mps"])
+    df = df.assign(shot_index=1, frame=df["at_frame"] - 6, k=6, outcome_frame=10 ** 6,
+                   fault_vs_in=-1, ace_vs_returned=-1, winner_vs_returned=-1,
+                   hitter_acc_mps2=0.0, opponent_speed_mps=0.0, opponent_acc_mps2=0.0)
+    return df[list(TABLE_COLUMNS)]
+
+
+def test_visibility_rule_leaves_out_contacts_seen_by_then():
+    # The fast error (speed 9) landed at frame 50, before its at_frame 50: left out.
+    kin = _table([(0, 30, 40, 1, 3.0), (1, 50, 50, 1, 9.0), (2, 30, 40, 0, 1.0),
+                  (3, 30, 40, 0, 5.0)])
+    row = leak_auc(kin, n_boot=0).set_index(["pair", "role", "feature"]).loc[
+        ("error_vs_in", "hitter", "speed_mps")]
+    assert (row["n_pos"], row["n_neg"]) == (1, 2)
+    assert row["auc"] == 0.5  # 3 against 1 and 5; with the 9 it would be 0.75
+    assert np.isnan(row["lo"])
+
+
+def test_bootstrap_resamples_rallies_with_a_fixed_seed():
+    kin = _table([(i // 2, 30, 40, i % 2, float(i % 5)) for i in range(40)])
+    a = leak_auc(kin, n_boot=200, seed=3)
+    b = leak_auc(kin, n_boot=200, seed=3)
+    pd.testing.assert_frame_equal(a, b)
+    row = a.set_index(["pair", "role", "feature"]).loc[("error_vs_in", "hitter", "speed_mps")]
+    assert row["lo"] <= row["auc"] <= row["hi"] and row["lo"] < row["hi"]
+    with pytest.raises(ValueError, match="lacks columns"):
+        leak_auc(kin.drop(columns="land_frame"))
+
+
+# -- planted tracks --------------------------------------------------------------------------
+def _ball(contacts: list[tuple[float, tuple[float, float], float]], end_s: float) -> np.ndarray:
+    """(frames, 3) ball track: a toss, then shots (time, target xy, flight time)."""
+    p, v = np.array([11.6, 0.7, 1.0]), np.array([0.0, 0.0, 6.0])
+    pending, out, dt = list(contacts), [], 1e-3
+    for step in range(int(round(end_s / dt)) + 1):
+        if pending and step * dt >= pending[0][0] - 1e-9:
+            _, (tx, ty), fl = pending.pop(0)
+            v = np.array([(tx - p[0]) / fl, (ty - p[1]) / fl,
+                          (BALL_RADIUS_M - p[2] + 0.5 * G * fl * fl) / fl])
+        if step % 40 == 0:
+            out.append(p.copy())
+        p = p + v * dt + np.array([0.0, 0.0, -0.5 * G * dt * dt])
+        v[2] -= G * dt
+        if p[2] < BALL_RADIUS_M and v[2] < 0:
+            p[2], v = 2 * BALL_RADIUS_M - p[2], v * np.array([0.75, 0.75, -0.75])
+        if abs(p[0]) > 20.0:  # the back curtain
+            v[:2] = 0.0
+    return np.array(out)
+
+
+def _player(start_y: float, speed: float, contact_frames: list[int], n: int,
+            stop_after_last: bool) -> np.ndarray:
+    """y along the track: still until the serve, then `speed` along +-y, turning at contacts."""
+    vel = np.zeros(n)
+    bounds = list(contact_frames) + [n]
+    for i, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
+        if not (stop_after_last and i == len(contact_frames) - 1):
+            vel[a + 1:b] = speed * (1 if i % 2 == 0 else -1) / FPS
+    return start_y + np.cumsum(vel)
+
+
+def planted(n_rallies: int = 32, leaky: bool = False,
+            shots_each: int | None = None) -> RallyData:
+    frames, rallies, shots = [], [], []
+    names = ("Srv Player", "Rcv Player")
+    for rid in range(n_rallies):
+        speed, n_shots = SPEEDS[rid % 4], shots_each or 1 + (rid // 4) % 4
+        times = [0.8] + [1.72 + 1.32 * i for i in range(n_shots - 1)]
+        targets = [(-5.0, -2.0)] + [((8.0 if i % 2 else -8.0), (-1.0) ** i)
+                                    for i in range(1, n_shots)]
+        flights = [0.6] + [1.0] * (n_shots - 1)
+        ball = _ball(list(zip(times, targets, flights)), times[-1] + 2.5)
+        n = len(ball)
+        cf = [int(round(t * FPS)) for t in times]
+        tracks = {"ball": ball}
+        for slot, (name, x, y0) in enumerate(zip(names, (PLAYER_X_M, -PLAYER_X_M), (0.7, -2.0))):
+            # The opponent of the last (unreturned) shot: the server if the receiver hit it.
+            opp_of_last = (n_shots - 1) % 2 == 0
+            stop = leaky and (slot == 1) == opp_of_last
+            y = _player(y0, speed, cf, n, stop)
+            tracks[name] = np.c_[np.full(n, x), y, np.zeros(n)]
+        for obj, xyz in tracks.items():
+            frames.append(pd.DataFrame({
+                "rally_id": rid, "frame": np.arange(n), "t": np.arange(n) / FPS, "object": obj,
+                "x": xyz[:, 0], "y": xyz[:, 1], "z": xyz[:, 2], "stroke": "none",
+                "direction": "none", "outcome": "none", "error_kind": "none"}))
+        last = n_shots - 1
+        for i, f in enumerate(cf):
+            shots.append({"rally_id": rid, "shot_index": i, "frame": f,
+                          "hitter": names[i % 2], "stroke": "serve" if i == 0 else "forehand",
+                          "spin": "flat", "direction": "none",
+                          "outcome": "winner" if i == last else "in_play", "error_kind": "none",
+                          "contact_x": ball[f, 0], "contact_y": ball[f, 1],
+                          "contact_z": ball[f, 2], "speed_mps": 30.0,
+                          "bounce_x": targets[i][0], "bounce_y": targets[i][1]})
+        rallies.append({
+            "rally_id": rid, "match_id": "planted", "point": rid + 1, "server": names[0],
+            "receiver": names[1], "serve_number": 1, "side": "deuce", "server_end": 1,
+            "surface": "hard", "tournament": "planted", "set_no": 1, "server_sets": 0,
+            "receiver_sets": 0, "server_games": 0, "receiver_games": 0, "server_points": 0,
+            "receiver_points": 0, "in_tiebreak": False, "score": "0-0",
+            "winner": names[last % 2], "end_reason": "ace" if n_shots == 1 else "winner",
+            "end_detail": "unreached", "serve_kmh": 100.0, "rally_length": n_shots})
+    return RallyData.from_tables(pd.concat(frames, ignore_index=True), pd.DataFrame(rallies),
+                                 pd.DataFrame(shots), fps=FPS)
+
+
+@pytest.fixture(scope="module")
+def clean() -> RallyData:
+    return planted()
+
+
+@pytest.fixture(scope="module")
+def leaky() -> RallyData:
+    return planted(leaky=True)
+
+
+def _auc(table: pd.DataFrame, pair: str, role: str, feature: str, k: int) -> pd.Series:
+    return table.set_index(["pair", "role", "feature", "k"]).loc[(pair, role, feature, k)]
+
+
+def test_planted_leak_is_flagged_and_clean_tracks_are_not(clean, leaky):
+    good, bad = check_leaks(clean, n_boot=100), check_leaks(leaky, n_boot=100)
+    assert len(good) == len(PAIRS) * 2 * 2 * 2  # pairs x roles x features x k
+    # Clean: every pair's classes move alike -> exactly 0.5 (no errors: NaN, not flagged).
+    assert set(good["auc"].dropna()) == {0.5}
+    assert good["auc"].isna().sum() == 16 and not outside_band(good).any()
+    for k in (6, 12):
+        for pair, n_pos, n_neg in (("ace_vs_returned", 8, 24), ("winner_vs_returned", 24, 24)):
+            row = _auc(bad, pair, "opponent", "speed_mps", k)
+            assert (row["auc"], row["lo"], row["hi"]) == (0.0, 0.0, 0.0)
+            assert (row["n_pos"], row["n_neg"]) == (n_pos, n_neg)
+            assert row["mean_pos"] == 0.0
+            assert _auc(bad, pair, "hitter", "speed_mps", k)["auc"] == 0.5
+    assert set(bad.loc[outside_band(bad), "pair"]) == {"ace_vs_returned", "winner_vs_returned"}
+    assert outside_band(bad).sum() == 4
+    text = render_leaks(bad)
+    assert text.count("LEAK") == 4 and "4 of 32 AUCs outside [0.4, 0.6]" in text
+
+
+def test_visible_frames_on_planted_tracks(clean):
+    kin = contact_kinematics(clean, ks=(14, 15))
+    k14 = kin[kin["k"] == 14]
+    serves = k14[k14["shot_index"] == 0]
+    assert (serves["land_frame"] == 35).all()         # the serve's bounce at 1.4 s
+    returned = serves["ace_vs_returned"] == 0
+    assert (serves.loc[returned, "outcome_frame"] == 43).all()  # the return at 1.72 s
+    # Aces and winners: the first frame with the ball behind the opponent, read off the track
+    # (before the rules call the rally: they wait until it is also out of his reach).
+    ball = clean.frames[clean.frames["object"] == "ball"]
+    last = k14[(k14["ace_vs_returned"] == 1) | (k14["winner_vs_returned"] == 1)]
+    assert len(last) == 32
+    for _, c in last.iterrows():
+        b = ball[(ball["rally_id"] == c["rally_id"]) & (ball["frame"] > c["frame"])]
+        assert c["outcome_frame"] == b.loc[b["x"].abs() > PLAYER_X_M, "frame"].min()
+    # Rally shots: the landing 1.0 s and the next contact 1.32 s after the contact.
+    rally = k14[(k14["shot_index"] >= 1) & (k14["winner_vs_returned"] == 0)]
+    assert ((rally["land_frame"] - rally["frame"]) == 25).all()
+    assert ((rally["outcome_frame"] - rally["frame"]) == 33).all()
+    # Serves land at frame 35: measured at 20 + 14 they count, at 20 + 15 they are seen.
+    table = leak_auc(kin, n_boot=0)
+    n = table[(table["pair"] == "fault_vs_in")].groupby("k")["n_neg"].max()
+    assert n.to_dict() == {14: 32, 15: 0}
+
+
+def test_features_use_only_frames_up_to_the_measured_one():
+    data = planted(4)  # four aces served at frame 20, receivers at 1-4 m/s
+    frames = data.frames.copy()
+
+    def freeze_receiver_from(frame: int) -> RallyData:
+        f = frames.copy()
+        rcv = f["object"] == "Rcv Player"
+        held = f[rcv & (f["frame"] == frame - 1)].set_index("rally_id")["y"]
+        late = rcv & (f["frame"] >= frame)
+        f.loc[late, "y"] = f.loc[late, "rally_id"].map(held)
+        return RallyData(f, data.rallies, data.shots, data.fps)
+
+    def receiver_speed(d: RallyData) -> list[float]:
+        kin = contact_kinematics(d, ks=(6,))
+        return kin["opponent_speed_mps"].tolist()
+
+    assert receiver_speed(data) == list(SPEEDS)
+    assert receiver_speed(freeze_receiver_from(27)) == list(SPEEDS)  # stops after frame 26
+    assert receiver_speed(freeze_receiver_from(26)) == [0.0] * 4     # stopped by frame 26
+
+
+def test_a_rally_longer_than_the_rules_duration_cap_keeps_its_contacts():
+    data = planted(1, shots_each=26)  # the last contact 34.7 s after the toss
+    kin = contact_kinematics(data, ks=(6,))
+    assert len(kin) == 26 and (kin["land_frame"] > kin["frame"] + 6).all()
+    assert kin["winner_vs_returned"].tolist() == [-1] + [0] * 24 + [1]
+
+
+def test_k_scales_with_the_frame_rate(clean):
+    kin = contact_kinematics(clean, ks=(6,))
+    assert (kin["at_frame"] == kin["frame"] + 6).all()
+    fast = RallyData(clean.frames, clean.rallies, clean.shots, fps=50.0)
+    assert (contact_kinematics(fast, ks=(6,))["at_frame"] == kin["frame"] + 12).all()
+    with pytest.raises(ValueError, match="ks must be"):
+        contact_kinematics(clean, ks=(-1,))
+
+
+# -- command line ----------------------------------------------------------------------------
+def test_cli_exit_codes(clean, leaky, tmp_path, capsys):
+    clean.save(tmp_path / "clean")
+    leaky.save(tmp_path / "leaky")
+    assert main(["leaks", str(tmp_path / "clean"), "--boot", "20"]) == 0
+    csv = tmp_path / "out" / "leaks.csv"
+    assert main(["leaks", str(tmp_path / "leaky"), "--boot", "20", "--k", "12",
+                 "--csv", str(csv)]) == 1
+    out = capsys.readouterr().out
+    assert "LEAK" in out and "2 of 16 AUCs outside" in out
+    written = pd.read_csv(csv)
+    assert len(written) == 16 and set(written["k"]) == {12}
+    assert main(["leaks", str(tmp_path / "leaky"), "--band", "0", "1", "--boot", "0"]) == 0
+    assert main(["leaks", str(tmp_path / "nowhere")]) == 2
+    assert main(["leaks", str(tmp_path / "clean"), "--band", "0.6", "0.4"]) == 2
+    assert "--band" in capsys.readouterr().err
+
+
+# -- generator version 5 (committed table) -----------------------------------------------------
+def test_generator_v5_leaks_are_flagged():
+    """The table was written by scripts/leak_fixture_v5.py from generator version 5."""
+    assert FIXTURE.read_text().startswith("# generator version 5")
+    table = leak_auc(pd.read_csv(FIXTURE, comment="#"), n_boot=0)
+    # The server stands still after an ace and moves after a returned serve.
+    assert _auc(table, "ace_vs_returned", "hitter", "speed_mps", 12)["auc"] < 0.1
+    # The hitter of a rally winner slows before it is seen to be one.
+    assert _auc(table, "winner_vs_returned", "hitter", "speed_mps", 12)["auc"] < 0.3
+    # After a fault neither player moves.
+    for role in ("hitter", "opponent"):
+        row = _auc(table, "fault_vs_in", role, "speed_mps", 6)
+        assert row["mean_pos"] == 0.0 and row["auc"] < 0.05 and row["n_pos"] >= 50
