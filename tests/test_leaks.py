@@ -23,7 +23,9 @@ import pytest
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.__main__ import main
 from sportsngen.eval.leaks import (
+    CONTACT_SPEED_COLUMNS,
     PAIRS,
+    STRATA_COLUMNS,
     TABLE_COLUMNS,
     auc,
     check_leaks,
@@ -72,8 +74,29 @@ def _table(rows) -> pd.DataFrame:
                                      "hitter_speed_mps"])
     df = df.assign(shot_index=1, frame=df["at_frame"] - 6, k=6, outcome_frame=10 ** 6,
                    fault_vs_in=-1, ace_vs_returned=-1, winner_vs_returned=-1,
-                   hitter_acc_mps2=0.0, opponent_speed_mps=0.0, opponent_acc_mps2=0.0)
-    return df[list(TABLE_COLUMNS)]
+                   hitter_acc_mps2=0.0, opponent_speed_mps=0.0, opponent_acc_mps2=0.0,
+                   hitter="A", opponent="B", serve_number=1, direction="middle",
+                   hitter_speed0_mps=0.0, opponent_speed0_mps=0.0)
+    return df[list(TABLE_COLUMNS + STRATA_COLUMNS + CONTACT_SPEED_COLUMNS)]
+
+
+def test_stratified_auc_compares_only_alike_contacts():
+    # Player A hits most errors and moves fast, B hits most balls in and moves slowly: the raw
+    # AUC sees a leak, but within each player the classes move alike.
+    rows = [(i, 30, 40, int(i % 4 == 0), 5.0) for i in range(20)] + \
+           [(20 + i, 30, 40, int(i % 4 != 0), 1.0) for i in range(20)]
+    kin = _table(rows).assign(hitter=["A"] * 20 + ["C"] * 20)
+    raw = leak_auc(kin, n_boot=0, stratify=False)
+    strat = leak_auc(kin, n_boot=0)
+    key = ("error_vs_in", "hitter", "speed_mps")
+    assert raw.set_index(["pair", "role", "feature"]).loc[key, "auc"] == pytest.approx(0.25)
+    assert strat.set_index(["pair", "role", "feature"]).loc[key, "auc"] == 0.5
+    # The role's speed at the contact separates strata too.
+    kin = _table(rows).assign(hitter_speed0_mps=[4.0] * 20 + [0.0] * 20)
+    strat = leak_auc(kin, n_boot=0)
+    assert strat.set_index(["pair", "role", "feature"]).loc[key, "auc"] == 0.5
+    with pytest.raises(ValueError, match="stratify=False"):
+        leak_auc(kin.drop(columns="direction"))
 
 
 def test_visibility_rule_leaves_out_contacts_seen_by_then():

@@ -114,7 +114,8 @@ def run_leaks(args: argparse.Namespace) -> int:
         raise UsageError(f"--boot and --seed must be >= 0, got {args.boot}, {args.seed}")
     data = load_tracking(args.folder, "leaks")
     try:
-        table = check_leaks(data, ks=args.k, n_boot=args.boot, seed=args.seed)
+        table = check_leaks(data, ks=args.k, n_boot=args.boot, seed=args.seed,
+                            stratify=not args.raw)
     except ValueError as exc:
         raise UsageError(f"leaks: {args.folder}: {exc}") from exc
     print(render_leaks(table, (lo, hi)))
@@ -155,6 +156,9 @@ def build_parser() -> argparse.ArgumentParser:
     leaks.add_argument("--boot", type=int, default=1000, help="bootstrap resamples of rallies")
     leaks.add_argument("--seed", type=int, default=0, help="seed of the bootstrap")
     leaks.add_argument("--csv", type=Path, default=None, help="write the table as CSV here")
+    leaks.add_argument("--raw", action="store_true",
+                       help="raw AUCs, not stratified by what the players could see at the "
+                            "contact (pairing, serve number, direction, speed)")
     leaks.add_argument("--band", type=float, nargs=2, default=[0.4, 0.6],
                        metavar=("LOW", "HIGH"), help="AUCs outside it fail (default 0.4 0.6)")
     return ap

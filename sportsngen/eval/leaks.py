@@ -32,6 +32,14 @@ differences (frames t, t-1, t-2: only what has happened by frame t). A contact e
 if contact frame + k is strictly before its pair's visible frame. k is in frames at 25 Hz
 (scaled to the data's fps).
 
+Stratified by what both players could see at the contact: positives are compared only with
+negatives of the same stratum (the hitter and opponent, the serve number, the shot's direction
+label, and the role's speed at the contact in `CONTACT_SPEED_BINS_MPS`), and the AUC pools the
+strata by their number of pairs. Without that, causes everyone can see pass for leaks: a player
+who aces more and whose receiver reacts later, a wide serve (more often an ace) after which the
+server recovers further, an opponent still running at the contact (more often passed).
+``stratify=False`` gives the raw AUC.
+
 An AUC far from 0.5 says the classes move differently before the outcome is visible; it is a
 prompt to look, not proof of a leak: the opponent sees the ball in flight, and a ball that sends
 him sprinting wide is more often a winner. The same AUC at k = 0 (the contact itself) tells a
@@ -59,8 +67,11 @@ FEATURES = ("speed_mps", "acc_mps2")
 PAIRS = {"fault_vs_in": "land_frame", "ace_vs_returned": "outcome_frame",
          "winner_vs_returned": "outcome_frame", "error_vs_in": "land_frame"}
 FEATURE_COLUMNS = tuple(f"{r}_{f}" for r in ROLES for f in FEATURES)
+CONTACT_SPEED_COLUMNS = tuple(f"{r}_speed0_mps" for r in ROLES)
+STRATA_COLUMNS = ("hitter", "opponent", "serve_number", "direction")
 TABLE_COLUMNS = ("rally_id", "shot_index", "frame", "k", "at_frame", "land_frame",
                  "outcome_frame") + tuple(PAIRS) + FEATURE_COLUMNS
+CONTACT_SPEED_BINS_MPS = (0.25, 1.0, 2.0, 3.5, 5.0)
 LABEL_TOL_FRAMES = 1  # a labelled contact and the rules' detected one differ by at most this
 _BOOT_CELLS = 4_000_000  # replicate x contact weights held at once
 
@@ -95,6 +106,8 @@ def contact_classes(data: RallyData) -> pd.DataFrame:
         "shot_index": s["shot_index"].to_numpy(np.int64),
         "frame": s["frame"].to_numpy(np.int64), "hitter": hitter,
         "opponent": np.where(hitter == server, receiver, server),
+        "serve_number": s["rally_id"].map(r["serve_number"]).to_numpy(np.int64),
+        "direction": s["direction"].astype(str).to_numpy(object),
         "fault_vs_in": pair(error, landed, serve),
         "ace_vs_returned": pair(unreturned, returned, serve),
         "winner_vs_returned": pair(unreturned, returned, ~serve),
@@ -174,21 +187,25 @@ def contact_kinematics(data: RallyData, ks=DEFAULT_KS) -> pd.DataFrame:
     # unknown: such a contact is left out at every k.
     land, outcome = (np.where(f < end, v, f) for v in (land, outcome))
 
+    def kinematics(at: np.ndarray, slot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        ok = (at - 2 >= first[r]) & (at < track_end)
+        rows = np.where(ok, row0 + at, 0)
+        p0, p1, p2 = (pos[np.maximum(rows - j, 0), slot, :2] for j in range(3))
+        speed = np.hypot(*(p0 - p1).T) * data.fps
+        acc = np.hypot(*(p0 - 2.0 * p1 + p2).T) * data.fps ** 2
+        # Positions are float32 (rally_arrays): finer differences are rounding, not
+        # movement, and rounding them away lets equal movement tie.
+        return np.where(ok, speed, np.nan).round(3), np.where(ok, acc, np.nan).round(2)
+
+    slots = (("hitter", hitter_slot), ("opponent", opp_slot))
+    base = c.assign(land_frame=land.astype(np.int64), outcome_frame=outcome.astype(np.int64),
+                    **{f"{role}_speed0_mps": kinematics(f, slot)[0] for role, slot in slots})
     parts = []
     for k in ks:
         at = f + int(round(k * data.fps / BASE_FPS))
-        ok = (at - 2 >= first[r]) & (at < track_end)
-        rows = np.where(ok, row0 + at, 0)
-        part = c.assign(k=k, at_frame=at, land_frame=land.astype(np.int64),
-                        outcome_frame=outcome.astype(np.int64))
-        for role, slot in (("hitter", hitter_slot), ("opponent", opp_slot)):
-            p0, p1, p2 = (pos[np.maximum(rows - j, 0), slot, :2] for j in range(3))
-            speed = np.hypot(*(p0 - p1).T) * data.fps
-            acc = np.hypot(*(p0 - 2.0 * p1 + p2).T) * data.fps ** 2
-            # Positions are float32 (rally_arrays): finer differences are rounding, not
-            # movement, and rounding them away lets equal movement tie.
-            part[f"{role}_speed_mps"] = np.where(ok, speed, np.nan).round(3)
-            part[f"{role}_acc_mps2"] = np.where(ok, acc, np.nan).round(2)
+        part = base.assign(k=k, at_frame=at)
+        for role, slot in slots:
+            part[f"{role}_speed_mps"], part[f"{role}_acc_mps2"] = kinematics(at, slot)
         parts.append(part)
     return pd.concat(parts, ignore_index=True)
 
@@ -198,6 +215,17 @@ def weighted_auc(pos: np.ndarray, neg: np.ndarray, w_pos: np.ndarray,
     """Mann-Whitney AUC, P(pos > neg) + 0.5 P(pos == neg), with weights: `pos` (P,), `neg`
     (N,), `w_pos` (B, P), `w_neg` (B, N) -> (B,); NaN where a class has zero weight. Exact
     (one sort and cumulative sums; integer weights give the AUC of the repeated samples)."""
+    num, den = _pair_counts(pos, neg, w_pos, w_neg)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(den > 0, num / den, np.nan)
+
+
+def _pair_counts(pos: np.ndarray, neg: np.ndarray, w_pos: np.ndarray,
+                 w_neg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(weighted pairs with pos > neg plus half the ties, weighted pairs), each (B,)."""
+    if pos.size == 0 or neg.size == 0:
+        zero = np.zeros(w_pos.shape[0])
+        return zero, zero
     order = np.argsort(neg, kind="stable")
     neg_sorted = neg[order]
     cum = np.concatenate([np.zeros((w_neg.shape[0], 1)), np.cumsum(w_neg[:, order], axis=1)],
@@ -205,8 +233,20 @@ def weighted_auc(pos: np.ndarray, neg: np.ndarray, w_pos: np.ndarray,
     lo = np.searchsorted(neg_sorted, pos, side="left")
     hi = np.searchsorted(neg_sorted, pos, side="right")
     below, ties = cum[:, lo], cum[:, hi] - cum[:, lo]
-    num = (w_pos * (below + 0.5 * ties)).sum(axis=1)
-    den = w_pos.sum(axis=1) * cum[:, -1]
+    return (w_pos * (below + 0.5 * ties)).sum(axis=1), w_pos.sum(axis=1) * cum[:, -1]
+
+
+def stratified_auc(pos: np.ndarray, neg: np.ndarray, w_pos: np.ndarray, w_neg: np.ndarray,
+                   s_pos: np.ndarray, s_neg: np.ndarray) -> np.ndarray:
+    """`weighted_auc` counting only pairs within a stratum (`s_pos` (P,) and `s_neg` (N,)
+    integer stratum codes): the strata's AUCs pooled by their (weighted) numbers of pairs."""
+    num = np.zeros(w_pos.shape[0])
+    den = np.zeros(w_pos.shape[0])
+    for code in np.intersect1d(s_pos, s_neg):
+        mp, mn = s_pos == code, s_neg == code
+        n, d = _pair_counts(pos[mp], neg[mn], w_pos[:, mp], w_neg[:, mn])
+        num += n
+        den += d
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(den > 0, num / den, np.nan)
 
@@ -219,16 +259,28 @@ def auc(pos, neg) -> float:
     return float(weighted_auc(pos, neg, np.ones((1, pos.size)), np.ones((1, neg.size)))[0])
 
 
-def leak_auc(kin: pd.DataFrame, n_boot: int = 1000, seed: int = 0,
-             level: float = 0.95) -> pd.DataFrame:
+def _strata(sub: pd.DataFrame, role: str) -> np.ndarray:
+    """Integer stratum code of each row: the visible context of the contact (`STRATA_COLUMNS`)
+    and the role's speed bin at the contact."""
+    speed0 = sub[f"{role}_speed0_mps"].to_numpy(dtype=float)
+    speed_bin = np.where(np.isfinite(speed0), np.digitize(speed0, CONTACT_SPEED_BINS_MPS), -1)
+    keys = [sub[c].astype(str).to_numpy() for c in STRATA_COLUMNS] + [speed_bin.astype(str)]
+    return pd.factorize(pd.Series(["|".join(t) for t in zip(*keys)]))[0]
+
+
+def leak_auc(kin: pd.DataFrame, n_boot: int = 1000, seed: int = 0, level: float = 0.95,
+             stratify: bool = True) -> pd.DataFrame:
     """AUC per (pair, role, k, feature) of a `contact_kinematics` table (rows whose at_frame is
-    not before the pair's visible frame left out; NaN features dropped), with `level` bootstrap
-    percentile intervals from `n_boot` resamples of whole rallies (all the contacts of a rally
-    share its weight, so shots of one rally are not taken as independent; n_pos and n_neg vary
-    between replicates). The generator is seeded per (seed, pair, k): fixed results."""
-    missing = [col for col in TABLE_COLUMNS if col not in kin.columns]
+    not before the pair's visible frame left out; NaN features dropped), stratified (module
+    doc) unless `stratify` is False, with `level` bootstrap percentile intervals from `n_boot`
+    resamples of whole rallies (all the contacts of a rally share its weight, so shots of one
+    rally are not taken as independent; n_pos and n_neg vary between replicates). The
+    generator is seeded per (seed, pair, k): fixed results."""
+    need = TABLE_COLUMNS + ((STRATA_COLUMNS + CONTACT_SPEED_COLUMNS) if stratify else ())
+    missing = [col for col in need if col not in kin.columns]
     if missing:
-        raise ValueError(f"kinematics table lacks columns {missing}")
+        raise ValueError(f"kinematics table lacks columns {missing}"
+                         + (" (stratify=False gives the raw AUC)" if stratify else ""))
     if n_boot < 0 or seed < 0 or not 0 < level < 1:
         raise ValueError(f"need n_boot >= 0, seed >= 0, 0 < level < 1; got {n_boot}, {seed}, "
                          f"{level}")
@@ -240,8 +292,11 @@ def leak_auc(kin: pd.DataFrame, n_boot: int = 1000, seed: int = 0,
             cls = sub[pair].to_numpy()
             rallies, ridx = np.unique(sub["rally_id"].to_numpy(), return_inverse=True)
             x = sub[list(FEATURE_COLUMNS)].to_numpy(dtype=float)
+            codes = {role: _strata(sub, role) if stratify else np.zeros(len(sub), np.int64)
+                     for role in ROLES}
             masks = [(np.isfinite(x[:, j]) & (cls == 1), np.isfinite(x[:, j]) & (cls == 0))
                      for j in range(x.shape[1])]
+            roles = [col.split("_", 1)[0] for col in FEATURE_COLUMNS]
             boot = np.full((x.shape[1], n_boot), np.nan)
             rng = np.random.default_rng([seed, pi, k])
             step = max(1, _BOOT_CELLS // max(len(sub), 1))
@@ -250,24 +305,29 @@ def leak_auc(kin: pd.DataFrame, n_boot: int = 1000, seed: int = 0,
                 w = rng.multinomial(len(rallies), np.full(len(rallies), 1 / len(rallies)),
                                     size=nb)[:, ridx].astype(float)
                 for j, (mp, mn) in enumerate(masks):
-                    boot[j, b0:b0 + nb] = weighted_auc(x[mp, j], x[mn, j], w[:, mp], w[:, mn])
+                    cj = codes[roles[j]]
+                    boot[j, b0:b0 + nb] = stratified_auc(x[mp, j], x[mn, j], w[:, mp],
+                                                         w[:, mn], cj[mp], cj[mn])
             for j, col in enumerate(FEATURE_COLUMNS):
                 role, feature = col.split("_", 1)
                 mp, mn = masks[j]
+                cj = codes[role]
                 finite = np.isfinite(boot[j])
                 lo, hi = np.percentile(boot[j, finite], q) if finite.any() else (np.nan,) * 2
+                point = stratified_auc(x[mp, j], x[mn, j], np.ones((1, mp.sum())),
+                                       np.ones((1, mn.sum())), cj[mp], cj[mn])[0]
                 out.append({"pair": pair, "role": role, "feature": feature, "k": k,
-                            "auc": auc(x[mp, j], x[mn, j]), "lo": lo, "hi": hi,
+                            "auc": float(point), "lo": lo, "hi": hi,
                             "n_pos": int(mp.sum()), "n_neg": int(mn.sum()),
                             "mean_pos": x[mp, j].mean() if mp.any() else np.nan,
                             "mean_neg": x[mn, j].mean() if mn.any() else np.nan})
     return pd.DataFrame(out)
 
 
-def check_leaks(data: RallyData, ks=DEFAULT_KS, n_boot: int = 1000,
-                seed: int = 0) -> pd.DataFrame:
+def check_leaks(data: RallyData, ks=DEFAULT_KS, n_boot: int = 1000, seed: int = 0,
+                stratify: bool = True) -> pd.DataFrame:
     """`leak_auc` of `contact_kinematics`: the whole check on one `RallyData`."""
-    return leak_auc(contact_kinematics(data, ks), n_boot=n_boot, seed=seed)
+    return leak_auc(contact_kinematics(data, ks), n_boot=n_boot, seed=seed, stratify=stratify)
 
 
 def outside_band(table: pd.DataFrame, band=(0.4, 0.6)) -> pd.Series:
