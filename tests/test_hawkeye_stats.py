@@ -332,18 +332,15 @@ def test_real_targets_layout():
 
 
 @pytest.mark.skipif(hawkeye_targets_path() is None, reason=HAWKEYE_TARGETS_MISSING)
-def test_report_script_writes_the_comparison(tmp_path, capsys):
-    import importlib.util
-    from pathlib import Path
+def test_generated_matchups_compared_with_the_real_figures():
+    from sportsngen.eval.hawkeye import comparison_markdown
+    from sportsngen.eval.hawkeye_report import README_GROUPS, generated_strikes, hawkeye_report
 
-    path = Path(__file__).resolve().parents[1] / "scripts" / "hawkeye_report.py"
-    spec = importlib.util.spec_from_file_location("hawkeye_report_script", path)
-    script = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(script)
-    assert script.main(["--points", "12", "--seed", "4", "--out", str(tmp_path / "v")]) == 0
-    cmp = pd.read_csv(tmp_path / "v.csv")
+    strikes = generated_strikes(30, seed=4)
+    assert strikes.groupby(["match_id", "rally_id"]).ngroups == strikes["rally_id"].nunique()
+    _, cmp = hawkeye_report(strikes, groups=README_GROUPS)
     assert len(cmp) == 10 * len(STATISTICS)
-    assert cmp.loc[cmp["statistic"] == "serve_contact_behind_m_median", "generated"].notna().all()
-    md = (tmp_path / "v.md").read_text()
+    serve_pos = cmp[cmp["statistic"] == "serve_contact_behind_m_median"]
+    assert serve_pos["generated"].notna().all() and serve_pos["within"].all()
+    md = comparison_markdown(cmp)
     assert "| statistic | tol. | Federer hard | Federer clay |" in md and "WTA hard |" in md
-    assert "comparisons outside tolerance" in capsys.readouterr().out

@@ -7,7 +7,7 @@ generator); `scripts/hawkeye_report.py` is its command line.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import pandas as pd
 
@@ -29,27 +29,41 @@ README_GROUPS: tuple[tuple[str, str], ...] = (
 )
 
 
-def generated_strikes(n_points: int, seed: int,
-                      matchups: Sequence[tuple[tuple[str, str], str]] = README_MATCHUPS,
-                      progress: bool = False) -> pd.DataFrame:
-    """The strikes table of `n_points` generated points of each matchup (matchup k from seed
-    `seed` + k), one matchup at a time in this process so only one's tracking is in memory.
-    Match ids are prefixed with "<k>-" and rally ids shifted so they stay unique."""
+def _matchup_strikes(job: tuple) -> pd.DataFrame:
+    """Strikes of one generated matchup, ids made unique by the matchup's index k."""
     from sportsngen.synth import generate_matches
 
-    parts, offset = [], 0
-    for k, (pair, surface) in enumerate(matchups):
+    k, pair, surface, n_points, seed, progress = job
+    data = generate_matches([pair], surface, n_points=n_points, seed=seed, progress=progress)
+    s = strike_keypoints(data)
+    s["match_id"] = f"{k}-" + s["match_id"].astype(str)
+    s["rally_id"] += k * 10_000_000
+    return s
+
+
+def generated_strikes(n_points: int, seed: int,
+                      matchups: Sequence[tuple[tuple[str, str], str]] = README_MATCHUPS,
+                      profiles: Mapping[str, object] | None = None, workers: int = 1,
+                      progress: bool = False) -> pd.DataFrame:
+    """The strikes table of `n_points` generated points of each matchup (matchup k from seed
+    `seed` + k): one matchup a process at a time, so only its tracking is in memory. Players
+    by name; `profiles` (name -> `PlayerProfile`) plays other profiles under those names (a
+    calibration's candidates). Match ids are prefixed "<k>-" and rally ids offset by k * 1e7
+    so they stay unique."""
+    jobs = []
+    for k, ((a, b), surface) in enumerate(matchups):
+        pair = (a, b) if profiles is None else (profiles.get(a, a), profiles.get(b, b))
         if progress:
-            print(f"[{k + 1}/{len(matchups)}] {pair[0]} v {pair[1]} on {surface}: "
-                  f"{n_points} points", flush=True)
-        data = generate_matches([tuple(pair)], surface, n_points=n_points, seed=seed + k,
-                                progress=progress)
-        s = strike_keypoints(data)
-        del data
-        s["match_id"] = f"{k}-" + s["match_id"]
-        s["rally_id"] += offset
-        offset = int(s["rally_id"].max()) + 1
-        parts.append(s)
+            print(f"[{k + 1}/{len(matchups)}] {a} v {b} on {surface}: {n_points} points",
+                  flush=True)
+        jobs.append((k, pair, surface, n_points, seed + k, progress and workers == 1))
+    if workers > 1:
+        from multiprocessing import get_context
+
+        with get_context("spawn").Pool(min(workers, len(jobs))) as pool:
+            parts = pool.map(_matchup_strikes, jobs)
+    else:
+        parts = [_matchup_strikes(j) for j in jobs]
     return pd.concat(parts, ignore_index=True)
 
 

@@ -21,7 +21,25 @@ from sportsngen.synth.profiles import PlayerProfile
 from sportsngen.tennis import court
 from sportsngen.tennis.court import BASELINE_X_M, SERVICE_LINE_X_M, SINGLES_HALF_WIDTH_M
 
-SERVE_DEPTH_MARGIN_M = 0.9  # serves are aimed this far inside the service line
+SERVE_DEPTH_MARGIN_M = 0.9  # first serves are aimed this far inside the service line
+SECOND_SERVE_DEPTH_MARGIN_M = 1.4  # second serves, with their bigger margin for error
+# Players stand and meet the ball deeper on slow courts (Hawk-Eye: the same players return and
+# rally from further back on clay than on hard courts).
+SURFACE_DEPTH_M = {"hard": 0.0, "clay": 0.3, "grass": -0.3}
+# A neutral rally ball to a side is aimed this far inside the sideline (less when attacking):
+# at real rally pace (31-35 m/s) a narrower margin makes every tenth ball a winner.
+SIDE_MARGIN_M = 3.0
+RETURN_SPEED_FACTOR = 1.0    # returns against rally balls, pace
+RETURN_SPIN_FACTOR = 0.6     # returns are flatter (blocked, sliced) than rally balls
+# Least height over the cord a player allows his ball (at least a, plus b times how safe he
+# plays, 1 - aggression): a floor, not the typical height (real p10 of rally balls: 0.2 m).
+NET_CLEARANCE_M = (0.05, 0.25)
+# A return is rushed (the serve's weight shows: RUSHED_NOISE_FACTOR times the aim noise, and
+# the depth and width of a reply to a hard ball) with chance 1 - difficulty^-RUSHED_RETURN_EXPONENT,
+# else clean; a heavier serve rushes more returns rather than scattering every one of them
+# (real returns cross the net at 1.7-2.1 m, 90 % below 2.3-3.5 m).
+RUSHED_RETURN_EXPONENT = 0.5
+RUSHED_NOISE_FACTOR = 3.0
 SERVE_ZONES = ("wide", "body", "T")
 KMH_PER_MPS = 3.6
 
@@ -41,12 +59,23 @@ def serve_stance(server_end: int, serving_side: str) -> tuple[float, float]:
 
 
 def return_stance(p: PlayerProfile, server_end: int, serving_side: str,
-                  serve_number: int) -> tuple[float, float]:
-    """Where the returner waits: behind the baseline (nearer on second serves), in line with the
-    middle of the box the serve is aimed at."""
-    depth = p.return_depth_m if serve_number == 1 else 0.4 * p.return_depth_m
+                  serve_number: int, surface: str) -> tuple[float, float]:
+    """Where the returner waits: `return_depth_m` (second serves: `second_return_depth_m`)
+    behind the baseline, deeper on slow courts, in line with the middle of the box the serve
+    is aimed at."""
     s = -deuce_sign(server_end, serving_side)
-    return -server_end * (BASELINE_X_M + depth), s * 3.0
+    return -server_end * (BASELINE_X_M + return_depth_m(p, serve_number, surface)), s * 3.0
+
+
+def return_depth_m(p: PlayerProfile, serve_number: int, surface: str) -> float:
+    """How far behind his baseline the returner waits for, and likes to meet, the serve."""
+    depth = p.return_depth_m if serve_number == 1 else p.second_return_depth_m
+    return depth + SURFACE_DEPTH_M[surface]
+
+
+def rally_depth_m(p: PlayerProfile, surface: str) -> float:
+    """How far behind his baseline the player recovers to and likes to meet rally balls."""
+    return p.recovery_depth_m + SURFACE_DEPTH_M[surface]
 
 
 def plan_serve(p: PlayerProfile, server_end: int, serving_side: str, serve_number: int,
@@ -68,7 +97,8 @@ def plan_serve(p: PlayerProfile, server_end: int, serving_side: str, serve_numbe
         if spin < 0:
             label = "slice"
     lateral = {"wide": SINGLES_HALF_WIDTH_M - margin, "body": 2.0, "T": margin}[zone]
-    depth = SERVICE_LINE_X_M - SERVE_DEPTH_MARGIN_M - 0.3 * (serve_number - 1)
+    depth = SERVICE_LINE_X_M - (SERVE_DEPTH_MARGIN_M if serve_number == 1 else
+                                SECOND_SERVE_DEPTH_MARGIN_M)
     return ShotPlan(target_x_m=-server_end * depth, target_y_m=s * lateral,
                     speed_mps=max(kmh, 60.0) / KMH_PER_MPS, spin_mps=spin, stroke="serve",
                     spin_label=label, direction=zone, noise_deg=noise, net_clearance_m=0.05)
@@ -100,9 +130,14 @@ def plan_rally_shot(p: PlayerProfile, end: int, stroke: str, contact_xyz: np.nda
     ball (contact well inside the baseline) invites aggression. `incoming_difficulty` (the
     server's `serve_heaviness` on a return, the opponent's `rally_pressure` in a rally) above 1
     raises the execution noise a little and makes the reply shorter, slower and more central:
-    an attackable ball.
+    an attackable ball. On a return it does so only when the return is rushed (see
+    `RUSHED_RETURN_EXPONENT`).
     """
     cx, cy, cz = (float(v) for v in contact_xyz)
+    difficulty = max(incoming_difficulty, 0.05)
+    rushed = is_return and rng.random() < 1.0 - difficulty ** -RUSHED_RETURN_EXPONENT
+    if is_return and not rushed:
+        difficulty = 1.0  # a clean return: the serve's weight does not show
     short_ball = abs(cx) < BASELINE_X_M - 2.5 and duress < 0.5
     style = p.aggression * (1.0 - 0.7 * duress) * (0.5 if is_return else 1.0)
     # A short ball taken comfortably is attacked: nearer the lines and faster (the noise
@@ -122,10 +157,10 @@ def plan_rally_shot(p: PlayerProfile, end: int, stroke: str, contact_xyz: np.nda
     if opponent_at_net and side == 0.0:
         side = -ref  # pass, don't hit at the volleyer
 
-    side_margin = max(2.0 - 1.1 * aggr + 0.4 * duress, 0.8)
+    side_margin = max(SIDE_MARGIN_M - 1.1 * aggr + 0.4 * duress, 0.8)
     # A heavy incoming ball (difficulty > 1) also makes the reply land shorter and slower.
-    difficulty = max(incoming_difficulty, 0.05)
-    depth_margin = 2.8 - 0.9 * aggr + 0.6 * duress + 0.6 * max(math.log(difficulty), 0.0)
+    depth_margin = p.rally_depth_margin_m - 0.9 * aggr + 0.6 * duress + \
+        0.6 * max(math.log(difficulty), 0.0)
     depth_margin = min(max(depth_margin, 1.5), 6.0)
     if side == 0.0:
         y = 0.6 * rng.standard_normal()
@@ -136,8 +171,8 @@ def plan_rally_shot(p: PlayerProfile, end: int, stroke: str, contact_xyz: np.nda
     lob = False
     speed = p.rally_speed_mps * (0.88 + 0.35 * aggr) * (1.0 - 0.3 * duress)
     if is_return:
-        speed *= 0.9
-    spin, spin_label = p.topspin_mps, "topspin"
+        speed *= RETURN_SPEED_FACTOR
+    spin, spin_label = p.topspin_mps * (RETURN_SPIN_FACTOR if is_return else 1.0), "topspin"
     volley = stroke.endswith("volley")
     if stroke == "overhead":
         speed, spin, spin_label = p.rally_speed_mps * 1.15, 0.0, "flat"
@@ -149,11 +184,13 @@ def plan_rally_shot(p: PlayerProfile, end: int, stroke: str, contact_xyz: np.nda
     if opponent_at_net and not volley and stroke != "overhead" and rng.random() < 0.2:
         lob, speed, spin, spin_label = True, 0.6 * speed, p.topspin_mps, "topspin"
         x, y = -end * (BASELINE_X_M - 1.5), 0.5 * y
-    speed *= (1.0 + 0.04 * rng.standard_normal()) * difficulty ** -0.2
+    # A heavy ball slows the reply, except a return: the returner borrows the serve's pace.
+    speed *= (1.0 + 0.04 * rng.standard_normal()) * (1.0 if is_return else difficulty ** -0.2)
 
     base = p.return_noise_deg if is_return else p.rally_noise_deg
-    noise = base * difficulty ** 0.8 * (1.0 + 1.3 * duress) * (0.75 + 0.5 * style)
-    clearance = 0.15 + 0.6 * (1.0 - aggr)
+    weight = RUSHED_NOISE_FACTOR if rushed else difficulty ** 0.8
+    noise = base * weight * (1.0 + 1.3 * duress) * (0.75 + 0.5 * style)
+    clearance = NET_CLEARANCE_M[0] + NET_CLEARANCE_M[1] * (1.0 - aggr)
     # The label follows the project's definition (court.shot_direction) of the intended shot.
     direction = str(court.shot_direction(cx, cy, x, y, p.handedness, stroke))
     return ShotPlan(target_x_m=x, target_y_m=float(y), speed_mps=float(speed),
@@ -168,12 +205,12 @@ def error_kind(duress: float, is_return: bool) -> str:
 
 
 def recovery_target(p: PlayerProfile, end: int, shot_target_y_m: float,
-                    at_net: bool) -> tuple[float, float]:
-    """Where the hitter recovers after his shot: behind his baseline (or at the net after an
-    approach), shaded toward his own target (the bisector of the reply angles) and offset toward
-    the backhand side by the player's habit."""
+                    at_net: bool, surface: str) -> tuple[float, float]:
+    """Where the hitter recovers after his shot: behind his baseline (`rally_depth_m`, or at
+    the net after an approach), shaded toward his own target (the bisector of the reply
+    angles) and offset toward the backhand side by the player's habit."""
     backhand = -int(court.forehand_side_sign(end, p.handedness))
     if at_net:
         return end * 2.6, 0.45 * shot_target_y_m
     y = 0.35 * shot_target_y_m + backhand * p.recovery_backhand_offset_m
-    return end * (BASELINE_X_M + p.recovery_depth_m), y
+    return end * (BASELINE_X_M + rally_depth_m(p, surface)), y

@@ -43,7 +43,7 @@ VOLLEY_Z_RANGE_M = (0.3, 3.0)    # before the bounce, for a player at the net
 REACH_PLAN_FACTOR = 0.85         # plan contacts within this share of the reach (slack to steer)
 REACH_TOLERANCE_M = 0.15
 SEARCH_STEP_S = 0.02
-PAST_BASELINE_M = 3.0            # an unreached ball this far past the baseline ends the point
+PAST_BASELINE_M = 3.0            # an unreached ball this far past his baseline ends the point
 TOSS_HAND_Z_M = 1.0
 TOSS_RELEASE_Z_M = 1.9
 TOSS_RELEASE_S = 0.35
@@ -56,13 +56,15 @@ AZIMUTH_NOISE_RATIO = 1.6        # lateral aim errors are larger in angle than d
 @dataclass(frozen=True)
 class Body:
     """How one player moves, and where he likes to meet the ball: contacts away from
-    `contact_z_m` and further than `contact_depth_m` behind his baseline cost him."""
+    `contact_z_m`, and further behind his baseline than `contact_depth_m` in a rally or
+    `return_depth_m` on this rally's return, cost him."""
 
     max_speed_mps: float
     max_accel_mps2: float
     reach_m: float
     contact_z_m: float = 1.0
     contact_depth_m: float = 0.0
+    return_depth_m: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -293,15 +295,15 @@ def read_flight(flight: physics.Flight, pos_m: np.ndarray, vel_mps: np.ndarray,
 
 def find_intercept(flight: physics.Flight, t_react: float, pos: np.ndarray,
                    vel: tuple[float, float], body: Body, end: int, can_volley: bool,
-                   t_bounce: float, t_stop: float) -> Intercept | None:
+                   t_bounce: float, t_stop: float, depth_m: float = 0.0) -> Intercept | None:
     """Best contact on the flight (local times) for a player who starts to move at `t_react`.
 
     Reachable: from (pos, vel) a disk drifting with the current velocity (while the player
     cancels it) whose radius grows as he accelerates must reach within `REACH_PLAN_FACTOR` of
     his reach. Among reachable contacts he prefers a comfortable height, little running, an
-    early ball and not too deep behind his baseline. When none is reachable, the contact he is
-    least late for (`reachable` False). None when the flight offers no contact at a playable
-    height on his side at all."""
+    early ball and not deeper behind his baseline than `depth_m`. When none is reachable, the
+    contact he is least late for (`reachable` False). None when the flight offers no contact
+    at a playable height on his side at all."""
     t0 = max(t_react, 0.05)
     if t_stop <= t0:
         return None
@@ -330,7 +332,7 @@ def find_intercept(flight: physics.Flight, t_react: float, pos: np.ndarray,
         return Intercept(float(tau[k]), ball[k].copy(), bool(ok_pre[k]), 1.0, reachable=False)
     reachable = max_distance_m(avail, body.max_speed_mps, body.max_accel_mps2)
     duress = np.clip(travel / np.maximum(reachable, 1e-6), 0.0, 1.0)
-    deep = np.maximum(np.abs(ball[:, 0]) - BASELINE_X_M - body.contact_depth_m, 0.0)
+    deep = np.maximum(np.abs(ball[:, 0]) - BASELINE_X_M - depth_m, 0.0)
     cost = np.abs(z - body.contact_z_m) + 1.5 * duress + 0.2 * tau + 0.3 * deep - 1.0 * ok_pre
     k = int(np.argmin(np.where(ok, cost, np.inf)))
     return Intercept(float(tau[k]), ball[k].copy(), bool(ok_pre[k]), float(duress[k]))
@@ -536,8 +538,10 @@ def _run(policy: Policy, rng: np.random.Generator, shape_rng: np.random.Generato
             t_stop = read_bounces[1] if len(read_bounces) > 1 else float(read.t_s[-1])
         t_react_local = k_react * dt - t_contact
         mover = movers[opp]
+        depth = bodies[opp].return_depth_m if is_serve else bodies[opp].contact_depth_m
         hit = find_intercept(read, t_react_local, mover.pos, (mover.vx, mover.vy), bodies[opp],
-                             ends[opp], policy.can_volley(opp, mover.pos), t_bounce, t_stop)
+                             ends[opp], policy.can_volley(opp, mover.pos), t_bounce, t_stop,
+                             depth)
         if hit is None:
             near = nearest_pass(read, t_react_local, mover.pos, ends[opp], t_stop)
             if near is not None:
@@ -574,7 +578,7 @@ def _run(policy: Policy, rng: np.random.Generator, shape_rng: np.random.Generato
             shot.outcome = "winner"
             end_reason = "ace" if is_serve else "winner"
             end_detail, winner = "unreached", hitter
-            past = np.nonzero(np.abs(flight.pos_m[:, 0]) > BASELINE_X_M + PAST_BASELINE_M)[0]
+            past = np.nonzero(flight.pos_m[:, 0] * ends[opp] > BASELINE_X_M + PAST_BASELINE_M)[0]
             t_pass = flight.t_s[past[0]] if len(past) else flight.t_s[-1]
             t_end = t_contact + min(t_stop, t_pass)
             t_seen = hit.t_s if hit is not None else min(t_stop, t_pass)

@@ -32,7 +32,8 @@ _UNIT_FIELDS = ("serve_wide", "serve_body", "serve_t", "aggression", "net_approa
 # Fields that may be negative (signed spins, timing offsets that anticipate); every other
 # numeric field must be >= 0.
 _SIGNED_FIELDS = ("first_serve_spin_mps", "second_serve_spin_mps", "serve_disguise_s",
-                  "topspin_mps", "slice_spin_mps")
+                  "topspin_mps", "slice_spin_mps", "recovery_depth_m", "return_depth_m",
+                  "second_return_depth_m")
 
 
 @dataclass(frozen=True)
@@ -43,8 +44,10 @@ class PlayerProfile:
     ``reaction_s`` delay between the opponent's contact and the first step; ``max_speed_mps``,
     ``max_accel_mps2`` limits of the centre of mass; ``reach_m`` the furthest horizontal distance
     between centre of mass and ball at a contact; ``recovery_depth_m`` how far behind the
-    baseline the player recovers to, ``recovery_backhand_offset_m`` how far toward the backhand
-    side; ``return_depth_m`` where the player waits for a first serve (behind the baseline).
+    baseline the player recovers to and likes to meet rally balls (negative: inside the court),
+    ``recovery_backhand_offset_m`` how far toward the backhand side; ``return_depth_m`` and
+    ``second_return_depth_m`` where the player waits for a first / second serve and likes to
+    meet it (behind the baseline; on clay deeper, on grass nearer: `behaviour.SURFACE_DEPTH_M`).
 
     Serve: ``contact_height_m`` of the toss; first/second serve speed at contact (mean and
     standard deviation, km/h); spins (m/s, > 0 topspin/kick); ``serve_wide/body/t`` the
@@ -58,7 +61,9 @@ class PlayerProfile:
     ``second_serve_initiative`` multiply the difficulty of the server's first rally ball (the
     "serve plus one" a good serve sets up).
 
-    Rally: ``rally_speed_mps`` a neutral groundstroke's speed; ``rally_noise_deg`` its execution
+    Rally: ``rally_speed_mps`` a neutral groundstroke's speed; ``rally_depth_margin_m`` how far
+    inside the baseline it is aimed; ``rally_contact_z_m`` the height he likes to meet the ball
+    at; ``rally_noise_deg`` its execution
     noise; ``rally_pressure`` multiplies the opponent's aim noise on this player's rally balls
     (weight of shot: pace, spin and depth beyond what the aim point says); ``aggression``
     (0 safe, 1 all-out) moves targets toward the lines and raises speed
@@ -81,6 +86,7 @@ class PlayerProfile:
     recovery_depth_m: float = 1.0
     recovery_backhand_offset_m: float = 0.3
     return_depth_m: float = 1.2
+    second_return_depth_m: float = 0.5
     # serve
     contact_height_m: float = 2.8
     first_serve_kmh: float = 185.0
@@ -101,6 +107,8 @@ class PlayerProfile:
     second_serve_initiative: float = 1.0
     # rally
     rally_speed_mps: float = 31.0
+    rally_depth_margin_m: float = 3.4
+    rally_contact_z_m: float = 1.0
     rally_noise_deg: float = 1.5
     rally_pressure: float = 1.0
     aggression: float = 0.4

@@ -34,14 +34,14 @@ from sportsngen.synth.cycle import (  # noqa: F401  (re-exported: what a rally i
 from sportsngen.synth.profiles import PlayerProfile
 from sportsngen.tennis.court import BASELINE_X_M
 
-IDEAL_CONTACT_Z_M = 1.0
 # Centre of mass to ball at contact: uniform in this range per shot (a single value taught
 # the decoder that a ball passing nearer the body is never struck, so rollouts whose receiver
 # stood in the ball's path let it through).
 CONTACT_LATERAL_RANGE_M = (0.3, 1.2)
 INITIATIVE_DECAY = 0.85         # per server shot, of the serve's initiative (log scale)
 INITIATIVE_CARRY = 0.3          # share (in log) of the ball's difficulty passed on to the reply
-SERVE_INSIDE_BASELINE_M = 0.25  # the serve is struck this far inside the baseline
+SERVE_INSIDE_BASELINE_M = 0.5   # the serve is struck this far inside the baseline (Hawk-Eye:
+#                                 0.43-0.64 m for the named players)
 MIN_RETURN_REACTION_S = 0.08
 
 
@@ -79,12 +79,17 @@ class ProfilePolicy:
         if serve_number not in (1, 2):
             raise ValueError(f"serve_number must be 1 or 2, got {serve_number!r}")
         bh.deuce_sign(server_end, serving_side)  # validates the side
+        if surface not in bh.SURFACE_DEPTH_M:
+            raise ValueError(f"unknown surface {surface!r}; known surfaces: "
+                             f"{sorted(bh.SURFACE_DEPTH_M)}")
         self.server_end, self.serving_side = server_end, serving_side
         self.serve_number, self.surface = serve_number, surface
         self.profiles = (server, receiver)
         self.ends = (server_end, -server_end)
         self.bodies = tuple(Body(p.max_speed_mps, p.max_accel_mps2, p.reach_m,
-                                 IDEAL_CONTACT_Z_M) for p in self.profiles)
+                                 p.rally_contact_z_m, bh.rally_depth_m(p, surface),
+                                 bh.return_depth_m(p, serve_number, surface))
+                            for p in self.profiles)
         self.at_net = [False, False]
         self.incoming = 1.0
         self.stroke = ["forehand", "forehand"]
@@ -92,7 +97,8 @@ class ProfilePolicy:
     def serve(self, rng: np.random.Generator):
         server, receiver = self.profiles
         stance = bh.serve_stance(self.server_end, self.serving_side)
-        wait = bh.return_stance(receiver, self.server_end, self.serving_side, self.serve_number)
+        wait = bh.return_stance(receiver, self.server_end, self.serving_side, self.serve_number,
+                                self.surface)
         contact = np.array([self.server_end * (BASELINE_X_M - SERVE_INSIDE_BASELINE_M),
                             stance[1] * 0.9, server.contact_height_m])
         plan = bh.plan_serve(server, self.server_end, self.serving_side, self.serve_number, rng)
@@ -117,10 +123,10 @@ class ProfilePolicy:
             # on faults.
             u = rng.random() if landed_in else shape_rng.random()
             self.at_net[0] = u < 0.5 * p.net_approach
-            target = bh.recovery_target(p, end, target_y, self.at_net[0])
+            target = bh.recovery_target(p, end, target_y, self.at_net[0], self.surface)
             # serve and volley: the first volley around the service line
             return (end * 6.0, target[1]) if self.at_net[0] else target
-        return bh.recovery_target(p, end, target_y, self.at_net[hitter])
+        return bh.recovery_target(p, end, target_y, self.at_net[hitter], self.surface)
 
     def can_volley(self, role: int, pos_m: np.ndarray) -> bool:
         return self.at_net[role]

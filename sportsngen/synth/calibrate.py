@@ -1,0 +1,389 @@
+"""Calibration of the named player profiles to real data, by damped proportional steps.
+
+Two sources, two sets of knobs that do not overlap:
+
+- **2011 serving statistics** (`data/slam2011_targets.csv`, derived from the 2011 US Open and
+  Wimbledon point-by-point data of Jeff Sackmann / Tennis Abstract, CC BY-NC-SA 4.0): each
+  round plays service points of every named player against population players of his gender
+  (hard and grass, as the two events) and moves one parameter per statistic:
+
+      first serve in %        <- first_serve_noise_deg   (more noise, more faults)
+      double faults %         <- second_serve_noise_deg
+      aces %                  <- serve_disguise_s        (the returner starts later)
+      unreturned serves       <- serve_heaviness         (more rushed returns)
+      1st serve points won %  <- serve_initiative        (the serve sets up the next ball)
+      2nd serve points won %  <- second_serve_initiative
+      mean rally length       <- rally_noise_deg and rally_pressure together
+      median serve speeds     <- first/second_serve_kmh
+
+- **Hawk-Eye ball keypoints** (`eval.hawkeye`: 2019-2020 medians per player and surface):
+  the named matchups are played with frames and measured with the same statistics as real
+  keypoints (`hawkeye_step` lists which parameter follows which statistic).
+
+Rounds use fixed seeds (common random numbers), so the steps see the parameter change more
+than sampling noise; the population is re-sampled every round around the current profiles.
+This is the one `synth` module that reads `eval`'s statistics (pure numpy/pandas): generated
+play is measured with exactly the code that measures real play.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+from multiprocessing import get_context
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from sportsngen.synth import profiles as prof
+from sportsngen.synth.profiles import PlayerProfile, sample_population
+from sportsngen.synth.rally import play_rally
+
+DATA = Path(__file__).with_name("data")
+TARGETS_CSV = DATA / "slam2011_targets.csv"
+SEEDS_JSON = DATA / "profile_seeds.json"
+SURFACES_2011 = ("hard", "grass")
+STAT_KEYS = ("first_serve_in", "ace", "double_fault", "first_serve_won", "second_serve_won",
+             "first_serve_kmh_median", "second_serve_kmh_median", "rally_mean")
+RALLY_BINS = ("0", "1", "2", "3-4", "5-8", "9+")
+TOLERANCE_PP = {"first_serve_in": 3, "ace": 3, "double_fault": 3, "first_serve_won": 3,
+                "second_serve_won": 3}
+TOLERANCE_KMH = 5.0
+TOLERANCE_RALLY_MEAN = 0.5
+TOLERANCE_RALLY_BIN_PP = 5
+
+
+def load_targets(path: Path = TARGETS_CSV) -> pd.DataFrame:
+    """2011 targets, one row per player (index = name), fractions and km/h."""
+    if not Path(path).exists():
+        raise FileNotFoundError(f"targets file {path} missing: run "
+                                "scripts/derive_player_stats.py first")
+    df = pd.read_csv(path, comment="#")
+    key = next(c for c in ("player", "server", "name", "Unnamed: 0") if c in df.columns)
+    df = df.rename(columns=dict(zip(("rally_0", "rally_1", "rally_2", "rally_3_4", "rally_5_8",
+                                     "rally_9plus"), RALLY_BINS)))
+    return df.set_index(key)
+
+
+def profile_seeds(path: Path = SEEDS_JSON) -> dict[str, dict]:
+    """The named players' starting points (handedness, style, character) by name."""
+    return json.loads(Path(path).read_text())["players"]
+
+
+def initial_profile(name: str, target: pd.Series, seed: dict) -> PlayerProfile:
+    """A named player's starting profile: his seed, serve speeds at the 2011 medians with the
+    real spread (IQR = 1.349 sd, within reason)."""
+    kw = dict(seed)
+    kw["first_serve_kmh"] = float(target["first_serve_kmh_median"])
+    kw["second_serve_kmh"] = float(target["second_serve_kmh_median"])
+    for key in ("first", "second"):
+        iqr = float(target.get(f"{key}_serve_kmh_iqr", 11.0))
+        kw[f"{key}_serve_kmh_sd"] = float(np.clip(iqr / 1.349, 5.0, 16.0))
+    return PlayerProfile(name=name, **kw)
+
+
+def service_outcomes(server: PlayerProfile, opponents: list[PlayerProfile], n_points: int,
+                     seed: int) -> pd.DataFrame:
+    """`n_points` service points of `server` (outcome only) against `opponents` in turn,
+    alternating courts and ends; the serve behaviour does not depend on the score."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for i in range(n_points):
+        opp = opponents[i % len(opponents)]
+        end = 1 if (i // 2) % 2 else -1
+        side = "deuce" if i % 2 == 0 else "ad"
+        surface = SURFACES_2011[(i // 50) % 2]
+        first = play_rally(server, opp, end, side, 1, surface, rng, render=False)
+        res = first if first.end_reason != "fault" else \
+            play_rally(server, opp, end, side, 2, surface, rng, render=False)
+        rows.append((first.end_reason != "fault", res.end_reason == "ace",
+                     res.end_reason == "double_fault", res.winner_role == 0,
+                     res.serve_kmh, res.rally_length))
+    return pd.DataFrame(rows, columns=["first_in", "ace", "df", "won", "kmh", "rally"])
+
+
+def summarise(o: pd.DataFrame) -> dict[str, float]:
+    """The 2011 statistics of `service_outcomes` rows."""
+    first = o["first_in"]
+    r = o["rally"]
+    out = {"first_serve_in": first.mean(), "ace": o["ace"].mean(),
+           "double_fault": o["df"].mean(), "first_serve_won": o.loc[first, "won"].mean(),
+           "second_serve_won": o.loc[~first, "won"].mean(),
+           "first_serve_kmh_median": o.loc[first, "kmh"].median(),
+           "second_serve_kmh_median": o.loc[~first & ~o["df"], "kmh"].median(),
+           "rally_mean": r.mean()}
+    shares = [(r == 0).mean(), (r == 1).mean(), (r == 2).mean(), r.between(3, 4).mean(),
+              r.between(5, 8).mean(), (r >= 9).mean()]
+    out.update(dict(zip(RALLY_BINS, shares)))
+    return out
+
+
+def _measure(args: tuple) -> dict[str, float]:
+    profile, opponents, n_points, seed = args
+    return summarise(service_outcomes(profile, opponents, n_points, seed))
+
+
+def _clip(v: float, lo: float, hi: float) -> float:
+    return float(min(max(v, lo), hi))
+
+
+def step_2011(p: PlayerProfile, sim: dict[str, float], tgt: pd.Series,
+              damping: float) -> PlayerProfile:
+    """One damped proportional update of the parameters the 2011 statistics calibrate."""
+    d = damping
+    fsi_t, df_t = float(tgt["first_serve_in"]), float(tgt["double_fault"])
+    p2_t = df_t / max(1.0 - fsi_t, 1e-6)
+    p2_s = sim["double_fault"] / max(1.0 - sim["first_serve_in"], 1e-6)
+    unret_t = float(tgt["1"]) - float(tgt["ace"])  # serves in play but not returned
+    unret_s = sim["1"] - sim["ace"]
+    tempo = d * (sim["rally_mean"] - float(tgt["rally_mean"])) / 6.0
+    return replace(
+        p,
+        first_serve_noise_deg=_clip(p.first_serve_noise_deg * math.exp(
+            2.5 * d * (sim["first_serve_in"] - fsi_t)), 0.05, 5.0),
+        second_serve_noise_deg=_clip(p.second_serve_noise_deg * math.exp(
+            -2.5 * d * (p2_s - p2_t)), 0.05, 5.0),
+        serve_disguise_s=_clip(p.serve_disguise_s + 0.8 * d * (float(tgt["ace"]) - sim["ace"]),
+                               -0.2, 0.4),
+        serve_heaviness=_clip(p.serve_heaviness * math.exp(
+            4.0 * d * (unret_t - unret_s)), 0.2, 10.0),
+        serve_initiative=_clip(p.serve_initiative * math.exp(
+            4.0 * d * (float(tgt["first_serve_won"]) - sim["first_serve_won"])), 0.2, 8.0),
+        second_serve_initiative=_clip(p.second_serve_initiative * math.exp(
+            4.0 * d * (float(tgt["second_serve_won"]) - sim["second_serve_won"])), 0.2, 8.0),
+        # Rally tempo: own noise and the pressure put on the opponent together.
+        rally_noise_deg=_clip(p.rally_noise_deg * math.exp(0.5 * tempo), 0.2, 4.0),
+        rally_pressure=_clip(p.rally_pressure * math.exp(0.5 * tempo), 0.2, 5.0),
+        first_serve_kmh=p.first_serve_kmh + d * (float(tgt["first_serve_kmh_median"]) -
+                                                 sim["first_serve_kmh_median"]),
+        second_serve_kmh=p.second_serve_kmh + d * (float(tgt["second_serve_kmh_median"]) -
+                                                   sim["second_serve_kmh_median"]),
+    )
+
+
+def write_profiles(named: dict[str, PlayerProfile], path: Path, note: str = "") -> None:
+    """Write profiles as `profiles.json` holds them (floats to 4 decimals)."""
+    payload = {
+        "note": "Calibrated by sportsngen.synth.calibrate (scripts/calibrate_profiles.py) "
+                "against sportsngen/synth/data/slam2011_targets.csv (2011 US Open + Wimbledon, "
+                "Jeff Sackmann / Tennis Abstract, CC BY-NC-SA 4.0) and the Hawk-Eye keypoint "
+                "figures of AO 2020 and RG 2019-2020 via CourtVision. " + note,
+        "players": [{k: (round(v, 4) if isinstance(v, float) else v)
+                     for k, v in p.to_dict().items()} for p in named.values()],
+    }
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(payload, indent=1) + "\n")
+    if path.resolve() == prof.PROFILES_JSON.resolve():
+        prof._named_cache.cache_clear()
+
+
+def read_profiles(path: Path) -> dict[str, PlayerProfile]:
+    raw = json.loads(Path(path).read_text())["players"]
+    return {p["name"]: PlayerProfile.from_dict(p) for p in raw}
+
+
+def table_2011(named: dict[str, PlayerProfile], sims: dict[str, dict],
+               targets: pd.DataFrame) -> str:
+    """A plain-text table of simulated/target figures (percentages, km/h, shots)."""
+    lines = [f"{'player':16s} " + " ".join(f"{k[:12]:>13s}" for k in STAT_KEYS + RALLY_BINS)]
+    for name in named:
+        sim, tgt = sims[name], targets.loc[name]
+        cells = []
+        for k in STAT_KEYS + RALLY_BINS:
+            scale = 1.0 if ("kmh" in k or k == "rally_mean") else 100.0
+            cells.append(f"{sim[k] * scale:6.1f}/{float(tgt[k]) * scale:6.1f}")
+        lines.append(f"{name:16s} " + " ".join(cells))
+    return "\n".join(lines)
+
+
+def _opponents(p: PlayerProfile, named: dict[str, PlayerProfile], n: int,
+               seed: int) -> list[PlayerProfile]:
+    centre = prof.average_profile(p.gender, profiles=list(named.values()))
+    return sample_population(n, seed=seed, gender=p.gender, base=centre)
+
+
+def measure_2011(named: dict[str, PlayerProfile], n_points: int, seed: int, workers: int,
+                 n_opponents: int = 96) -> dict[str, dict]:
+    """2011 statistics of every named player against population players of his gender."""
+    jobs = [(p, _opponents(p, named, n_opponents, seed + 1000 + i), n_points, seed + i)
+            for i, p in enumerate(named.values())]
+    if workers > 1:
+        with get_context("spawn").Pool(workers) as pool:
+            results = pool.map(_measure, jobs)
+    else:
+        results = [_measure(j) for j in jobs]
+    return dict(zip(named, results))
+
+
+def acceptance_2011(named: dict[str, PlayerProfile], targets: pd.DataFrame, n_points: int,
+                    seed: int, workers: int, n_opponents: int = 48) -> str:
+    """The acceptance table: each named player plays whole matches (through `MatchState`)
+    against `n_opponents` population players of his gender until `n_points` points are played
+    (about half served by him); serving figures and rally lengths from the points table with
+    `serve_stats` / `rally_distribution`. A markdown table; '!' marks a figure outside its
+    tolerance (3 points, 5 km/h, 0.5 shots, 5 points per rally bin)."""
+    from sportsngen.eval.stats import rally_distribution, serve_stats
+    from sportsngen.synth.generate import service_points
+
+    head = ("| player | service pts | 1st in % | aces % | DF % | 1st won % | 2nd won % | "
+            "1st km/h | 2nd km/h | rally mean | " + " | ".join(f"rally {b} %" for b in RALLY_BINS)
+            + " |")
+    lines = [head, "|" + "---|" * (head.count("|") - 1)]
+    for i, (name, p) in enumerate(named.items()):
+        pop = _opponents(p, named, n_opponents, seed + 500 + i)
+        pts = service_points([(p, q) for q in pop], list(SURFACES_2011), n_points, seed + i,
+                             workers=workers)
+        st = serve_stats(pts).loc[name]
+        rd = rally_distribution(pts).loc[name]
+        t = targets.loc[name]
+        cells = [name, f"{int(st['n_points'])}"]
+        for k in STAT_KEYS:
+            sim, real = float(st[k]), float(t[k])
+            if k in TOLERANCE_PP:
+                bad = abs(sim - real) * 100 > TOLERANCE_PP[k]
+                cells.append(f"{sim * 100:.1f} / {real * 100:.1f}{' !' if bad else ''}")
+            elif "kmh" in k:
+                bad = abs(sim - real) > TOLERANCE_KMH
+                cells.append(f"{sim:.0f} / {real:.0f}{' !' if bad else ''}")
+            else:
+                bad = abs(sim - real) > TOLERANCE_RALLY_MEAN
+                cells.append(f"{sim:.2f} / {real:.2f}{' !' if bad else ''}")
+        for b in RALLY_BINS:
+            sim, real = float(rd[b]), float(t[b])
+            bad = abs(sim - real) * 100 > TOLERANCE_RALLY_BIN_PP
+            cells.append(f"{sim * 100:.1f} / {real * 100:.1f}{' !' if bad else ''}")
+        lines.append("| " + " | ".join(cells) + " |")
+        print(lines[-1], flush=True)
+    return "\n".join(lines)
+
+
+# -- Hawk-Eye ball-level figures ------------------------------------------------------------
+
+# statistic -> profile parameter: "add": param += damping * gain * (real - generated);
+# "log": param *= exp(damping * gain * (real - generated)); clipped to [lo, hi]. Gains are the
+# inverse sensitivities measured on the physics: a contact height or a court position moves
+# its statistic one for one; a second serve crosses the net ~0.02 m higher per m/s of kick;
+# a rally ball ~0.065 m lower per m/s of pace (at ~33 m/s: -2.1 m per unit of log pace).
+HAWKEYE_KNOBS: tuple[tuple[str, str, str, float, float, float], ...] = (
+    ("serve_contact_z_median", "contact_height_m", "add", 1.0, 2.3, 3.3),
+    ("return1_contact_behind_m_median", "return_depth_m", "add", 1.0, -2.5, 6.0),
+    ("return2_contact_behind_m_median", "second_return_depth_m", "add", 1.0, -2.5, 6.0),
+    ("rally_contact_behind_m_median", "recovery_depth_m", "add", 1.0, -1.0, 5.0),
+    ("serve2_net_z_median", "second_serve_spin_mps", "add", 30.0, 0.0, 12.0),
+    ("rally_net_z_median", "rally_speed_mps", "log", -0.45, 20.0, 45.0),
+    ("rally_depth_m_median", "rally_depth_margin_m", "add", 1.0, 1.5, 6.0),
+    ("rally_contact_z_median", "rally_contact_z_m", "add", 1.0, 0.5, 1.6),
+)
+SERVE_ZONE_STATS = ("serve1_wide_share", "serve1_body_share", "serve1_t_share")
+SERVE_ZONE_FIELDS = ("serve_wide", "serve_body", "serve_t")
+MIN_HAWKEYE_N = 30   # a generated statistic over fewer strikes does not steer
+
+
+def measure_hawkeye(named: dict[str, PlayerProfile], n_points: int, seed: int, workers: int,
+                    matchups=None) -> pd.DataFrame:
+    """Hawk-Eye statistics (`eval.hawkeye.hawkeye_stats`, per player and tour) of `n_points`
+    generated points of each matchup (default: the README's five), matchup k from seed + k."""
+    from sportsngen.eval.hawkeye import hawkeye_stats
+    from sportsngen.eval.hawkeye_report import README_MATCHUPS, generated_strikes
+
+    strikes = generated_strikes(n_points, seed, matchups or README_MATCHUPS, profiles=named,
+                                workers=workers)
+    tours = {p.name: ("ATP" if p.gender == "men" else "WTA") for p in named.values()}
+    return hawkeye_stats(strikes, tours=tours)
+
+
+def _player_figures(stats: pd.DataFrame, targets: pd.DataFrame,
+                    name: str) -> tuple[pd.Series, pd.Series]:
+    """(generated, real) per statistic of one player, each the mean over the surfaces both
+    have (generated over at least `MIN_HAWKEYE_N` strikes)."""
+    key = ["surface", "statistic"]
+    g = stats[stats["player"].astype(str) == name].astype({"surface": str, "statistic": str})
+    t = targets[targets["player"].astype(str) == name].astype({"surface": str,
+                                                                 "statistic": str})
+    m = g.merge(t, on=key, suffixes=("_g", "_t"))
+    m = m[m["value_g"].notna() & m["value_t"].notna() & (m["n_g"] >= MIN_HAWKEYE_N)]
+    return m.groupby("statistic")["value_g"].mean(), m.groupby("statistic")["value_t"].mean()
+
+
+def step_hawkeye(p: PlayerProfile, stats: pd.DataFrame, targets: pd.DataFrame,
+                 damping: float) -> PlayerProfile:
+    """One damped update of the parameters the Hawk-Eye figures calibrate (`HAWKEYE_KNOBS`,
+    and the first-serve placement mix from the zone shares); a player without real figures
+    keeps his."""
+    sim, real = _player_figures(stats, targets, p.name)
+    changes = {}
+    for stat, param, mode, gain, lo, hi in HAWKEYE_KNOBS:
+        if stat not in sim.index:
+            continue
+        err = float(real[stat] - sim[stat])
+        value = getattr(p, param)
+        value = value + damping * gain * err if mode == "add" else \
+            value * math.exp(damping * gain * err)
+        changes[param] = _clip(value, lo, hi)
+    if all(s in sim.index for s in SERVE_ZONE_STATS):
+        mix = np.array([getattr(p, f) for f in SERVE_ZONE_FIELDS])
+        ratio = np.array([max(real[s], 0.005) / max(sim[s], 0.005) for s in SERVE_ZONE_STATS])
+        mix = mix * ratio ** damping
+        changes.update(zip(SERVE_ZONE_FIELDS, (float(v) for v in mix / mix.sum())))
+    return replace(p, **changes)
+
+
+def hawkeye_table(named: dict[str, PlayerProfile], stats: pd.DataFrame,
+                  targets: pd.DataFrame) -> str:
+    """generated/real of the calibrated statistics, one line a player."""
+    cols = [k[0] for k in HAWKEYE_KNOBS] + list(SERVE_ZONE_STATS)
+    lines = [f"{'player':16s} " + " ".join(f"{c.split('_m_')[0][:14]:>15s}" for c in cols)]
+    for name in named:
+        sim, real = _player_figures(stats, targets, name)
+        cells = [f"{sim.get(c, np.nan):7.2f}/{real.get(c, np.nan):<7.2f}" for c in cols]
+        lines.append(f"{name:16s} " + " ".join(cells))
+    return "\n".join(lines)
+
+
+def calibrate(named: dict[str, PlayerProfile], rounds: int, points_2011: int,
+              points_hawkeye: int, seed: int, workers: int, damping: float,
+              only: list[str] | None = None, out: Path | None = None,
+              hawkeye_targets: pd.DataFrame | None = None, log=print) -> dict[str, PlayerProfile]:
+    """`rounds` joint rounds: measure the 2011 statistics (`points_2011` service points a
+    player; 0 skips them) and the Hawk-Eye statistics (`points_hawkeye` points a matchup; 0
+    skips them), step every player (or `only` these), write the profiles to `out`."""
+    targets = load_targets()
+    if points_hawkeye and hawkeye_targets is None:
+        from sportsngen.eval.hawkeye import load_targets as load_hawkeye_targets
+        hawkeye_targets = load_hawkeye_targets()
+    named = dict(named)
+    for r in range(rounds):
+        sims = measure_2011(named, points_2011, seed, workers) if points_2011 else None
+        he = measure_hawkeye(named, points_hawkeye, seed, workers) if points_hawkeye else None
+        if sims is not None:
+            log(f"round {r}: 2011 simulated/target\n" + table_2011(named, sims, targets))
+        if he is not None:
+            log(f"round {r}: Hawk-Eye generated/real\n" +
+                hawkeye_table(named, he, hawkeye_targets))
+        for name, p in named.items():
+            if only and name not in only:
+                continue
+            if sims is not None:
+                p = step_2011(p, sims[name], targets.loc[name], damping)
+            if he is not None:
+                p = step_hawkeye(p, he, hawkeye_targets, damping)
+            named[name] = p
+        if out is not None:
+            write_profiles(named, out, note=f"last run: {r + 1} rounds of {points_2011} service "
+                                            f"points a player and {points_hawkeye} points a "
+                                            "Hawk-Eye matchup")
+    return named
+
+
+def acceptance_hawkeye(named: dict[str, PlayerProfile], n_points: int, seed: int,
+                       workers: int) -> str:
+    """The Hawk-Eye acceptance table: the README's five matchups, `n_points` each, compared
+    with the real figures for its groups (`eval.hawkeye_report.README_GROUPS`), markdown."""
+    from sportsngen.eval.hawkeye import compare, comparison_markdown, load_targets
+    from sportsngen.eval.hawkeye_report import README_GROUPS
+
+    stats = measure_hawkeye(named, n_points, seed, workers)
+    cmp = compare(stats, load_targets(), README_GROUPS)
+    return comparison_markdown(cmp)
