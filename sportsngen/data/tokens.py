@@ -24,6 +24,7 @@ import torch
 from torch.utils.data import Dataset, get_worker_info
 
 from sportsngen.data.tracking import DIRECTIONS, ERROR_KINDS, OUTCOMES, STROKES, SURFACES, RallyData
+from sportsngen.errors import ArgumentError
 from sportsngen.tennis.court import BASELINE_X_M, SINGLES_HALF_WIDTH_M
 
 OBJECTS = ("server", "receiver", "ball")
@@ -79,9 +80,10 @@ class Vocab:
         if name in names:
             return names.index(name) + offset
         if unknown not in UNKNOWN_POLICIES:
-            raise ValueError(f"unknown policy must be one of {UNKNOWN_POLICIES}, got {unknown!r}")
+            raise ArgumentError(f"unknown policy must be one of {UNKNOWN_POLICIES}, "
+                                f"got {unknown!r}")
         if unknown == "error":
-            raise ValueError(f"unknown {kind} {name!r}; known: {list(names)}")
+            raise ArgumentError(f"unknown {kind} {name!r}; known: {list(names)}")
         if unknown == "warn":
             warnings.warn(f"unknown {kind} {name!r}: using the generic one", stacklevel=3)
         return fallback

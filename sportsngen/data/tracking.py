@@ -18,6 +18,7 @@ nothing is dropped unless `repair=True`, which drops the offending rallies and r
 from __future__ import annotations
 
 import json
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -25,6 +26,7 @@ import numpy as np
 import pandas as pd
 
 from sportsngen.data.points import as_points_table
+from sportsngen.errors import TrackingDataError
 from sportsngen.tennis.rally import END_DETAILS, END_REASONS
 from sportsngen.tennis.scoring import point_label
 
@@ -72,6 +74,11 @@ SHOT_COLUMNS: dict[str, str] = {
     "bounce_x": "float64", "bounce_y": "float64",  # NaN where the ball never bounced
 }
 
+# Name columns that must not be empty (categories are checked against their vocabularies).
+_NAME_COLUMNS: dict[str, tuple[str, ...]] = {
+    "frames": ("object",), "shots": ("hitter",),
+    "rallies": ("match_id", "server", "receiver", "tournament", "score", "winner"),
+}
 _CATEGORIES: dict[str, dict[str, tuple[str, ...]]] = {
     "frames": {"stroke": STROKES, "direction": DIRECTIONS, "outcome": OUTCOMES,
                "error_kind": ERROR_KINDS},
@@ -82,29 +89,78 @@ _CATEGORIES: dict[str, dict[str, tuple[str, ...]]] = {
 }
 
 
-class TrackingDataError(ValueError):
-    """Tracking data that breaks the schema; the message names the table, rally and row."""
+STEP_TOLERANCE = 0.1      # a frame's t step may be off 1/fps by this fraction (jitter)
+FPS_TOLERANCE = 0.02      # the median t step must match meta.json's fps this closely
 
 
-def _cast(df: pd.DataFrame, columns: dict[str, str], table: str,
-          keep_extra: bool = False) -> pd.DataFrame:
+def _where(origin: str | None, table: str) -> str:
+    return f"{origin}/{table}.parquet" if origin else table
+
+
+def _first_bad(values: pd.Series, bad: np.ndarray) -> str:
+    i = int(np.flatnonzero(bad)[0])
+    value = values.iat[i]
+    value = value.item() if isinstance(value, np.generic) else value
+    more = f" (and {int(bad.sum()) - 1} more rows)" if bad.sum() > 1 else ""
+    return f"row {i} holds {value!r}{more}"
+
+
+def _cast_column(s: pd.Series, dtype: str, where: str, col: str) -> pd.Series:
+    """One column as `dtype`, refusing what a plain astype would silently change: 0.5 -> 0 in an
+    integer column, "False" -> True or None -> False in a boolean one."""
+    what = {"int64": "integers", "float64": "numbers", "bool": "booleans (True/False)"}
+    if dtype == "string":
+        return s.astype("string")
+    if (dtype == "int64" and pd.api.types.is_integer_dtype(s) and not s.isna().any()) or \
+            (dtype == "float64" and pd.api.types.is_float_dtype(s)):
+        return s.astype(dtype)          # already right: the common case, kept cheap
+    if dtype == "bool":
+        if pd.api.types.is_bool_dtype(s) and not s.isna().any():
+            return s.astype(bool)
+        ok = s.map(lambda v: isinstance(v, (bool, np.bool_)) or
+                   (isinstance(v, (int, np.integer)) and v in (0, 1))).to_numpy(dtype=bool)
+    elif pd.api.types.is_bool_dtype(s):
+        ok = np.zeros(len(s), dtype=bool)
+    else:
+        num = pd.to_numeric(s, errors="coerce").to_numpy(dtype="float64", na_value=np.nan)
+        if dtype == "float64":
+            ok = ~np.isnan(num) | s.isna().to_numpy()   # NaN stays NaN; text does not
+        else:
+            with np.errstate(invalid="ignore"):
+                ok = np.isfinite(num) & (num == np.round(num))
+    if not ok.all():
+        raise TrackingDataError(f"{where}: column {col!r} must hold {what[dtype]}; "
+                                f"{_first_bad(s, ~ok)}")
+    if dtype == "bool":
+        return s.map(bool).astype(bool)
+    return pd.to_numeric(s).astype(dtype)
+
+
+def _cast(df: pd.DataFrame, columns: dict[str, str], table: str, keep_extra: bool = False,
+          origin: str | None = None) -> pd.DataFrame:
+    where = _where(origin, table)
+    if not isinstance(df, pd.DataFrame):
+        raise TrackingDataError(f"{where} must be a pandas DataFrame, got {type(df).__name__}")
     missing = [c for c in columns if c not in df.columns]
     if missing:
-        raise TrackingDataError(f"{table}: missing columns {missing}")
+        raise TrackingDataError(f"{where}: missing columns {missing}")
     extra = [c for c in df.columns if c not in columns] if keep_extra else []
-    out = df.loc[:, list(columns) + extra].copy()
+    out = df.loc[:, list(columns) + extra].copy().reset_index(drop=True)
     for col, dtype in columns.items():
-        try:
-            out[col] = out[col].astype(dtype)
-        except (TypeError, ValueError) as exc:
-            raise TrackingDataError(
-                f"{table}: column {col!r} cannot be read as {dtype}: {exc}") from exc
-    return out.reset_index(drop=True)
+        out[col] = _cast_column(out[col], dtype, where, col)
+    return out
+
+
+def _per_rally(rallies: pd.DataFrame, rally_id: pd.Series, col: str) -> pd.Series:
+    """`rallies[col]` of each row's rally ("" where the rally is not in the table)."""
+    first = rallies.drop_duplicates("rally_id").set_index("rally_id")[col]
+    return rally_id.map(first).astype("string").fillna("")
 
 
 def _problems(frames: pd.DataFrame, rallies: pd.DataFrame, shots: pd.DataFrame,
-              fps: float) -> list[tuple[int, str]]:
-    """Every schema violation as (rally_id, message)."""
+              fps: float, fps_source: str = "fps") -> list[tuple[int, str]]:
+    """Every schema violation as (rally_id, message). A frame rate that the `t` column
+    contradicts is a property of the whole dataset: it raises at once."""
     found: list[tuple[int, str]] = []
 
     def flag(table: str, df: pd.DataFrame, bad: np.ndarray, what: str) -> None:
@@ -118,9 +174,13 @@ def _problems(frames: pd.DataFrame, rallies: pd.DataFrame, shots: pd.DataFrame,
             if bad.any():
                 vals = sorted(set(df.loc[bad, col].astype(str)))
                 flag(name, df, bad, f"unknown {col} {vals[:5]}; allowed: {list(allowed)}")
+        for col in _NAME_COLUMNS[name]:
+            flag(name, df, df[col].isna().to_numpy(), f"missing {col}")
 
     dup = rallies["rally_id"].duplicated().to_numpy()
     flag("rallies", rallies, dup, "duplicate rally_id")
+    flag("rallies", rallies, (rallies["server"] == rallies["receiver"]).fillna(False)
+         .to_numpy(bool), "server and receiver are the same player")
     for name, df in (("frames", frames), ("shots", shots)):
         orphan = ~df["rally_id"].isin(rallies["rally_id"]).to_numpy()
         flag(name, df, orphan, "rally_id not in the rallies table")
@@ -132,27 +192,90 @@ def _problems(frames: pd.DataFrame, rallies: pd.DataFrame, shots: pd.DataFrame,
               (xyz[:, 2] > MAX_Z_M) | (xyz[:, 2] < -0.5)
     flag("frames", frames, off, f"object off any plausible court (|x| > {MAX_ABS_X_M} m, "
                                 f"|y| > {MAX_ABS_Y_M} m or z outside [-0.5, {MAX_Z_M}] m)")
+    flag("frames", frames, ~np.isfinite(frames["t"].to_numpy()), "t is NaN or infinite")
 
-    # Time and frame order, per (rally, object): frames consecutive, t increasing at 1/fps.
-    f = frames.sort_values(["rally_id", "object"], kind="stable")
+    # Singles: every object is the rally's server, its receiver or the ball (judged once per
+    # (rally, object) pair, then the rows of the bad pairs are named).
+    span = frames.groupby(["rally_id", "object"])["frame"].agg(["min", "max"])
+    pairs = span.index.to_frame(index=False)
+    obj = pairs["object"].fillna("")
+    known = (obj == "ball") | (obj == _per_rally(rallies, pairs["rally_id"], "server")) | \
+        (obj == _per_rally(rallies, pairs["rally_id"], "receiver"))
+    if not known.all():
+        bad_pairs = span.index[~known.to_numpy(bool)]
+        rows = pd.MultiIndex.from_frame(frames[["rally_id", "object"]]).isin(bad_pairs)
+        flag("frames", frames, rows, "object is neither the rally's server, its receiver nor "
+                                     "the ball")
+
+    # Time and frame order, per (rally, object) in frame order (rows may come in any order):
+    # frames consecutive, t increasing by 1/fps.
+    f = frames.sort_values(["rally_id", "object", "frame"], kind="stable")
     same = (f["rally_id"].to_numpy()[1:] == f["rally_id"].to_numpy()[:-1]) & \
            (f["object"].to_numpy()[1:] == f["object"].to_numpy()[:-1])
     dframe = np.diff(f["frame"].to_numpy())
     dt = np.diff(f["t"].to_numpy())
+    step = same & (dframe == 1) & np.isfinite(dt)
+    if step.any():
+        median_s = float(np.median(dt[step]))
+        if not abs(median_s * fps - 1.0) <= FPS_TOLERANCE:
+            raise TrackingDataError(
+                f"{fps_source} is {fps:g}, but the t column steps {median_s:.4g} s a frame "
+                f"(median), i.e. {1 / median_s if median_s > 0 else float('nan'):.4g} Hz: "
+                "fix the frame rate or the t column")
     idx = f.index.to_numpy()[1:]
-    gap = same & (dframe != 1)
-    back = same & (dt <= 0)
-    for mask, what in ((gap, "frame gap or repeated frame"), (back, "time not increasing")):
+    with np.errstate(invalid="ignore"):
+        checks = ((same & (dframe != 1), "frame gap or repeated frame"),
+                  (same & (dt <= 0), "time not increasing"),
+                  (step & (dt > 0) & (np.abs(dt * fps - 1.0) > STEP_TOLERANCE),
+                   f"t step is not 1/fps = {1 / fps:.4g} s"))
+    for mask, what in checks:
         for i in np.flatnonzero(mask):
             found.append((int(frames["rally_id"].iat[idx[i]]),
                           f"frames row {idx[i]} (rally {int(frames['rally_id'].iat[idx[i]])}, "
                           f"object {frames['object'].iat[idx[i]]}): {what}"))
-    # Every rally has a ball track.
-    with_ball = set(frames.loc[frames["object"] == "ball", "rally_id"].tolist())
-    for i, rid in enumerate(rallies["rally_id"].tolist()):
-        if rid not in with_ball:
-            found.append((rid, f"rallies row {i} (rally {rid}): no ball frames"))
+
+    # Every rally has the server's, the receiver's and the ball's tracks, over the same frames.
+    whole = frames.groupby("rally_id")["frame"].agg(["min", "max"])
+    for role in ("server", "receiver", "ball"):
+        who = rallies[role] if role != "ball" else pd.Series("ball", index=rallies.index)
+        key = pd.MultiIndex.from_arrays([rallies["rally_id"], who.fillna("")])
+        have = span.reindex(key)
+        full = whole.reindex(rallies["rally_id"])
+        absent = have["min"].isna().to_numpy()
+        short = ~absent & ((have["min"].to_numpy() != full["min"].to_numpy()) |
+                           (have["max"].to_numpy() != full["max"].to_numpy()))
+        label = "the ball" if role == "ball" else f"the {role}"
+        flag("rallies", rallies, absent, f"no frames of {label}")
+        for i in np.flatnonzero(short):
+            rid = int(rallies["rally_id"].iat[i])
+            found.append((rid, f"rallies row {i} (rally {rid}): {label}'s track covers frames "
+                               f"{int(have['min'].iat[i])}..{int(have['max'].iat[i])}, the "
+                               f"rally {int(full['min'].iat[i])}..{int(full['max'].iat[i])}"))
+
+    # Shots: one row a shot, struck by a player of the rally within the rally's frames.
+    flag("shots", shots, shots.duplicated(["rally_id", "shot_index"]).to_numpy(),
+         "duplicate shot_index (a repeated row?)")
+    hitter = shots["hitter"].fillna("")
+    ok = (hitter == _per_rally(rallies, shots["rally_id"], "server")) | \
+        (hitter == _per_rally(rallies, shots["rally_id"], "receiver"))
+    flag("shots", shots, ~ok.to_numpy(bool), "hitter is neither the server nor the receiver")
+    lo = shots["rally_id"].map(whole["min"]).to_numpy(dtype=float)
+    hi = shots["rally_id"].map(whole["max"]).to_numpy(dtype=float)
+    sf = shots["frame"].to_numpy()
+    outside = ~np.isnan(lo) & ((sf < lo) | (sf > hi))
+    for i in np.flatnonzero(outside):
+        rid = int(shots["rally_id"].iat[i])
+        found.append((rid, f"shots row {i} (rally {rid}): frame {int(sf[i])} is outside the "
+                           f"rally's frames {int(lo[i])}..{int(hi[i])}"))
     return found
+
+
+def _check_fps(fps, source: str) -> float:
+    if isinstance(fps, bool) or not isinstance(fps, (int, float, np.integer, np.floating)) \
+            or not np.isfinite(fps) or fps <= 0:
+        raise TrackingDataError(f"{source} must be a positive number of frames a second, "
+                                f"got {fps!r}")
+    return float(fps)
 
 
 @dataclass
@@ -168,30 +291,39 @@ class RallyData:
     @classmethod
     def from_tables(cls, frames: pd.DataFrame, rallies: pd.DataFrame, shots: pd.DataFrame,
                     fps: float = FPS_DEFAULT, meta: dict | None = None,
-                    repair: bool = False, validate: bool = True) -> RallyData:
-        """Build and validate. With `repair=True`, rallies with problems are dropped and listed
-        in ``meta["repaired"]``; otherwise the first problems raise `TrackingDataError`.
+                    repair: bool = False, validate: bool = True,
+                    origin: str | None = None) -> RallyData:
+        """Build and validate. With `repair=True`, rallies with problems are dropped (only
+        those, with a warning) and listed in ``meta["repaired"]``; a repair that would drop
+        every rally is an error. Otherwise the first problems raise `TrackingDataError`.
         Columns of the rallies table beyond the schema are kept (e.g. the simulator's
         ``realistic`` flag). `validate=False` only casts the columns: for simulated rallies,
-        which may break physics and are flagged rather than refused."""
-        if not np.isfinite(fps) or fps <= 0:
-            raise TrackingDataError(f"fps must be positive, got {fps}")
-        frames = _cast(frames, FRAME_COLUMNS, "frames")
-        rallies = _cast(rallies, RALLY_COLUMNS, "rallies", keep_extra=True)
-        shots = _cast(shots, SHOT_COLUMNS, "shots")
-        problems = _problems(frames, rallies, shots, fps) if validate else []
+        which may break physics and are flagged rather than refused. `origin` (a folder) is
+        named in the errors."""
+        fps_source = f"{origin}/meta.json's fps" if origin else "fps"
+        fps = _check_fps(fps, fps_source)
+        frames = _cast(frames, FRAME_COLUMNS, "frames", origin=origin)
+        rallies = _cast(rallies, RALLY_COLUMNS, "rallies", keep_extra=True, origin=origin)
+        shots = _cast(shots, SHOT_COLUMNS, "shots", origin=origin)
+        problems = _problems(frames, rallies, shots, fps, fps_source) if validate else []
         meta = dict(meta or {})
-        if problems and not repair:
+        where = f"{origin}: " if origin else ""
+        bad = sorted({rid for rid, _ in problems})
+        if problems and (not repair or set(rallies["rally_id"]) <= set(bad)):
             head = "\n  ".join(msg for _, msg in problems[:10])
             more = f"\n  ... and {len(problems) - 10} more" if len(problems) > 10 else ""
-            raise TrackingDataError(f"{len(problems)} problem(s) in tracking data:\n  {head}{more}")
+            why = (f"repair would drop every rally ({len(bad)}); " if repair else "")
+            raise TrackingDataError(f"{where}{why}{len(problems)} problem(s) in tracking data:"
+                                    f"\n  {head}{more}")
         if problems:
-            bad = sorted({rid for rid, _ in problems})
             meta["repaired"] = {"dropped_rallies": bad, "problems": [m for _, m in problems]}
+            warnings.warn(f"{where}repair dropped {len(bad)} of {rallies['rally_id'].nunique()} "
+                          f"rallies ({len(problems)} problems; first: {problems[0][1]}); "
+                          "the list is in meta['repaired']", stacklevel=2)
             frames = frames[~frames["rally_id"].isin(bad)].reset_index(drop=True)
             rallies = rallies[~rallies["rally_id"].isin(bad)].reset_index(drop=True)
             shots = shots[~shots["rally_id"].isin(bad)].reset_index(drop=True)
-        return cls(frames=frames, rallies=rallies, shots=shots, fps=float(fps), meta=meta)
+        return cls(frames=frames, rallies=rallies, shots=shots, fps=fps, meta=meta)
 
     def __len__(self) -> int:
         return len(self.rallies)
@@ -291,8 +423,28 @@ class RallyData:
         absent = [str(p) for p in paths.values() if not p.exists()]
         if absent:
             raise FileNotFoundError(f"tracking folder {folder} lacks {absent}")
-        meta_path = folder / "meta.json"
-        meta = json.loads(meta_path.read_text()) if meta_path.exists() else {}
-        fps = float(meta.pop("fps", FPS_DEFAULT))
-        return cls.from_tables(*(pd.read_parquet(p) for p in paths.values()), fps=fps,
-                               meta=meta, repair=repair, validate=validate)
+        meta = read_meta(folder / "meta.json")
+        fps = meta.pop("fps", FPS_DEFAULT)
+        tables = []
+        for path in paths.values():
+            try:
+                tables.append(pd.read_parquet(path))
+            except Exception as exc:  # pyarrow raises several types for a damaged file
+                raise TrackingDataError(f"{path} is not a readable Parquet file "
+                                        f"({type(exc).__name__}: {exc})") from exc
+        return cls.from_tables(*tables, fps=fps, meta=meta, repair=repair, validate=validate,
+                               origin=str(folder))
+
+
+def read_meta(path: Path) -> dict:
+    """A tracking folder's meta.json as a dict ({} when the file is absent)."""
+    if not path.exists():
+        return {}
+    try:
+        meta = json.loads(path.read_text())
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise TrackingDataError(f"{path} is not valid JSON ({exc})") from exc
+    if not isinstance(meta, dict):
+        raise TrackingDataError(f"{path} must hold a JSON object such as {{\"fps\": 25}}, "
+                                f"got a {type(meta).__name__}")
+    return meta

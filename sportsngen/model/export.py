@@ -11,6 +11,7 @@ from pathlib import Path
 import torch
 
 from sportsngen.data.tokens import Vocab
+from sportsngen.errors import ModelFileError
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.model.event_classifier import EventClassifier
@@ -47,13 +48,44 @@ def _plain(value):
     return value
 
 
+def what_file(path: Path) -> str:
+    """What a file that torch cannot read as a model looks like, for the error message."""
+    with open(path, "rb") as fh:
+        head = fh.read(64)
+    if not head:
+        return "the file is empty"
+    if head.lstrip()[:1] in (b"{", b"["):
+        return "it holds JSON"
+    if head[:2] == b"PK":
+        return "a torch file of other objects (a Lightning checkpoint? export it with " \
+               "sportsngen.model.export.save_model)"
+    return "corrupt or not a torch file"
+
+
+def read_blob(path: str | Path, map_location: str | torch.device = "cpu") -> dict:
+    """The dict of a model file, or `ModelFileError` saying why `path` is not one."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no model file at {path}")
+    try:
+        blob = torch.load(path, map_location=map_location, weights_only=True)
+    except Exception as exc:  # EOFError, UnpicklingError, RuntimeError: all mean "not ours"
+        raise ModelFileError(f"{path} is not a sportsngen model file: {what_file(path)} "
+                             f"({type(exc).__name__})") from exc
+    if not is_model_file(blob):
+        raise ModelFileError(f"{path} is not a sportsngen model file (a Lightning checkpoint? "
+                             "export it with sportsngen.model.export.save_model)")
+    missing = [k for k in ("version", "config", "vocab", "decoder") if k not in blob]
+    if missing:
+        raise ModelFileError(f"{path} is a damaged sportsngen model file: it lacks {missing}")
+    return blob
+
+
 def update_extra(path: str | Path, **items) -> Path:
     """Add or replace entries of a model file's `extra` data in place (e.g. the simulator's
     initial conditions, `sportsngen.sim.initial`)."""
     path = Path(path)
-    blob = torch.load(path, map_location="cpu", weights_only=True)
-    if not is_model_file(blob):
-        raise ValueError(f"{path} is not a sportsngen model file")
+    blob = read_blob(path)
     blob["extra"] = {**dict(blob.get("extra") or {}), **_plain(items)}
     torch.save(blob, path)
     return path
@@ -65,33 +97,27 @@ def is_model_file(blob: dict) -> bool:
 
 def read_extra(path: str | Path) -> dict:
     """The `extra` dict saved with a model file (e.g. the training summary and data split)."""
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no model file at {path}")
-    blob = torch.load(path, map_location="cpu", weights_only=True)
-    if not is_model_file(blob):
-        raise ValueError(f"{path} is not a sportsngen model file")
-    return dict(blob.get("extra") or {})
+    return dict(read_blob(path).get("extra") or {})
 
 
 def load_model(path: str | Path, map_location: str | torch.device = "cpu"):
     """-> (model in eval mode, event classifier or None, Vocab, ModelConfig)."""
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no model file at {path}")
-    blob = torch.load(path, map_location=map_location, weights_only=True)
-    if not is_model_file(blob):
-        raise ValueError(f"{path} is not a sportsngen model file (a Lightning checkpoint? "
-                         "export it with sportsngen.model.export.save_model)")
+    blob = read_blob(path, map_location)
     if blob["version"] > VERSION:
-        raise ValueError(f"{path} has format version {blob['version']}, newer than {VERSION}")
+        raise ModelFileError(f"{path} has format version {blob['version']}, newer than "
+                             f"{VERSION}: update sportsngen")
     cfg = ModelConfig.from_dict(blob["config"])
     model = SportsNGEN(cfg)
-    model.load_state_dict(blob["decoder"])
+    ec = None if blob.get("event_classifier") is None else EventClassifier(cfg)
+    try:
+        model.load_state_dict(blob["decoder"])
+        if ec is not None:
+            ec.load_state_dict(blob["event_classifier"])
+    except RuntimeError as exc:   # weights of another shape than the stored config says
+        raise ModelFileError(f"{path} is a damaged sportsngen model file: its weights do not "
+                             f"match its config ({exc})") from exc
     model.eval()
-    ec = None
-    if blob["event_classifier"] is not None:
-        ec = EventClassifier(cfg)
-        ec.load_state_dict(blob["event_classifier"])
+    if ec is not None:
         ec.eval()
     return model, ec, Vocab.from_dict(blob["vocab"]), cfg

@@ -25,6 +25,8 @@ from tqdm.auto import tqdm
 
 from sportsngen.baselines.markov import match_win_probability
 from sportsngen.baselines.serve_model import ServeModel, simulate_match_points
+from sportsngen.data.tracking import SURFACES
+from sportsngen.errors import check_choice, check_int, check_players
 from sportsngen.eval.stats import serve_stats, serve_stats_table
 from sportsngen.sim.match import winner_view
 from sportsngen.tennis.scoring import MatchFormat, MatchState
@@ -113,8 +115,10 @@ def run_simulation(cfg: DictConfig) -> pd.DataFrame:
     """Entry point of `simulate.py`: returns the points table of every simulated match."""
     if cfg.engine not in ENGINES:
         raise ValueError(f"engine must be one of {ENGINES}, got {cfg.engine!r}")
-    if int(cfg.n_matches) < 1:
-        raise ValueError(f"n_matches must be >= 1, got {cfg.n_matches}")
+    check_int("n_matches", cfg.n_matches, 1)
+    check_int("seed", cfg.seed, 0)
+    check_choice("surface", cfg.surface, SURFACES)
+    check_players(cfg.player1, cfg.player2, ("player1", "player2"))
     fmt = MatchFormat(**OmegaConf.to_container(cfg.format, resolve=True))
     out_dir = Path(str(cfg.output_dir))
     out_dir.mkdir(parents=True, exist_ok=True)

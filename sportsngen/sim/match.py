@@ -17,7 +17,8 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
-from sportsngen.data.tracking import RallyData
+from sportsngen.data.tracking import SURFACES, RallyData
+from sportsngen.errors import ArgumentError, check_choice, check_int, check_players
 from sportsngen.eval.stats import serve_stats
 from sportsngen.synth.generate import score_row
 from sportsngen.tennis.scoring import MatchFormat, MatchState
@@ -83,13 +84,24 @@ def simulate_matches(sim, matchups, surface: str, fmt: MatchFormat | None = None
                      seed: int = 0, first_server: int | None = None, progress: bool = True,
                      tournament: str = "synthetic") -> list[MatchResult]:
     """Play each (player1, player2) of `matchups` to the end with `sim` (a `Simulator`)."""
-    fmt = fmt or MatchFormat()
+    fmt = MatchFormat() if fmt is None else fmt
+    if not isinstance(fmt, MatchFormat):
+        raise ArgumentError(f"fmt must be a MatchFormat (or None for best of 3), got {fmt!r}")
+    check_choice("surface", surface, SURFACES)
+    seed = check_int("seed", seed, 0)
+    if isinstance(matchups, (str, bytes)) or not hasattr(matchups, "__iter__"):
+        raise ArgumentError(f"matchups must be a list of (player1, player2) pairs, got "
+                            f"{matchups!r}")
+    if any(isinstance(m, str) for m in matchups):
+        raise ArgumentError(f"matchups must be (player1, player2) pairs, not names: {matchups!r}")
     matchups = [tuple(m) for m in matchups]
     if not matchups or any(len(m) != 2 or m[0] == m[1] for m in matchups):
-        raise ValueError("matchups must be a non-empty list of (player1, player2) pairs of "
-                         "different players")
-    if first_server not in (None, 0, 1):
-        raise ValueError(f"first_server must be None, 0 or 1, got {first_server}")
+        raise ArgumentError("matchups must be a non-empty list of (player1, player2) pairs of "
+                            "different players")
+    for a, b in matchups:
+        check_players(a, b, ("player1", "player2"))
+    if first_server not in (None, 0, 1) or isinstance(first_server, bool):
+        raise ArgumentError(f"first_server must be None, 0 or 1, got {first_server!r}")
     rng = np.random.default_rng(seed)
     n = len(matchups)
     states = [MatchState.new(fmt, first_server=int(rng.integers(2)) if first_server is None

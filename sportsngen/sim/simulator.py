@@ -16,6 +16,7 @@ the rally-end rules (`sportsngen.tennis.rally`), event labels from the classifie
 from __future__ import annotations
 
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +24,14 @@ import pandas as pd
 import torch
 
 from sportsngen.data.tokens import SCORE_FIELDS, Vocab, score_vector
-from sportsngen.data.tracking import RallyData
+from sportsngen.data.tracking import SURFACES, RallyData
+from sportsngen.errors import (
+    ArgumentError,
+    check_choice,
+    check_int,
+    check_name,
+    check_players,
+)
 from sportsngen.eval.calibration import IsotonicCalibrator
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.model.event_classifier import EventClassifier
@@ -41,6 +49,27 @@ BUNDLED_DIR = Path(__file__).resolve().parents[1] / "model" / "bundled"
 BUNDLED_NAMES = {"sportsngen-small": BUNDLED_DIR / "sportsngen-small.pt"}
 DEFAULT_MODEL = "sportsngen-small"
 TOURNAMENT = "synthetic"
+MAX_POINTS = 100_000   # a call's rallies are held in memory (~75 KB each): more, in several calls
+
+
+def check_plan(plan: pd.DataFrame) -> None:
+    """A rally plan's columns, players and surfaces, before any rollout."""
+    if not isinstance(plan, pd.DataFrame):
+        raise ArgumentError(f"plan must be a pandas DataFrame, got {type(plan).__name__}")
+    missing = [c for c in PLAN_COLUMNS if c not in plan.columns]
+    if missing:
+        raise ArgumentError(f"rally plan lacks columns {missing}")
+    for col in ("server", "receiver"):
+        ok = plan[col].map(lambda v: isinstance(v, str) and bool(v.strip())).to_numpy(bool)
+        if not ok.all():
+            i = int(np.flatnonzero(~ok)[0])
+            check_name(f"plan row {i} {col}", plan[col].iat[i])
+    same = np.flatnonzero((plan["server"] == plan["receiver"]).to_numpy(bool))
+    if len(same):
+        raise ArgumentError(f"plan row {int(same[0])}: server and receiver are the same player "
+                            f"{plan['server'].iat[int(same[0])]!r}")
+    for surface in sorted(set(plan["surface"]), key=str):
+        check_choice("surface", surface, SURFACES)
 
 
 def model_path(path_or_name: str | Path | None = None) -> Path:
@@ -61,7 +90,7 @@ class Simulator:
             raise ValueError(f"initial conditions at {initial.fps} Hz, model at {model.cfg.fps}")
         for name, p in (("top_p_player", top_p_player), ("top_p_ball", top_p_ball)):
             if not 0.0 < p <= 1.0:
-                raise ValueError(f"{name} must be in (0, 1], got {p}")
+                raise ArgumentError(f"{name} must be in (0, 1], got {p}")
         self.model = model.to(device).eval()
         self.event_model = None if event_model is None else event_model.to(device).eval()
         self.vocab = vocab
@@ -73,6 +102,7 @@ class Simulator:
         self.max_retries = int(max_retries)
         self.unknown = unknown or model.cfg.unknown
         self.physical_limits = bool(physical_limits)
+        self._warned: set[str] = set()    # unknown players already warned about
         # Raw rollout win probabilities -> observed frequencies, when the model file has one
         # (`scripts/rally_outcome_study.py --save-calibrator`).
         self.outcome_calibrator: IsotonicCalibrator | None = None
@@ -107,15 +137,27 @@ class Simulator:
             [self.initial.draw(s, int(n), side, int(e), rng, surface=surf)
              for s, n, side, e, surf in zip(plan["server"], plan["serve_number"], plan["side"],
                                             plan["server_end"], plan["surface"])])
-        v, unk = self.vocab, self.unknown
-        ids = {p: v.player_index(p, unk) for p in set(plan["server"]) | set(plan["receiver"])}
+        v = self.vocab
+        ids = {p: self._player_index(p) for p in set(plan["server"]) | set(plan["receiver"])}
         ident = np.stack([plan["server"].map(ids), plan["receiver"].map(ids),
                           np.zeros(len(plan), dtype=np.int64)], axis=1).astype(np.int64)
-        surf = plan["surface"].map(lambda s: v.surface_index(s, unk)).to_numpy(np.int64)
+        surf = plan["surface"].map(lambda s: v.surface_index(s, "error")).to_numpy(np.int64)
         tour = plan["tournament"].map(v.tournament_index).to_numpy(np.int64)
         score = score_vector(*(plan[c].to_numpy() for c in SCORE_FIELDS))
         return RolloutInputs(init, ident, surf, tour,
                              plan["serve_number"].to_numpy(np.int64) - 1, score)
+
+    def _player_index(self, name: str) -> int:
+        """The model's identity of `name`; an unknown player (the model's generic identity,
+        the average player) is warned about once per simulator, not once per rally."""
+        if self.unknown != "warn" or name in self.vocab.players or not self.vocab.players:
+            return self.vocab.player_index(name, self.unknown)
+        if name in self._warned:
+            return self.vocab.player_index(name, "generic")
+        self._warned.add(name)
+        warnings.warn(f"unknown player {name!r}: the model plays him as its average (generic) "
+                      f"player; known players: {list(self.vocab.players)}", stacklevel=4)
+        return self.vocab.player_index(name, "generic")
 
     def simulate_rallies(self, plan: pd.DataFrame, seed: int = 0, progress: bool = False,
                          init_pos_m: np.ndarray | None = None,
@@ -126,10 +168,8 @@ class Simulator:
         Rallies start from serve starts drawn from the model's pool, or from `init_pos_m`
         (len(plan), T0, 3, 3) (branching from a real rally); `constraint` restricts sampling
         (`sportsngen.sim.rollout.Constraint`; row indices are plan positions)."""
-        missing = [c for c in PLAN_COLUMNS if c not in plan.columns]
-        if missing:
-            raise ValueError(f"rally plan lacks columns {missing}")
-        rng = np.random.default_rng(seed)
+        check_plan(plan)
+        rng = np.random.default_rng(check_int("seed", seed, 0))
         parts = []
         max_frames = int(math.ceil(self.max_duration_s * self.fps)) + 2
         for lo in range(0, len(plan), self.batch_size):
@@ -164,11 +204,15 @@ class Simulator:
         serve for each fault (or only serve `serve_number`). Scores within a game are drawn at
         random (side from the score), ends alternate. `top_p` sets both kinds' nucleus for this
         call. The rallies table carries `realistic`; `sportsngen.sim.assemble.realistic_points`
-        keeps the points fit for statistics."""
-        if n_points < 1:
-            raise ValueError(f"n_points must be >= 1, got {n_points}")
-        if serve_number not in (None, 1, 2):
-            raise ValueError(f"serve_number must be None, 1 or 2, got {serve_number}")
+        keeps the points fit for statistics. At most `MAX_POINTS` a call (held in memory)."""
+        check_players(server, receiver)
+        check_choice("surface", surface, SURFACES)
+        n_points = check_int("n_points", n_points, 1, MAX_POINTS)
+        seed = check_int("seed", seed, 0)
+        if serve_number is not None:
+            serve_number = check_int("serve_number", serve_number, 1, 2)
+        if top_p is not None and not (isinstance(top_p, (int, float)) and 0 < top_p <= 1):
+            raise ArgumentError(f"top_p must be None or a number in (0, 1], got {top_p!r}")
         rng = np.random.default_rng([seed, 1])
         sp, rp = rng.integers(0, 4, n_points), rng.integers(0, 4, n_points)
         plan = pd.DataFrame({

@@ -27,7 +27,8 @@ import torch
 
 from sportsngen.baselines.markov import match_win_probability as markov_match_win
 from sportsngen.data.tokens import Vocab, rally_arrays
-from sportsngen.data.tracking import RallyData
+from sportsngen.data.tracking import DIRECTIONS, RallyData
+from sportsngen.errors import ArgumentError, check_int, check_players
 from sportsngen.sim.assemble import PLAN_COLUMNS, realistic_points
 from sportsngen.tennis import court
 from sportsngen.tennis.scoring import MatchFormat, MatchState
@@ -35,6 +36,9 @@ from sportsngen.tennis.scoring import MatchFormat, MatchState
 G_MPS2 = 9.81
 LEAVE_WINDOW_FRAMES = 12     # the constraint waits this long for the ball to leave the hitter
 MAX_TRIES = 200
+MAX_BRANCHES = 100_000       # rollouts a call (all held in memory)
+SERVE_OPTIONS = ("wide", "body", "T")
+SHOT_OPTIONS = ("cross_court", "down_the_line", "middle", "inside_out", "inside_in")
 
 
 def wilson_interval(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
@@ -50,9 +54,12 @@ def wilson_interval(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
 
 def _rally(data: RallyData, rally_id: int) -> tuple[pd.Series, np.ndarray, int]:
     """The rally's row, its positions (T, 3, 3) [server, receiver, ball], its first frame."""
+    if not isinstance(data, RallyData):
+        raise ArgumentError(f"rally_data must be a RallyData, got {type(data).__name__}")
+    rally_id = check_int("rally_id", rally_id)
     r = data.rallies
     if rally_id not in set(r["rally_id"].tolist()):
-        raise ValueError(f"rally {rally_id} is not in the data")
+        raise ArgumentError(f"rally_id {rally_id} is not in the data")
     sub = data.subset([rally_id])
     arr = rally_arrays(sub, Vocab.from_data(sub), unknown="generic")
     first = int(sub.frames["frame"].min())
@@ -102,13 +109,15 @@ def rally_win_probabilities(sim, data: RallyData, items, n: int = 100,
     """`rally_win_probability` for many (rally_id, frame) pairs at once: branches of pairs
     with the same prefix length share batches. -> one row a pair: rally_id, frame, p, n,
     n_sims, n_unrealistic."""
+    n = check_int("n", n, 1, MAX_BRANCHES)
+    seed = check_int("seed", seed, 0)
     prefixes = []
     for rid, frame in items:
-        row, pos, first = _rally(data, int(rid))
-        k = int(frame) - first
+        row, pos, first = _rally(data, rid)
+        k = check_int("frame", frame) - first
         if not 0 <= k < len(pos):
-            raise ValueError(f"frame {frame} is outside rally {rid} (frames {first}.."
-                             f"{first + len(pos) - 1})")
+            raise ArgumentError(f"frame {frame} is outside rally {rid} (frames {first}.."
+                                f"{first + len(pos) - 1})")
         prefixes.append((row, pos[:k + 1]))
     results: dict[int, dict] = {}
     by_len: dict[int, list[int]] = {}
@@ -211,20 +220,23 @@ def counterfactual(sim, data: RallyData, rally_id: int, shot_index: int,
     ci_low, ci_high, n (realistic decided branches), n_sims, n_unrealistic, n_forced_failed
     (branches whose shot could not be made to go that way in `MAX_TRIES` draws, or whose ball
     never left the hitter within `LEAVE_WINDOW_FRAMES`: those go unconstrained)."""
+    n = check_int("n", n, 1, MAX_BRANCHES)
+    seed = check_int("seed", seed, 0)
     row, pos, first = _rally(data, rally_id)
-    shots = data.shots[data.shots["rally_id"] == rally_id].sort_values("shot_index")
+    shots = data.shots[data.shots["rally_id"] == int(rally_id)].sort_values("shot_index")
+    shot_index = check_int("shot_index", shot_index)
     if not 0 <= shot_index < len(shots):
-        raise ValueError(f"rally {rally_id} has {len(shots)} shots; no shot {shot_index}")
+        raise ArgumentError(f"rally {rally_id} has {len(shots)} shots; no shot {shot_index}")
     shot = shots.iloc[shot_index]
+    options = _check_options(options, str(shot["stroke"]) == "serve")
     k = int(shot["frame"]) - first - 1            # the last frame before the contact
     if k < 1:
-        raise ValueError("the shot is struck too early in the track to branch before it")
+        raise ArgumentError("the shot is struck too early in the track to branch before it")
     hitter = 0 if shot["hitter"] == row["server"] else 1
     hitter_end = int(row["server_end"]) * (1 if hitter == 0 else -1)
     init = np.repeat(pos[None, :k + 1], n, axis=0)
     rows, branches = [], {}
     for j, opt in enumerate(options):
-        opt = tuple(float(v) for v in opt) if not isinstance(opt, str) else opt
         con = ShotConstraint(opt, hitter, hitter_end, _handedness(str(shot["hitter"])),
                              str(shot["stroke"]), str(row["side"]), k + 1, fps=sim.fps)
         out = sim.simulate_rallies(_plan(row, n), seed=seed + 7919 * j, init_pos_m=init,
@@ -243,12 +255,48 @@ def counterfactual(sim, data: RallyData, rally_id: int, shot_index: int,
     return (table, branches) if return_branches else table
 
 
+def _check_options(options, serve: bool) -> list:
+    """Counterfactual options: direction names valid for the stroke, or target boxes."""
+    names = SERVE_OPTIONS if serve else SHOT_OPTIONS
+    valid = f"direction names {list(names)} or (x_min, x_max, y_min, y_max) boxes in metres"
+    if isinstance(options, str) or not hasattr(options, "__iter__"):
+        raise ArgumentError(f"options must be a list of {valid}, got {options!r}"
+                            + (f" (did you mean [{options!r}]?)" if isinstance(options, str)
+                               else ""))
+    out = []
+    for opt in options:
+        if isinstance(opt, str):
+            if opt not in names:
+                kind = "a serve" if serve else "a shot"
+                extra = " (a serve direction)" if opt in SERVE_OPTIONS else \
+                    " (not a serve direction)" if opt in DIRECTIONS else ""
+                raise ArgumentError(f"option {opt!r}{extra} is not a direction of {kind}; "
+                                    f"options must be {valid}")
+            out.append(opt)
+            continue
+        try:
+            box = tuple(float(v) for v in opt)
+        except (TypeError, ValueError):
+            box = ()
+        if len(box) != 4 or not all(math.isfinite(v) for v in box) or box[0] >= box[1] \
+                or box[2] >= box[3]:
+            raise ArgumentError(f"option {opt!r} is neither a direction name nor a box "
+                                f"(x_min < x_max, y_min < y_max); options must be {valid}")
+        out.append(box)
+    if not out:
+        raise ArgumentError(f"options is empty; give {valid}")
+    return out
+
+
 def match_win_probability(sim, player1: str, player2: str, surface: str,
                           state: MatchState | None = None, fmt: MatchFormat | None = None,
                           n_points: int = 200, seed: int = 0) -> dict:
     """P(player1 wins the match) from `state` (default: the start, player1 serving): each
     player's point-win rate on serve from `n_points` simulated service points against the
     other (realistic points only), then the exact Markov chain of the scoring."""
+    check_players(player1, player2, ("player1", "player2"))
+    if fmt is not None and not isinstance(fmt, MatchFormat):
+        raise ArgumentError(f"fmt must be a MatchFormat (or None), got {fmt!r}")
     rates = []
     for k, (a, b) in enumerate(((player1, player2), (player2, player1))):
         pts = realistic_points(sim.simulate_points(a, b, surface, n_points, seed=seed + k))

@@ -24,18 +24,30 @@ order shuffled by the seed, cycled.
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import itertools
 import json
 import os
+import re
 import shutil
+import socket
+import tempfile
+import uuid
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from sportsngen.data.tracking import FRAME_COLUMNS, RALLY_COLUMNS, SHOT_COLUMNS, RallyData
+from sportsngen.data.tracking import (
+    FRAME_COLUMNS,
+    RALLY_COLUMNS,
+    SHOT_COLUMNS,
+    RallyData,
+    TrackingDataError,
+)
 from sportsngen.synth.generate import _check_n_points, _workers, iter_match_tables, match_specs
 from sportsngen.synth.profiles import (
     GENDERS,
@@ -146,17 +158,133 @@ def generate_to_folder(cfg, folder: str | Path, progress: bool = True) -> Path:
 
 
 def load_synthetic(cfg, progress: bool = True) -> RallyData:
-    """The synthetic dataset of `cfg`, generated on first use and cached on disk."""
+    """The synthetic dataset of `cfg`, generated on first use and cached on disk.
+
+    A finished cache is checked before it is trusted (its files against the checksums written
+    with it, then the load's validation); a damaged one is regenerated with a warning."""
     c = _plain(cfg)
     if c.get("source", "synthetic") != "synthetic":
         raise ValueError(f"load_synthetic needs a config with source: synthetic, "
                          f"got {c.get('source')!r}")
     root = Path(c["cache_dir"]).expanduser() if c.get("cache_dir") else cache_root()
     folder = root / "synthetic" / f"{c.get('name', 'synthetic')}-{config_key(c)}"
-    if not (folder / "meta.json").exists():
-        tmp = folder.with_name(folder.name + f".tmp{os.getpid()}")
-        shutil.rmtree(tmp, ignore_errors=True)
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    remove_stale_tmp(folder.parent)
+    if folder.exists():
+        why = cache_damage(folder)
+        if why is None:
+            try:
+                return RallyData.load(folder)
+            except (TrackingDataError, OSError) as exc:
+                why = str(exc)
+        warnings.warn(f"synthetic cache {folder} is damaged ({why}); regenerating it",
+                      stacklevel=2)
+        _move_aside(folder)
+    tmp = Path(tempfile.mkdtemp(prefix=f"{folder.name}.tmp{os.getpid()}-",
+                                suffix=f"@{socket.gethostname()}", dir=folder.parent))
+    try:
         generate_to_folder(c, tmp, progress=progress)
-        shutil.rmtree(folder, ignore_errors=True)
-        tmp.rename(folder)  # atomic: a half-written cache is never picked up
+        write_checksums(tmp)
+        publish(tmp, folder)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
     return RallyData.load(folder)
+
+
+# --- the cache's integrity and publication ---------------------------------------------------
+# A cache is generated into a temporary folder "<name>.tmp<pid>-<random>@<host>" beside it and
+# published by one rename, which is atomic and refuses a non-empty target: so a reader never
+# sees half a cache, and when two processes finish the same cache, the second finds the first's
+# (verified by its checksums) and drops its own copy.
+
+CHECKSUMS = "checksums.json"
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        while chunk := fh.read(1 << 22):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def write_checksums(folder: Path) -> None:
+    """Record the SHA-256 of every file of a generated folder in checksums.json."""
+    sums = {p.name: _sha256(p) for p in sorted(folder.iterdir()) if p.name != CHECKSUMS}
+    (folder / CHECKSUMS).write_text(json.dumps(sums, indent=2))
+
+
+def cache_damage(folder: Path) -> str | None:
+    """Why a finished cache folder cannot be trusted, or None. A cache written before
+    checksums were recorded has none: only the load checks it."""
+    if not (folder / "meta.json").is_file():
+        return "no meta.json"
+    path = folder / CHECKSUMS
+    if not path.is_file():
+        return None
+    try:
+        sums = json.loads(path.read_text())
+    except (UnicodeDecodeError, json.JSONDecodeError):
+        return f"{CHECKSUMS} is not valid JSON"
+    for name, digest in sums.items():
+        if not (folder / name).is_file():
+            return f"{name} is missing"
+        if _sha256(folder / name) != digest:
+            return f"{name} does not match its checksum"
+    return None
+
+
+def publish(tmp: Path, folder: Path, attempts: int = 3) -> None:
+    """Rename the finished `tmp` to `folder`. If another process published it first, its
+    copy is kept (ours is left for the caller to remove); a damaged copy in the way is moved
+    aside and the rename tried again."""
+    for _ in range(attempts):
+        try:
+            os.rename(tmp, folder)
+            return
+        except OSError as exc:
+            if exc.errno not in (errno.EEXIST, errno.ENOTEMPTY):
+                raise
+        if cache_damage(folder) is None:
+            return               # the other process's copy, verified
+        _move_aside(folder)
+    raise RuntimeError(f"could not publish the synthetic cache {folder}: another copy kept "
+                       f"appearing damaged in its place ({attempts} attempts)")
+
+
+def _move_aside(folder: Path) -> None:
+    """Rename a damaged cache to a temporary name (so that a crash leaves a folder that
+    `remove_stale_tmp` recognises), then delete it. Gone already: another process did it."""
+    aside = folder.with_name(f"{folder.name}.tmp{os.getpid()}-stale{uuid.uuid4().hex[:8]}"
+                             f"@{socket.gethostname()}")
+    try:
+        os.rename(folder, aside)
+    except FileNotFoundError:
+        return
+    shutil.rmtree(aside, ignore_errors=True)
+
+
+_TMP_NAME = re.compile(r"\.tmp(\d+)(?:-[^@]*)?(?:@(.+))?$")
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:      # someone else's live process
+        return True
+    return True
+
+
+def remove_stale_tmp(root: Path) -> list[Path]:
+    """Delete the temporary folders under `root` left by generations on this host whose
+    process is dead (killed mid-generation) -> the folders removed."""
+    removed = []
+    host = socket.gethostname()
+    for path in root.iterdir() if root.is_dir() else ():
+        m = _TMP_NAME.search(path.name)
+        if m and path.is_dir() and (m.group(2) or host) == host and not _alive(int(m.group(1))):
+            shutil.rmtree(path, ignore_errors=True)
+            removed.append(path)
+    return removed

@@ -28,9 +28,12 @@ Rules implemented (ITF Rules of Tennis):
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from sportsngen.errors import ArgumentError
 
 FINAL_SET_RULES = ("tiebreak7", "tiebreak10", "advantage", "tiebreak7_at_12")
 SLAMS = ("ausopen", "frenchopen", "wimbledon", "usopen")
@@ -77,29 +80,43 @@ class MatchFormat:
     match_tiebreak_points: int | None = None
 
     def __post_init__(self) -> None:
-        if not isinstance(self.best_of, int) or self.best_of < 1 or self.best_of % 2 == 0:
-            raise ValueError(f"best_of must be a positive odd int (3 or 5), got {self.best_of!r}")
-        if not isinstance(self.games_per_set, int) or self.games_per_set < 1:
-            raise ValueError(f"games_per_set must be an int >= 1, got {self.games_per_set!r}")
-        if not isinstance(self.tiebreak_at, int) or self.tiebreak_at < self.games_per_set - 1:
-            raise ValueError(
+        # Integers of any kind (numpy's included) are stored as int. Bools are not numbers here
+        # (best_of=True passed as 1), and no_ad must be a bool (the string "no" is truthy).
+        for name in ("best_of", "games_per_set", "tiebreak_at", "tiebreak_points",
+                     "match_tiebreak_points"):
+            value = getattr(self, name)
+            if isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_)):
+                object.__setattr__(self, name, int(value))
+        if isinstance(self.no_ad, np.bool_):
+            object.__setattr__(self, "no_ad", bool(self.no_ad))
+        if not _is_int(self.best_of) or self.best_of < 1 or self.best_of % 2 == 0:
+            raise ArgumentError(f"best_of must be a positive odd int (3 or 5), "
+                                f"got {self.best_of!r}")
+        if not _is_int(self.games_per_set) or self.games_per_set < 1:
+            raise ArgumentError(f"games_per_set must be an int >= 1, got {self.games_per_set!r}")
+        if not _is_int(self.tiebreak_at) or self.tiebreak_at < self.games_per_set - 1:
+            raise ArgumentError(
                 f"tiebreak_at must be an int >= games_per_set - 1 = {self.games_per_set - 1}, "
                 f"got {self.tiebreak_at!r}"
             )
-        if not isinstance(self.tiebreak_points, int) or self.tiebreak_points < 1:
-            raise ValueError(f"tiebreak_points must be an int >= 1, got {self.tiebreak_points!r}")
+        if not _is_int(self.tiebreak_points) or self.tiebreak_points < 1:
+            raise ArgumentError(f"tiebreak_points must be an int >= 1, "
+                                f"got {self.tiebreak_points!r}")
+        if not isinstance(self.no_ad, bool):
+            raise ArgumentError(f"no_ad must be True or False, got {self.no_ad!r}")
         if self.final_set not in FINAL_SET_RULES:
-            raise ValueError(f"final_set must be one of {FINAL_SET_RULES}, got {self.final_set!r}")
+            raise ArgumentError(f"final_set must be one of {FINAL_SET_RULES}, "
+                                f"got {self.final_set!r}")
         if self.final_set == "tiebreak7_at_12" and self.games_per_set > 13:
-            raise ValueError("final_set 'tiebreak7_at_12' needs games_per_set <= 13")
+            raise ArgumentError("final_set 'tiebreak7_at_12' needs games_per_set <= 13")
         if self.match_tiebreak_points is not None:
-            if not isinstance(self.match_tiebreak_points, int) or self.match_tiebreak_points < 1:
-                raise ValueError(
+            if not _is_int(self.match_tiebreak_points) or self.match_tiebreak_points < 1:
+                raise ArgumentError(
                     "match_tiebreak_points must be None or an int >= 1, "
                     f"got {self.match_tiebreak_points!r}"
                 )
             if self.final_set != "tiebreak7":
-                raise ValueError(
+                raise ArgumentError(
                     "match_tiebreak_points replaces the final set, so final_set must stay at "
                     f"its default 'tiebreak7', got final_set={self.final_set!r}"
                 )
@@ -220,6 +237,8 @@ class MatchState:
     def new(cls, fmt: MatchFormat | None = None, first_server: int = 0) -> MatchState:
         """The score before the first point."""
         fmt = MatchFormat() if fmt is None else fmt
+        if not isinstance(fmt, MatchFormat):
+            raise ArgumentError(f"fmt must be a MatchFormat (or None for best of 3), got {fmt!r}")
         _check_player(first_server, "first_server")
         match_tb = fmt.set_rule(1)[2]  # best_of=1 with a match tie-break: the match IS one
         return cls(fmt, first_server, first_server, (), (), (0, 0), (0, 0), match_tb, None, 0)
@@ -249,7 +268,7 @@ class MatchState:
         """
         fmt = MatchFormat() if fmt is None else fmt
         if not isinstance(fmt, MatchFormat):
-            raise ValueError(f"fmt must be a MatchFormat, got {type(fmt).__name__}")
+            raise ArgumentError(f"fmt must be a MatchFormat (or None for best of 3), got {fmt!r}")
         _check_player(server, "server")
         sets_t = tuple(_pair(s, f"sets[{i}]") for i, s in enumerate(sets))
         games_t = _pair(games, "games")
@@ -504,9 +523,13 @@ class MatchState:
 # --- validation helpers ----------------------------------------------------------------
 
 
+def _is_int(x: object) -> bool:
+    return isinstance(x, int) and not isinstance(x, bool)
+
+
 def _check_player(p: object, name: str) -> None:
     if p not in (0, 1) or isinstance(p, bool):
-        raise ValueError(f"{name} must be player 0 or 1, got {p!r}")
+        raise ArgumentError(f"{name} must be player 0 or 1, got {p!r}")
 
 
 def _pair(x: object, name: str) -> tuple[int, int]:

@@ -13,6 +13,7 @@ from torch.utils.data import DataLoader
 
 from sportsngen.data.tokens import Augment, RallyArrays, Vocab, WindowDataset, rally_arrays
 from sportsngen.data.tracking import RallyData
+from sportsngen.errors import ArgumentError
 
 DATA_SOURCES = ("toy", "synthetic", "folder")
 _TOY_KEYS = {"source", "n_rallies", "seed", "fps"}
@@ -43,8 +44,9 @@ def load_rally_data(cfg: Mapping) -> RallyData:
                              f"(the generator), which cannot be imported: {exc}") from exc
         return dataset.load_synthetic(cfg)
     if source == "folder":
-        if not cfg.get("path"):
-            raise ValueError("data.source=folder needs data.path (a RallyData folder)")
+        if not cfg.get("path") or str(cfg["path"]) == "???":   # "???": Hydra's unset value
+            raise ArgumentError("data.source=folder needs data.path, the RallyData folder: "
+                                "python train.py data=folder data.path=/path/to/folder")
         return RallyData.load(Path(cfg["path"]).expanduser())
     raise ValueError(f"data.source must be one of {DATA_SOURCES}, got {source!r}")
 

@@ -23,24 +23,36 @@ from torch import nn
 
 from sportsngen.data.tokens import GENERIC_ID, N_SPECIAL_IDS, Vocab
 from sportsngen.data.tracking import RallyData
+from sportsngen.errors import ModelFileError
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.decoder import SportsNGEN
-from sportsngen.model.export import is_model_file, load_model
+from sportsngen.model.export import is_model_file, load_model, what_file
+
+
+def read_torch_file(path: str | Path, what: str = "model file or checkpoint"):
+    """A torch file's object (a model file or a Lightning checkpoint), or `ModelFileError`
+    saying why it is neither (empty, JSON, corrupt)."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no {what} at {path}")
+    try:
+        return torch.load(path, map_location="cpu", weights_only=False)
+    except Exception as exc:  # EOFError, UnpicklingError, RuntimeError: all mean "not ours"
+        raise ModelFileError(f"{path} is not a sportsngen {what}: {what_file(path)} "
+                             f"({type(exc).__name__})") from exc
 
 
 def load_pretrained(path: str | Path):
     """A model file (`save_model`) or a Lightning checkpoint of `DecoderModule` ->
     (model, event classifier or None, Vocab, ModelConfig)."""
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no model file or checkpoint at {path}")
-    blob = torch.load(path, map_location="cpu", weights_only=False)
+    blob = read_torch_file(path)
     if is_model_file(blob):
         return load_model(path)
     hp = blob.get("hyper_parameters", {}) if isinstance(blob, dict) else {}
     if "model_cfg" not in hp or "vocab" not in hp:
-        raise ValueError(f"{path} is neither a sportsngen model file nor a DecoderModule "
-                         "checkpoint (no model_cfg/vocab hyper-parameters)")
+        raise ModelFileError(f"{path} is neither a sportsngen model file nor a DecoderModule "
+                             "checkpoint (no model_cfg/vocab hyper-parameters)")
     cfg = ModelConfig.from_dict(hp["model_cfg"])
     model = SportsNGEN(cfg)
     state = {k[len("model."):]: v for k, v in blob["state_dict"].items()

@@ -18,8 +18,9 @@ from lightning.pytorch.loggers import CSVLogger
 from omegaconf import DictConfig, OmegaConf
 
 from sportsngen.data.tokens import Augment, Vocab
+from sportsngen.errors import ModelFileError
 from sportsngen.model.config import ModelConfig
-from sportsngen.model.export import read_extra, save_model
+from sportsngen.model.export import is_model_file, read_extra, save_model
 from sportsngen.sim.initial import InitialConditions
 from sportsngen.train.datamodule import TrackingDataModule, data_fingerprint, load_rally_data
 from sportsngen.train.finetune import (
@@ -28,6 +29,7 @@ from sportsngen.train.finetune import (
     check_data_matches,
     load_pretrained,
     player_rallies,
+    read_torch_file,
 )
 from sportsngen.train.module import TOKEN_WEIGHTS, DecoderModule, EventModule
 
@@ -58,7 +60,15 @@ def _trainer(cfg: DictConfig, out_dir: Path, name: str, max_steps: int, **extra)
 
 def _check_resume(path: str, model_cfg: ModelConfig, vocab: Vocab) -> None:
     """A resumed checkpoint must have been made with this model config and vocabulary."""
-    hp = torch.load(path, map_location="cpu", weights_only=False).get("hyper_parameters", {})
+    blob = read_torch_file(path, "training checkpoint")
+    if is_model_file(blob):
+        raise ModelFileError(f"resume={path} is a model file, not a training checkpoint: "
+                             "resume takes a checkpoint (<run>/checkpoints_decoder/last.ckpt); "
+                             "to train on from a model file, use init=<model file>")
+    hp = blob.get("hyper_parameters", {}) if isinstance(blob, dict) else {}
+    if "model_cfg" not in hp:
+        raise ModelFileError(f"resume={path} is not a DecoderModule training checkpoint (no "
+                             "model_cfg hyper-parameters)")
     old = hp.get("model_cfg", {})
     old = ModelConfig.from_dict(old).to_dict() if old else {}   # fields added since: defaults
     diff = sorted(k for k in set(old) | set(model_cfg.to_dict())
