@@ -129,10 +129,14 @@ def _rally_data() -> tuple[RallyData, dict]:
                           "bounce_y": np.nan if b == "net" else bxy[1]})
         ball = _track(way, way[-1][0] + 0.5)
         n = len(ball)
-        frames.append(pd.DataFrame({
-            "rally_id": rid, "frame": np.arange(n), "t": np.arange(n) / FPS, "object": "ball",
-            "x": ball[:, 0], "y": ball[:, 1], "z": ball[:, 2], "stroke": "none",
-            "direction": "none", "outcome": "none", "error_kind": "none"}))
+        receiver = "B" if server == "A" else "A"
+        # The players stand behind their baselines (the statistics read the ball alone).
+        for obj, x, z in (("ball", ball[:, 0], ball[:, 2]), (server, end * 12.5, 0.0),
+                          (receiver, -end * 12.5, 0.0)):
+            frames.append(pd.DataFrame({
+                "rally_id": rid, "frame": np.arange(n), "t": np.arange(n) / FPS,
+                "object": obj, "x": x, "y": ball[:, 1] if obj == "ball" else 0.0, "z": z,
+                "stroke": "none", "direction": "none", "outcome": "none", "error_kind": "none"}))
         rallies.append({"rally_id": rid, "match_id": "m1", "point": [1, 2, 2, 3, 4][rid],
                         "server": server, "receiver": "B" if server == "A" else "A",
                         "serve_number": serve_no, "side": side, "server_end": end,
