@@ -8,7 +8,9 @@ in tennis"; Newton & Keller 2005). Here it is computed by memoised recursion ove
 with closed forms for the three infinite tails: deuce in a game, "level at 6-6 or later" in a
 tie-break, and "level at 5-5 or later" in an advantage set. `simulate_match` /
 `monte_carlo_match_win` play the same model point by point through `MatchState` and exist to
-check the exact numbers.
+check the exact numbers. `point_importance` and `live_win_probabilities` give, before each
+point, the match-win probability and how much that point moves it (the match report's
+timeline).
 
 The serve-level refinement of the point (first / second serve, ace, double fault, speed,
 rally length) is `sportsngen.baselines.serve_model`.

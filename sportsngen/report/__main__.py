@@ -56,7 +56,8 @@ def _backtest(args: argparse.Namespace) -> int:
 def _check(args: argparse.Namespace) -> int:
     from sportsngen.report.browser import assert_clean, check_report
 
-    seen = check_report(args.html, args.out)
+    seen = check_report(args.html, args.out, rally_play_s=args.rally_play_s,
+                        whatif_index=args.whatif)
     print(json.dumps(seen, indent=1))
     try:
         assert_clean(seen)
@@ -89,6 +90,9 @@ def main(argv: list[str] | None = None) -> int:
     p = sub.add_parser("check", help="open a report in headless Chromium, take screenshots")
     p.add_argument("html", type=Path)
     p.add_argument("--out", type=Path, default=None, help="folder for the screenshots")
+    p.add_argument("--rally-play-s", type=float, default=1.5,
+                   help="let the clicked rally play this long before its screenshot")
+    p.add_argument("--whatif", type=int, default=0, help="which what-if shot to open (0: first)")
     p.set_defaults(func=_check)
     args = ap.parse_args(argv)
     try:

@@ -181,7 +181,7 @@ def run_backtest(out_dir: str | Path, folder: str | Path | None = None, events=N
                                              seed)
     events_txt = ", ".join(sorted(preds["event"].unique()))
     plot_backtest(preds, reliability, tables["all events"], out_dir / "backtest_reliability.png",
-                  title=f"Live win probability before each point: {events_txt}\n"
+                  title=f"Live win probability before each point\n{events_txt}\n"
                         f"{preds['match_id'].nunique()} finished matches, {len(preds)} points")
     md = markdown_table(tables)
     unfinished = preds.attrs.get("unfinished", [])

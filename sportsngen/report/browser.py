@@ -235,12 +235,13 @@ class Chromium:
 
 
 def check_report(html: str | Path, out_dir: str | Path | None = None,
-                 binary: str | None = None) -> dict:
-    """Open a report, take its screenshots (timeline; the rally of the first key moment that
-    has one, after a click on the timeline, with the animation running; the first what-if
-    shot) into `out_dir`, and return what was seen: errors, external requests, screenshot
-    paths, whether the rally animation advanced, timings. Raises nothing for a bad page: the
-    caller decides (see `assert_clean`)."""
+                 binary: str | None = None, rally_play_s: float = 0.0,
+                 whatif_index: int = 0) -> dict:
+    """Open a report, take its screenshots into `out_dir` (the timeline; the rally of the first
+    key moment that has one, after a click on the timeline, `rally_play_s` after the check that
+    its animation runs; what-if shot number `whatif_index`; the whole page) and return what
+    was seen: errors, external requests, screenshot paths, whether the rally animation
+    advanced, timings. Raises nothing for a bad page: the caller decides (`assert_clean`)."""
     out_dir = Path(out_dir) if out_dir is not None else None
     seen: dict = {"screenshots": [], "animated": None, "has_rallies": False,
                   "has_whatif": False}
@@ -262,22 +263,23 @@ def check_report(html: str | Path, out_dir: str | Path | None = None,
             " const m = ok[0] || ms[0]; return m ? ms.indexOf(m) : -1; })()")
         if target is not None and target >= 0:
             browser.click(f"#timeline .moment:nth-of-type({target + 1}) circle")
-            browser.pump(0.8)
+            browser.pump(0.1)
             seen["selected_point"] = browser.evaluate("window.sportsngenReport.ui.sel")
             seen["has_rallies"] = bool(browser.evaluate("!!window.sportsngenReport.ui.rally"))
-            if seen["has_rallies"]:
+            if seen["has_rallies"]:  # the rally plays by itself once its point is clicked
                 f1 = browser.evaluate("window.sportsngenReport.ui.frame")
-                browser.pump(0.5)
+                browser.pump(0.3)
                 f2 = browser.evaluate("window.sportsngenReport.ui.frame")
                 seen["animated"] = f2 > f1
                 seen["frames_seen"] = [f1, f2]
+                browser.pump(rally_play_s)
             if out_dir is not None:
                 seen["screenshots"].append(str(browser.screenshot(out_dir / "rally.png",
                                                                   "#point-section")))
-        seen["has_whatif"] = bool(browser.evaluate(
-            "document.querySelectorAll('.wi-list button').length"))
+        n_whatif = browser.evaluate("document.querySelectorAll('.wi-list button').length")
+        seen["has_whatif"] = bool(n_whatif)
         if seen["has_whatif"]:
-            browser.click(".wi-list button")
+            browser.click(f".wi-list button:nth-of-type({min(whatif_index, n_whatif - 1) + 1})")
             browser.pump(0.4)
             seen["whatif_bars"] = browser.evaluate(
                 "document.querySelectorAll('#whatif-chart svg rect').length")

@@ -2,16 +2,17 @@
 Markov engine's (the score only).
 
 What-if shots are chosen from the points with the largest swings of the win probability (the
-key moments first): in the rally that decided the point, the last forehand or backhand after
-the serve (the shot that ended the point or set it up), forced to go cross-court and down the
-line by `Simulator.counterfactual`. Each option's point-win
-probability for the hitter carries its 95 % Wilson interval; through the point's importance it
-becomes the hitter's match-win probability (P(win | lose the point) + p * importance), exact
-given that point probability.
+key moments first): in the rally that decided the point, a forehand or backhand after the
+serve, forced to go cross-court and down the line by `Simulator.counterfactual`: the last such
+shot that stayed in play where there is one (where to put the ball to win the point), else the
+last one. Each option's point-win probability for the hitter carries its 95 % Wilson interval;
+through the point's importance it becomes the hitter's match-win probability
+(P(win | lose the point) + p * importance), exact given that point probability.
 """
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +23,7 @@ from sportsngen.report.document import match_document, write_report
 from sportsngen.report.live import ServeOdds, replay_states, serve_odds, timeline
 from sportsngen.tennis.scoring import MatchFormat
 
+log = logging.getLogger(__name__)
 GROUNDSTROKES = ("forehand", "backhand")
 WHATIF_OPTIONS = ("cross_court", "down_the_line")
 
@@ -49,8 +51,10 @@ def choose_whatif_shots(rallies_of_point: dict[int, list[int]], shots: pd.DataFr
             continue
         mine = shots[(shots["rally_id"] == ids[-1]) & shots["stroke"].isin(GROUNDSTROKES)
                      & (shots["shot_index"] > 0)]
+        kept_in = mine[mine["outcome"] == "in_play"]
         if len(mine):
-            picked.append((int(i), ids[-1], int(mine["shot_index"].max())))
+            pick = kept_in if len(kept_in) else mine
+            picked.append((int(i), ids[-1], int(pick["shot_index"].max())))
     return picked
 
 
@@ -64,8 +68,12 @@ def whatif_entries(sim, rallies, tl: pd.DataFrame, players: tuple[str, str],
                                                    disable=not progress)):
         shot = shots[(shots["rally_id"] == rid) & (shots["shot_index"] == shot_index)].iloc[0]
         hitter = players.index(str(shot["hitter"]))
-        table = sim.counterfactual(rallies, rid, shot_index, options=options, n=n,
-                                   seed=seed + 101 * j)
+        try:
+            table = sim.counterfactual(rallies, rid, shot_index, options=options, n=n,
+                                       seed=seed + 101 * j)
+        except ValueError as exc:  # a shot that cannot be branched: the report goes on
+            log.warning("what-if of rally %d shot %d skipped: %s", rid, shot_index, exc)
+            continue
         row = tl.iloc[i]
         # The hitter's match-win probability if he wins / loses this point.
         win = row["p_if_won"] if hitter == 0 else 1.0 - row["p_if_lost"]
@@ -121,6 +129,9 @@ def learned_match_report(result, path: str | Path, sim=None, whatif_shots: int =
                          progress: bool = True) -> Path:
     """The report of a `MatchResult` of the learned engine, written to `path`. With `sim` (the
     `Simulator` that played it) and `whatif_shots` > 0, what-if shots are computed."""
+    if whatif_shots < 0 or (whatif_shots > 0 and whatif_rollouts < 1):
+        raise ValueError(f"whatif_shots must be >= 0 and whatif_rollouts >= 1, got "
+                         f"{whatif_shots} and {whatif_rollouts}")
     players = tuple(result.players)
     odds, tl = simulated_timeline(result.points, players, result.state.fmt)
     whatif = []

@@ -15,6 +15,7 @@ Both write the match report of the first match, `report.html` (`sportsngen.repor
 from __future__ import annotations
 
 import logging
+import time
 from pathlib import Path
 
 import numpy as np
@@ -138,12 +139,13 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
     if cfg.get("report", True):
         from sportsngen.report.simulated import learned_match_report
 
+        t0 = time.perf_counter()
         path = learned_match_report(
             first, out_dir / "report.html", sim=sim,
             whatif_shots=int(cfg.get("report_whatif_shots", 2)),
             whatif_rollouts=int(cfg.get("report_whatif_rollouts", 24)), seed=int(cfg.seed),
             model_name=str(cfg.get("model_file") or "bundled sportsngen-small"))
-        print(f"report: {path}")
+        print(f"report: {path} ({time.perf_counter() - t0:.1f} s)")
     return pd.concat([r.points for r in results], ignore_index=True)
 
 

@@ -453,27 +453,28 @@
     box.innerHTML = "";
     box.appendChild(el("div", {}, ["Shot " + (w.shot + 1) + " of rally " + w.rally + ": ", player(w.hitter),
       "'s " + words(w.stroke) + ", played " + words(w.played) + " (" + words(w.outcome) + ")."]));
-    var H = 44 * w.options.length + 40, W = 420, L = 110, R = 20;
+    var H = 44 * w.options.length + 40, W = 420, L = 6, R = 10;
     var svg = sv("svg", { viewBox: "0 0 " + W + " " + (2 * H + 30) });
     function chart(y0, title, key, lo, hi) {
       sv("text", { x: 0, y: y0 + 14, text: title, "font-weight": 600 }, svg);
       var X = function (p) { return L + (W - L - R) * p; };
       [0, 0.25, 0.5, 0.75, 1].forEach(function (p) {
         sv("line", { x1: X(p), x2: X(p), y1: y0 + 22, y2: y0 + H - 14, stroke: "#e5e5e5" }, svg);
-        sv("text", { x: X(p), y: y0 + H - 2, "text-anchor": "middle", fill: "#888", text: (100 * p) + "%" }, svg);
+        sv("text", { x: X(p), y: y0 + H - 2, "text-anchor": p === 0 ? "start" : p === 1 ? "end" : "middle",
+                     fill: "#888", text: (100 * p) + "%" }, svg);
       });
       w.options.forEach(function (o, j) {
-        var y = y0 + 26 + 44 * j;
+        var y = y0 + 22 + 44 * j;
         var played = o.option === w.played;
-        sv("text", { x: 0, y: y + 16, text: words(o.option) + (played ? " *" : "") }, svg);
-        sv("rect", { x: X(0), y: y + 4, width: Math.max(X(o[key]) - X(0), 1), height: 18,
+        sv("text", { x: L, y: y + 13, text: words(o.option) + (played ? " (played)" : "") }, svg);
+        sv("text", { x: W - R, y: y + 13, "text-anchor": "end", fill: "#333",
+                     text: pct(o[key], 0) + "  (95%: " + pct(o[lo], 0) + "-" + pct(o[hi], 0) + ")" }, svg);
+        sv("rect", { x: X(0), y: y + 18, width: Math.max(X(o[key]) - X(0), 1), height: 16,
                      fill: COLOURS[w.hitter], "fill-opacity": 0.75 }, svg);
-        sv("line", { x1: X(o[lo]), x2: X(o[hi]), y1: y + 13, y2: y + 13, stroke: "#000", "stroke-width": 2 }, svg);
+        sv("line", { x1: X(o[lo]), x2: X(o[hi]), y1: y + 26, y2: y + 26, stroke: "#000", "stroke-width": 2 }, svg);
         [lo, hi].forEach(function (q) {
-          sv("line", { x1: X(o[q]), x2: X(o[q]), y1: y + 7, y2: y + 19, stroke: "#000", "stroke-width": 2 }, svg);
+          sv("line", { x1: X(o[q]), x2: X(o[q]), y1: y + 20, y2: y + 32, stroke: "#000", "stroke-width": 2 }, svg);
         });
-        sv("text", { x: X(Math.min(o[hi], 0.82)) + 6, y: y + 36, fill: "#333",
-                     text: pct(o[key], 0) + " (" + pct(o[lo], 0) + "-" + pct(o[hi], 0) + ")" }, svg);
       });
     }
     chart(0, "P(" + NAMES[w.hitter] + " wins the point)", "p", "lo", "hi");
@@ -481,7 +482,7 @@
     box.appendChild(svg);
     var n = w.options.map(function (o) { return words(o.option) + ": " + o.n + " of " + o.n_sims; }).join(", ");
     box.appendChild(el("p", { cls: "hint", text: "Bars: estimate; whiskers: 95% Wilson interval. " +
-      "* the direction actually played. Rollouts counted (realistic, decided): " + n + ". " +
+      "Rollouts counted (realistic, decided): " + n + ". " +
       "Match probability = P(match | point lost) + P(point) x importance, with " + NAMES[w.hitter] +
       " at " + pct(w.match_if_lost, 1) + " if he loses the point and " + pct(w.match_if_won, 1) + " if he wins it." }));
   }
