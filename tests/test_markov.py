@@ -1,5 +1,6 @@
 """The i.i.d.-point Markov model: closed forms, exact recursion, Monte Carlo."""
 
+import functools
 import math
 
 import numpy as np
@@ -225,41 +226,49 @@ def test_simulate_match_plays_to_the_end():
 
 # --- point importance -------------------------------------------------------------------
 
-def dp_any_format(pa, pb, start, cap=60):
-    """Independent exact answer for any format (several sets too): backward induction like
-    `dp_match_probability`, but states are merged by what decides the future under i.i.d.
-    points (sets won, games, points, server, tie-break flag), not by the whole score history,
-    so a best-of-3 match has tens of thousands of states, not millions. Long deuces or
-    tie-breaks past `cap` points count as a coin flip (reached with probability < 1e-9 here).
-    """
-    def key(s):
-        return (s.sets_won, s.games, s.points, s.server, s.in_tiebreak)
+def _dp_key(s):
+    """What decides the future of a match under i.i.d. points (not the score's history)."""
+    return (s.sets_won, s.games, s.points, s.server, s.in_tiebreak)
 
+
+@functools.lru_cache(maxsize=4)
+def dp_values(pa, pb, fmt, cap=60):
+    """Independent exact answers for any format (several sets too): backward induction like
+    `dp_match_probability` over every state reachable from the start (either first server),
+    built only from `MatchState.point_won`, but with states merged by `_dp_key`, so a best-of-3
+    match has tens of thousands of states, not millions. Long deuces or tie-breaks past `cap`
+    points count as a coin flip (reached with probability < 1e-9 here). -> key -> P(player 0
+    wins the match)."""
     def cut(s):
         return max(s.points) > cap
 
-    if start.is_over:
-        return float(start.winner == 0)
-    rep, stack, kids = {key(start): start}, [start], {}
+    starts = [MatchState.new(fmt, 0), MatchState.new(fmt, 1)]
+    rep, stack, kids = {_dp_key(s): s for s in starts}, list(starts), {}
     while stack:
         s = stack.pop()
-        kids[key(s)] = [s.point_won(s.server), s.point_won(s.receiver)]
-        for t in kids[key(s)]:
-            if not t.is_over and not cut(t) and key(t) not in rep:
-                rep[key(t)] = t
+        kids[_dp_key(s)] = [s.point_won(s.server), s.point_won(s.receiver)]
+        for t in kids[_dp_key(s)]:
+            if not t.is_over and not cut(t) and _dp_key(t) not in rep:
+                rep[_dp_key(t)] = t
                 stack.append(t)
+    # Every point raises (sets won, games, points), so this is a valid order.
     order = sorted(rep, key=lambda k: (sum(k[0]), sum(k[1]), sum(k[2])), reverse=True)
     value = {}
     for k in order:
         p = pa if k[3] == 0 else pb
-        v = [float(t.winner == 0) if t.is_over else 0.5 if cut(t) else value[key(t)]
+        v = [float(t.winner == 0) if t.is_over else 0.5 if cut(t) else value[_dp_key(t)]
              for t in kids[k]]
         value[k] = v[0] * p + v[1] * (1.0 - p)
-    return value[key(start)]
+    return value
 
 
 def dp_importance(pa, pb, state):
-    return dp_any_format(pa, pb, state.point_won(0)) - dp_any_format(pa, pb, state.point_won(1))
+    values = dp_values(pa, pb, state.fmt)
+
+    def v(s):
+        return float(s.winner == 0) if s.is_over else values[_dp_key(s)]
+
+    return v(state.point_won(0)) - v(state.point_won(1))
 
 
 BO5_US = MatchFormat(best_of=5)
@@ -275,7 +284,7 @@ FINAL_TB_6_6 = MatchState.from_score(BO5_US, ((6, 4), (4, 6), (6, 3), (3, 6)), (
 def test_importance_30_40_at_5_6_final_set_closed_form():
     """Losing the point loses the match; winning it leads to deuce, then (holding) a final-set
     tie-break that player 1 serves first: importance = P(hold from deuce) * P(tie-break)."""
-    pa, pb = 0.64, 0.62
+    pa, pb = 0.65, 0.61
     deuce = pa * pa / (pa * pa + (1 - pa) ** 2)
     got = point_importance(pa, pb, FINAL_30_40)
     want = deuce * tiebreak_probability(pa, pb, first_server=1)
@@ -310,7 +319,7 @@ def test_importance_known_values():
     # programme or a closed form, so a change here is a change of the model.
     assert point_importance(0.65, 0.61, MatchState.new(BO3)) == pytest.approx(0.03038, abs=5e-6)
     assert point_importance(0.65, 0.61, DEUCE_TB_SET) == pytest.approx(0.07928, abs=5e-6)
-    assert point_importance(0.64, 0.62, FINAL_30_40) == pytest.approx(0.40484, abs=5e-6)
+    assert point_importance(0.65, 0.61, FINAL_30_40) == pytest.approx(0.43852, abs=5e-6)
     # Equal players, first point: symmetric, so P(before) is 1/2 and the point moves it by
     # equal amounts up and down when it is won on serve with probability 1/2.
     live = live_win_probabilities(0.5, 0.5, [MatchState.new(BO3)])[0]

@@ -77,14 +77,18 @@ class Chromium:
         threading.Thread(target=self._read, daemon=True).start()
         self._next_id = 0
         self.session = None
-        target = next(t for t in self.send("Target.getTargets")["targetInfos"]
-                      if t["type"] == "page")
-        self.session = self.send("Target.attachToTarget", targetId=target["targetId"],
-                                 flatten=True, session=None)["sessionId"]
-        for domain in ("Page", "Runtime", "Log", "Network"):
-            self.send(f"{domain}.enable")
-        self.send("Emulation.setDeviceMetricsOverride", width=width, height=height,
-                  deviceScaleFactor=1, mobile=False)
+        try:
+            target = next(t for t in self.send("Target.getTargets")["targetInfos"]
+                          if t["type"] == "page")
+            self.session = self.send("Target.attachToTarget", targetId=target["targetId"],
+                                     flatten=True, session=None)["sessionId"]
+            for domain in ("Page", "Runtime", "Log", "Network"):
+                self.send(f"{domain}.enable")
+            self.send("Emulation.setDeviceMetricsOverride", width=width, height=height,
+                      deviceScaleFactor=1, mobile=False)
+        except BaseException:
+            self.close()      # never leave a browser behind
+            raise
 
     def _read(self) -> None:
         buf = b""
