@@ -6,6 +6,7 @@ import pytest
 from sportsngen.eval.calibration import (
     IsotonicCalibrator,
     brier_score,
+    cluster_bootstrap,
     expected_calibration_error,
     plot_reliability,
     reliability_table,
@@ -74,3 +75,25 @@ def test_calibrator_round_trips_through_a_dict_and_rejects_bad_maps():
     assert cal.to_dict() == {"x": [0.1, 0.4, 0.9], "y": [0.0, 0.5, 1.0], "n": [1, 2, 1]}
     with pytest.raises(ValueError, match="non-decreasing"):
         IsotonicCalibrator.from_dict({"x": [0.5, 0.2], "y": [0.1, 0.3]})
+
+
+def test_cluster_bootstrap_resamples_whole_groups():
+    # 200 groups of 50 rows, every row of a group sharing its 0/1 outcome: the mean has the
+    # spread of 200 coin flips (half-width 1.96 * sqrt(0.25 / 200) = 0.069), not of 10,000.
+    rng = np.random.default_rng(0)
+    y = np.repeat(rng.integers(0, 2, 200), 50).astype(float)
+    groups = np.repeat(np.arange(200), 50)
+    lo, hi = cluster_bootstrap(lambda i: y[i].mean(), groups, n_boot=400, seed=1)
+    assert 0.11 < hi - lo < 0.17
+    assert lo < y.mean() < hi
+    # Identical groups: every resample is the same, so the interval has no width.
+    same = np.tile([0.0, 1.0, 1.0], 30)
+    lo, hi = cluster_bootstrap(lambda i: same[i].mean(), np.repeat(np.arange(30), 3), 50)
+    assert lo == pytest.approx(2 / 3) and hi == pytest.approx(2 / 3)
+    # Array statistics keep their shape; groups may come in any order.
+    g = np.array([2, 0, 2, 1, 0, 1])
+    v = np.array([1.0, 0.0, 1.0, 5.0, 0.0, 5.0])
+    lo, hi = cluster_bootstrap(lambda i: np.array([v[i].min(), v[i].max()]), g, 100)
+    assert lo.shape == (2,) and (lo <= hi).all() and hi[1] == 5.0 and lo[0] == 0.0
+    with pytest.raises(ValueError, match="n_boot"):
+        cluster_bootstrap(lambda i: 0.0, g, 0)

@@ -1,13 +1,18 @@
 """The i.i.d.-point Markov model: closed forms, exact recursion, Monte Carlo."""
 
+import functools
+import math
+
 import numpy as np
 import pytest
 
 from sportsngen.baselines.markov import (
     game_probability_from,
     hold_probability,
+    live_win_probabilities,
     match_win_probability,
     monte_carlo_match_win,
+    point_importance,
     set_probability,
     simulate_match,
     tiebreak_probability,
@@ -217,3 +222,133 @@ def test_simulate_match_plays_to_the_end():
     final = simulate_match(0.6, 0.6, BO5_ADV, rng)
     assert final.is_over and max(final.sets_won) == 3
     assert simulate_match(1.0, 0.0, BO3, rng).score_str() == "6-0 6-0"
+
+
+# --- point importance -------------------------------------------------------------------
+
+def _dp_key(s):
+    """What decides the future of a match under i.i.d. points (not the score's history)."""
+    return (s.sets_won, s.games, s.points, s.server, s.in_tiebreak)
+
+
+@functools.lru_cache(maxsize=4)
+def dp_values(pa, pb, fmt, cap=60):
+    """Independent exact answers for any format (several sets too): backward induction like
+    `dp_match_probability` over every state reachable from the start (either first server),
+    built only from `MatchState.point_won`, but with states merged by `_dp_key`, so a best-of-3
+    match has tens of thousands of states, not millions. Long deuces or tie-breaks past `cap`
+    points count as a coin flip (reached with probability < 1e-9 here). -> key -> P(player 0
+    wins the match)."""
+    def cut(s):
+        return max(s.points) > cap
+
+    starts = [MatchState.new(fmt, 0), MatchState.new(fmt, 1)]
+    rep, stack, kids = {_dp_key(s): s for s in starts}, list(starts), {}
+    while stack:
+        s = stack.pop()
+        kids[_dp_key(s)] = [s.point_won(s.server), s.point_won(s.receiver)]
+        for t in kids[_dp_key(s)]:
+            if not t.is_over and not cut(t) and _dp_key(t) not in rep:
+                rep[_dp_key(t)] = t
+                stack.append(t)
+    # Every point raises (sets won, games, points), so this is a valid order.
+    order = sorted(rep, key=lambda k: (sum(k[0]), sum(k[1]), sum(k[2])), reverse=True)
+    value = {}
+    for k in order:
+        p = pa if k[3] == 0 else pb
+        v = [float(t.winner == 0) if t.is_over else 0.5 if cut(t) else value[_dp_key(t)]
+             for t in kids[k]]
+        value[k] = v[0] * p + v[1] * (1.0 - p)
+    return value
+
+
+def dp_importance(pa, pb, state):
+    values = dp_values(pa, pb, state.fmt)
+
+    def v(s):
+        return float(s.winner == 0) if s.is_over else values[_dp_key(s)]
+
+    return v(state.point_won(0)) - v(state.point_won(1))
+
+
+BO5_US = MatchFormat(best_of=5)
+# Deuce (40-40) at 3-3 in the first set of a best-of-3 match (a tie-break set).
+DEUCE_TB_SET = MatchState.from_score(BO3, (), (3, 3), (3, 3), server=1)
+# 30-40 on player 0's serve at 5-6 in the final set: match point for player 1.
+FINAL_30_40 = MatchState.from_score(BO3, ((6, 4), (4, 6)), (5, 6), (2, 3), server=0)
+# 6-6 in the final-set tie-break of a best-of-5 match (US Open 2011 rules).
+FINAL_TB_6_6 = MatchState.from_score(BO5_US, ((6, 4), (4, 6), (6, 3), (3, 6)), (6, 6), (6, 6),
+                                     server=0)
+
+
+def test_importance_30_40_at_5_6_final_set_closed_form():
+    """Losing the point loses the match; winning it leads to deuce, then (holding) a final-set
+    tie-break that player 1 serves first: importance = P(hold from deuce) * P(tie-break)."""
+    pa, pb = 0.65, 0.61
+    deuce = pa * pa / (pa * pa + (1 - pa) ** 2)
+    got = point_importance(pa, pb, FINAL_30_40)
+    want = deuce * tiebreak_probability(pa, pb, first_server=1)
+    assert got == pytest.approx(want, abs=1e-12)
+    assert got == pytest.approx(dp_importance(pa, pb, FINAL_30_40), abs=1e-9)
+    assert match_win_probability(pa, pb, state=FINAL_30_40.point_won(1)) == 0.0
+
+
+def test_importance_at_6_6_in_final_set_tiebreak_closed_form():
+    """At 6-6 in a tie-break the next two points are one serve each. Player 0 serves point 13
+    (the state's server), player 1 point 14, so with T the level-score tail,
+    I = [q + (1 - q) T] - [q T] = q + T (1 - 2 q), q = P(player 0 wins point 14) = 1 - pb."""
+    pa, pb = 0.66, 0.70
+    assert FINAL_TB_6_6.server == 0 and FINAL_TB_6_6.point_won(0).server == 1
+    tail = pa * (1 - pb) / (pa * (1 - pb) + (1 - pa) * pb)
+    q = 1 - pb
+    assert point_importance(pa, pb, FINAL_TB_6_6) == pytest.approx(q + tail * (1 - 2 * q),
+                                                                   abs=1e-12)
+
+
+@pytest.mark.parametrize("state", [MatchState.new(BO3), DEUCE_TB_SET],
+                         ids=["first point", "deuce in a tie-break set"])
+def test_importance_against_independent_dp(state):
+    pa, pb = 0.65, 0.61
+    got = point_importance(pa, pb, state)
+    assert got == pytest.approx(dp_importance(pa, pb, state), abs=1e-9)
+    assert 0.0 < got < 1.0
+
+
+def test_importance_known_values():
+    # Values of this implementation, pinned; each is checked above against the dynamic
+    # programme or a closed form, so a change here is a change of the model.
+    assert point_importance(0.65, 0.61, MatchState.new(BO3)) == pytest.approx(0.03038, abs=5e-6)
+    assert point_importance(0.65, 0.61, DEUCE_TB_SET) == pytest.approx(0.07928, abs=5e-6)
+    assert point_importance(0.65, 0.61, FINAL_30_40) == pytest.approx(0.43852, abs=5e-6)
+    # Equal players, first point: symmetric, so P(before) is 1/2 and the point moves it by
+    # equal amounts up and down when it is won on serve with probability 1/2.
+    live = live_win_probabilities(0.5, 0.5, [MatchState.new(BO3)])[0]
+    assert live[0] == pytest.approx(0.5, abs=1e-12)
+    assert live[1] - 0.5 == pytest.approx(0.5 - live[2], abs=1e-12)
+
+
+def test_live_win_probabilities_consistent_with_the_point_model():
+    pa, pb = 0.63, 0.6
+    rng = np.random.default_rng(5)
+    state, states = MatchState.new(BO3), []
+    while not state.is_over:
+        states.append(state)
+        state = state.point_won(int(rng.random() < 0.5))
+    live = live_win_probabilities(pa, pb, states)
+    p0 = np.array([pa if s.server == 0 else 1 - pb for s in states])
+    assert np.allclose(live[:, 0], p0 * live[:, 1] + (1 - p0) * live[:, 2], atol=1e-12)
+    assert (live[:, 1] >= live[:, 2]).all()
+    # The probability after point i is the probability before point i + 1.
+    won0 = np.array([t.point_won(0) == u for t, u in zip(states[:-1], states[1:])])
+    after = np.where(won0, live[:-1, 1], live[:-1, 2])
+    assert np.allclose(after, live[1:, 0], atol=1e-12)
+    with pytest.raises(ValueError, match="over"):
+        point_importance(pa, pb, state)
+
+
+def test_importance_against_monte_carlo():
+    pa, pb, n = 0.65, 0.61, 2000
+    exact = point_importance(pa, pb, DEUCE_TB_SET)
+    won, se_w = monte_carlo_match_win(pa, pb, None, n, seed=21, state=DEUCE_TB_SET.point_won(0))
+    lost, se_l = monte_carlo_match_win(pa, pb, None, n, seed=22, state=DEUCE_TB_SET.point_won(1))
+    assert abs((won - lost) - exact) < 3 * math.hypot(se_w, se_l), (exact, won - lost)

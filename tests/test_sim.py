@@ -144,7 +144,8 @@ def test_simulate_py_learned_engine_writes_outputs(tiny_model_file, tmp_path, ca
             lambda cls, path, **kw: _sim(path, **kw)))
         points = run_simulation(cfg)
     assert len(points) > 0 and set(points["winner"]) <= {"Toy Alpha", "Toy Beta"}
-    for name in ("points.parquet", "rallies/rallies.parquet", "rally_1.png", "point.gif"):
+    for name in ("points.parquet", "rallies/rallies.parquet", "rally_1.png", "point.gif",
+                 "report.html"):
         assert (tmp_path / name).exists(), name
     out = capsys.readouterr().out
     assert "match 1: Toy" in out and "1st in" in out

@@ -47,3 +47,13 @@ def test_bad_engine_and_format(tmp_path):
         run_simulation(_cfg(tmp_path, "engine=magic"))
     with pytest.raises(ValueError):
         run_simulation(_cfg(tmp_path, "format.best_of=4"))
+
+
+def test_report_written_by_default_and_can_be_turned_off(tmp_path, capsys):
+    run_simulation(_cfg(tmp_path / "on", "seed=3"))
+    assert f"report: {tmp_path / 'on' / 'report.html'}" in capsys.readouterr().out
+    html = (tmp_path / "on" / "report.html").read_text()
+    assert 'id="match-data"' in html and "Roger Federer" in html
+    run_simulation(_cfg(tmp_path / "off", "seed=3", "report=false"))
+    assert not (tmp_path / "off" / "report.html").exists()
+    assert "report:" not in capsys.readouterr().out

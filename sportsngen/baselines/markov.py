@@ -8,7 +8,9 @@ in tennis"; Newton & Keller 2005). Here it is computed by memoised recursion ove
 with closed forms for the three infinite tails: deuce in a game, "level at 6-6 or later" in a
 tie-break, and "level at 5-5 or later" in an advantage set. `simulate_match` /
 `monte_carlo_match_win` play the same model point by point through `MatchState` and exist to
-check the exact numbers.
+check the exact numbers. `point_importance` and `live_win_probabilities` give, before each
+point, the match-win probability and how much that point moves it (the match report's
+timeline).
 
 The serve-level refinement of the point (first / second serve, ace, double fault, speed,
 rally length) is `sportsngen.baselines.serve_model`.
@@ -350,3 +352,33 @@ def monte_carlo_match_win(pa: float, pb: float, fmt: MatchFormat | None, n: int,
     wins = sum(simulate_match(pa, pb, fmt, rng, state).winner == 0 for _ in range(n))
     p_hat = wins / n
     return p_hat, math.sqrt(p_hat * (1.0 - p_hat) / n)
+
+
+# --- live win probability and point importance ------------------------------------------
+
+
+def point_importance(pa: float, pb: float, state: MatchState) -> float:
+    """Importance of the next point (Morris 1977): P(player 0 wins the match | he wins it) -
+    P(player 0 wins the match | he loses it), exact. The same number for both players, so
+    it needs no side; in [0, 1]. A finished match has no next point: ValueError."""
+    if state.is_over:
+        raise ValueError(f"the match is over ({state.score_str()}); no next point")
+    return float(match_win_probability(pa, pb, state=state.point_won(0))
+                 - match_win_probability(pa, pb, state=state.point_won(1)))
+
+
+def live_win_probabilities(pa: float, pb: float, states) -> np.ndarray:
+    """For each unfinished `MatchState` of `states` (the score before each point of a match):
+    (P(player 0 wins the match), the same if he wins that point, the same if he loses it), as
+    an (n, 3) array. Column 1 minus column 2 is the point's importance; before a point on
+    player 0's serve, column 0 = pa * column 1 + (1 - pa) * column 2.
+
+    Cheap: the recursions are memoised per (pa, pb), so a whole match costs milliseconds."""
+    out = np.empty((len(states), 3))
+    for i, s in enumerate(states):
+        if s.is_over:
+            raise ValueError(f"states[{i}] is a finished match ({s.score_str()})")
+        out[i] = (match_win_probability(pa, pb, state=s),
+                  match_win_probability(pa, pb, state=s.point_won(0)),
+                  match_win_probability(pa, pb, state=s.point_won(1)))
+    return out

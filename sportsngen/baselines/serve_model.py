@@ -13,8 +13,11 @@ formulas of `sportsngen.baselines.markov` take.
 
 from __future__ import annotations
 
+import json
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
+from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -24,6 +27,7 @@ from sportsngen.data.points import as_points_table
 from sportsngen.data.tracking import SURFACES
 from sportsngen.tennis.scoring import MatchFormat, MatchState, point_label
 
+BUNDLED_PATH = Path(__file__).resolve().parent / "data" / "serve_models_2011.json"
 _IQR_TO_SD = 1.349  # a normal distribution's inter-quartile range is 1.349 sigma
 _SPEED_RANGE_KMH = (40.0, 265.0)  # keep sampled speeds physical (fastest recorded ~263)
 
@@ -139,6 +143,55 @@ class ServeModel:
             second_serve_won=float(np.clip(self.second_serve_won + delta, lo2,
                                            1.0 - self.double_fault)),
         )
+
+
+def pooled_serve_model(points: pd.DataFrame) -> ServeModel:
+    """One model for every server of a points table together (the "average server"), for a
+    player with no figures of his own. Its return rate is unknown (NaN), so it adjusts no
+    server it plays against; a known receiver still adjusts it."""
+    pts = as_points_table(points)
+    won = (pts["winner"] == pts["server"]).to_numpy(bool)
+    pooled = pts.assign(server="pooled", receiver="opponent",
+                        winner=np.where(won, "pooled", "opponent"))
+    return ServeModel.from_points(pooled, "pooled")
+
+
+def _from_dict(params: dict) -> ServeModel:
+    names = {f.name for f in fields(ServeModel)}
+    kw = {k: (tuple(v) if isinstance(v, list) else v) for k, v in params.items() if k in names}
+    return ServeModel(**{k: (math.nan if v is None else v) for k, v in kw.items()})
+
+
+@lru_cache(maxsize=1)
+def _bundled() -> tuple[dict[str, ServeModel], dict[str, ServeModel]]:
+    doc = json.loads(BUNDLED_PATH.read_text())
+    return ({p: _from_dict(v) for p, v in doc["players"].items()},
+            {g: _from_dict(v) for g, v in doc.get("pooled", {}).items()})
+
+
+def bundled_serve_models() -> dict[str, ServeModel]:
+    """Serve models of every player with enough 2011 slam service points (name -> model),
+    derived by `scripts/derive_serve_models.py` and shipped with the package."""
+    return dict(_bundled()[0])
+
+
+def serve_model(player: str) -> ServeModel:
+    """The bundled serve model of `player`; ValueError listing the known players otherwise."""
+    models = _bundled()[0]
+    if player not in models:
+        raise ValueError(f"no serve model for player {player!r}; known players: "
+                         f"{', '.join(sorted(models))}")
+    return models[player]
+
+
+def serve_model_or_pooled(player: str, gender: str = "men") -> tuple[ServeModel, bool]:
+    """(`player`'s bundled model, True), or (the pooled 2011 model of `gender`, False)."""
+    models, pooled = _bundled()
+    if player in models:
+        return models[player], True
+    if gender not in pooled:
+        raise ValueError(f"gender must be one of {sorted(pooled)}, got {gender!r}")
+    return pooled[gender], False
 
 
 def _median_iqr(x: np.ndarray) -> tuple[float, float]:

@@ -309,10 +309,11 @@ def read_slam_event(
     surface from the slam (ausopen/usopen hard, wimbledon grass, frenchopen clay).
     """
     raw = read_slam_raw(points_csv, matches_csv, repair=repair)
-    return _points_table(raw)
+    return points_from_raw(raw)
 
 
-def _points_table(raw: pd.DataFrame) -> pd.DataFrame:
+def points_from_raw(raw: pd.DataFrame) -> pd.DataFrame:
+    """The points table (`sportsngen.data.points`) of rows `read_slam_raw` gave."""
     p1 = raw["server"].to_numpy() == 1
     name1, name2 = raw["player1"].to_numpy(), raw["player2"].to_numpy()
     fsi = raw["first_serve_in"].astype("boolean")

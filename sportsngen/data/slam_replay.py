@@ -158,6 +158,7 @@ def _replay_match(match_id: str, recs: list[View], winners: list[int], set_end: 
                 glitch += f" (cannot re-synchronise: {synced})"
         if set_end[i]:
             rec_sets[rec[0]] = games_after[i]
+        out["state"].append(state)
         if not state.is_over:
             state = state.point_won(winners[i] - 1)
         out["rep"].append(rep)
@@ -184,7 +185,13 @@ def replay_slam_points(points_csv: str | Path, matches_csv: str | Path) -> pd.Da
     that ends without it retired, or its recording stopped: not a glitch). Rows the reader
     had to drop (bad values) are listed in ``df.attrs["dropped"]``.
     """
-    raw = read_slam_raw(points_csv, matches_csv, repair=True)
+    return replay_raw(read_slam_raw(points_csv, matches_csv, repair=True))
+
+
+def replay_raw(raw: pd.DataFrame, states: bool = False) -> pd.DataFrame:
+    """`replay_slam_points` of rows `read_slam_raw` gave (any subset of whole matches, in file
+    order). With `states`, a column ``state``: the `MatchState` the point was played from
+    (the replayed score, re-synchronised to the recorded one where they disagree)."""
     rec_cols = ("set_no", "p1_games", "p2_games", "p1_score", "p2_score", "server")
     recs = list(zip(*(_as_list(raw[c]) for c in rec_cols)))
     winners, points = raw["winner"].tolist(), raw["point"].tolist()
@@ -193,7 +200,8 @@ def replay_slam_points(points_csv: str | Path, matches_csv: str | Path) -> pd.Da
     ids = raw["match_id"].to_numpy()
     starts = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]]) if len(ids) else np.array([0])
     bounds = np.r_[starts, len(ids)]
-    out: dict[str, list] = {"rep": [], "agrees": [], "glitch": [], "match_over": []}
+    out: dict[str, list] = {"rep": [], "agrees": [], "glitch": [], "match_over": [],
+                            "state": []}
     for a, b in zip(bounds[:-1], bounds[1:]):
         if b > a:
             _replay_match(str(ids[a]), recs[a:b], winners[a:b], set_end[a:b],
@@ -212,6 +220,8 @@ def replay_slam_points(points_csv: str | Path, matches_csv: str | Path) -> pd.Da
         is_score = "score" in c
         table[c] = rep[c].astype(str if is_score else np.int64).to_numpy()
     table = table.loc[:, list(REPLAY_COLUMNS)]
+    if states:
+        table["state"] = pd.Series(out["state"], index=table.index, dtype=object)
     table.attrs["dropped"] = list(raw.attrs.get("dropped", []))
     return table
 

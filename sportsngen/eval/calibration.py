@@ -54,6 +54,36 @@ def brier_score(pred, outcome) -> float:
     return float(np.mean((p - y) ** 2))
 
 
+def cluster_bootstrap(stat, groups, n_boot: int = 1000, seed: int = 0,
+                      level: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
+    """Percentile interval of `stat` when whole groups are resampled, not single rows.
+
+    Predictions that share a group (the points of one match, which share its outcome) are
+    not independent; resampling groups with replacement keeps that dependence, so the
+    interval is honest about how few independent outcomes there are. `stat(idx)` gets an
+    index array into the rows (a group drawn twice appears twice) and returns a number or an
+    array; the result is (low, high) of the same shape.
+    """
+    codes = np.unique(np.asarray(groups).ravel(), return_inverse=True)[1].ravel()
+    if n_boot < 1:
+        raise ValueError(f"n_boot must be >= 1, got {n_boot}")
+    if not 0.0 < level < 1.0:
+        raise ValueError(f"level must be in (0, 1), got {level}")
+    order = np.argsort(codes, kind="stable")
+    counts = np.bincount(codes)
+    starts = np.r_[0, np.cumsum(counts)[:-1]]
+    rng = np.random.default_rng(seed)
+    draws = []
+    for _ in range(n_boot):
+        pick = rng.integers(0, len(counts), len(counts))
+        n = counts[pick]
+        offset = np.repeat(starts[pick] - (np.cumsum(n) - n), n)
+        draws.append(np.asarray(stat(order[offset + np.arange(n.sum())]), dtype=float))
+    tail = 100.0 * (1.0 - level) / 2.0
+    lo, hi = np.nanpercentile(np.stack(draws), [tail, 100.0 - tail], axis=0)
+    return lo, hi
+
+
 class IsotonicCalibrator:
     """A monotone map from raw probabilities to observed frequencies, fitted by pool-adjacent-
     violators on (prediction, outcome) pairs; new predictions are interpolated linearly between

@@ -7,15 +7,15 @@ Engines:
 - ``sportsngen`` (default): the learned engine (`sportsngen.sim.Simulator`) with the bundled
   model or `model_file=<file>`: prints the score line and the statistics table and writes the points
   table and the rallies (Parquet), a few rally plots and an animated GIF of one point.
+
+Both write the match report of the first match, `report.html` (`sportsngen.report`), unless
+`report=false`.
 """
 
 from __future__ import annotations
 
-import json
 import logging
-import math
-from dataclasses import fields
-from functools import lru_cache
+import time
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +24,7 @@ from omegaconf import DictConfig, OmegaConf
 from tqdm.auto import tqdm
 
 from sportsngen.baselines.markov import match_win_probability
-from sportsngen.baselines.serve_model import ServeModel, simulate_match_points
+from sportsngen.baselines.serve_model import serve_model, simulate_match_points
 from sportsngen.data.tracking import SURFACES
 from sportsngen.errors import check_choice, check_int, check_players
 from sportsngen.eval.stats import serve_stats, serve_stats_table
@@ -33,30 +33,7 @@ from sportsngen.tennis.scoring import MatchFormat, MatchState
 
 log = logging.getLogger(__name__)
 
-SERVE_MODELS_PATH = Path(__file__).resolve().parents[1] / "baselines/data/serve_models_2011.json"
 ENGINES = ("markov", "sportsngen")
-
-
-@lru_cache(maxsize=1)
-def bundled_serve_models() -> dict[str, ServeModel]:
-    """Serve models of every player with enough 2011 slam service points (name -> model)."""
-    doc = json.loads(SERVE_MODELS_PATH.read_text())
-    names = {f.name for f in fields(ServeModel)}
-    out = {}
-    for player, params in doc["players"].items():
-        kw = {k: (tuple(v) if isinstance(v, list) else v) for k, v in params.items() if k in names}
-        kw = {k: (math.nan if v is None else v) for k, v in kw.items()}
-        out[player] = ServeModel(**kw)
-    return out
-
-
-def serve_model(player: str) -> ServeModel:
-    """The bundled serve model of `player`; ValueError listing the known players otherwise."""
-    models = bundled_serve_models()
-    if player not in models:
-        raise ValueError(f"no serve model for player {player!r}; known players: "
-                         f"{', '.join(sorted(models))}")
-    return models[player]
 
 
 def win_probability_path(points: pd.DataFrame, pa: float, pb: float, fmt: MatchFormat,
@@ -108,6 +85,13 @@ def run_markov(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFrame
             probs = win_probability_path(points, pa, pb, fmt, names[0], int(cfg.first_server))
             _plot_win_probability(probs, names, f"{names[0]} v {names[1]}: "
                                   f"{final.score_str()}", out_dir / "win_probability.png")
+            if cfg.get("report", True):
+                from sportsngen.report.simulated import markov_match_report
+
+                line = f"{names[final.winner]} d. {names[1 - final.winner]} {winner_view(final)}"
+                path = markov_match_report(points, names, fmt, line, str(cfg.surface),
+                                           out_dir / "report.html")
+                print(f"report: {path}")
     return pd.concat(tables, ignore_index=True)
 
 
@@ -131,7 +115,8 @@ def run_simulation(cfg: DictConfig) -> pd.DataFrame:
     points.to_parquet(out_dir / "points.parquet", index=False)
     print(f"\nwrote {out_dir}/: points.parquet"
           + (", win_probability.png" if cfg.engine == "markov" else
-             ", rallies/, rally_*.png, point.gif"))
+             ", rallies/, rally_*.png, point.gif")
+          + (", report.html" if cfg.get("report", True) else ""))
     return points
 
 
@@ -155,6 +140,16 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
     if first.discarded is not None:       # set-aside rallies are kept, for the record
         first.discarded.save(out_dir / "discarded")
     _rally_figures(first, out_dir)
+    if cfg.get("report", True):
+        from sportsngen.report.simulated import learned_match_report
+
+        t0 = time.perf_counter()
+        path = learned_match_report(
+            first, out_dir / "report.html", sim=sim,
+            whatif_shots=int(cfg.get("report_whatif_shots", 2)),
+            whatif_rollouts=int(cfg.get("report_whatif_rollouts", 24)), seed=int(cfg.seed),
+            model_name=str(cfg.get("model_file") or "bundled sportsngen-small"))
+        print(f"report: {path} ({time.perf_counter() - t0:.1f} s)")
     return pd.concat([r.points for r in results], ignore_index=True)
 
 
