@@ -325,3 +325,25 @@ def test_generator_v5_leaks_are_flagged():
     for role in ("hitter", "opponent"):
         row = _auc(table, "fault_vs_in", role, "speed_mps", 6)
         assert row["mean_pos"] == 0.0 and row["auc"] < 0.05 and row["n_pos"] >= 50
+
+
+# -- generator version 6 (live) -----------------------------------------------------------------
+def test_generator_v6_does_not_leak():
+    """Causal ground truth: where both classes have 30 contacts or more, no AUC beyond
+    [0.35, 0.65] (what is left is visible: a ball flying long sends the opponent running
+    harder, AUC 0.63-0.65 for errors at k = 12), and in every cell where version 5's players
+    stopped before an outcome they could not see (AUC < 0.15 in the fixture) they no longer
+    move less (AUC >= 0.4)."""
+    from sportsngen.synth import generate_matches
+
+    data = generate_matches([("Roger Federer", "Rafael Nadal")], "hard", 500, seed=1)
+    table = leak_auc(contact_kinematics(data, ks=(6, 12)), n_boot=0)
+    enough = table[(table["n_pos"] >= 30) & (table["n_neg"] >= 30)]
+    assert set(enough["pair"]) == set(PAIRS) and len(enough) >= 24
+    assert enough["auc"].between(0.35, 0.65).all(), enough[["pair", "role", "feature", "k",
+                                                            "auc"]]
+    v5 = leak_auc(pd.read_csv(FIXTURE, comment="#"), n_boot=0)
+    key = ["pair", "role", "feature", "k"]
+    worst = v5.loc[v5["auc"] < 0.15, key].merge(enough, on=key)
+    assert len(worst) >= 8
+    assert (worst["auc"] >= 0.4).all(), worst[key + ["auc"]]

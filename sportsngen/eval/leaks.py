@@ -71,7 +71,7 @@ CONTACT_SPEED_COLUMNS = tuple(f"{r}_speed0_mps" for r in ROLES)
 STRATA_COLUMNS = ("hitter", "opponent", "serve_number", "direction")
 TABLE_COLUMNS = ("rally_id", "shot_index", "frame", "k", "at_frame", "land_frame",
                  "outcome_frame") + tuple(PAIRS) + FEATURE_COLUMNS
-CONTACT_SPEED_BINS_MPS = (0.25, 1.0, 2.0, 3.5, 5.0)
+CONTACT_SPEED_BINS_MPS = (0.25, 0.75, 1.5, 2.25, 3.0, 4.0, 5.0)
 LABEL_TOL_FRAMES = 1  # a labelled contact and the rules' detected one differ by at most this
 _BOOT_CELLS = 4_000_000  # replicate x contact weights held at once
 

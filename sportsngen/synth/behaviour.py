@@ -29,8 +29,8 @@ SURFACE_DEPTH_M = {"hard": 0.0, "clay": 0.3, "grass": -0.3}
 # A neutral rally ball to a side is aimed this far inside the sideline (less when attacking):
 # at real rally pace (31-35 m/s) a narrower margin makes every tenth ball a winner.
 SIDE_MARGIN_M = 3.0
-RETURN_SPEED_FACTOR = 1.0    # returns against rally balls, pace
-RETURN_SPIN_FACTOR = 0.6     # returns are flatter (blocked, sliced) than rally balls
+RETURN_SPIN_FACTOR = 0.4     # returns are flatter (blocked, sliced) than rally balls
+RETURN_SIDE_SHARE = 0.5      # returns go cross or down the line this often against rally balls
 # Least height over the cord a player allows his ball (at least a, plus b times how safe he
 # plays, 1 - aggression): a floor, not the typical height (real p10 of rally balls: 0.2 m).
 NET_CLEARANCE_M = (0.05, 0.25)
@@ -147,7 +147,7 @@ def plan_rally_shot(p: PlayerProfile, end: int, stroke: str, contact_xyz: np.nda
 
     # Direction, relative to the hitter's lateral position (the stroke side near the middle).
     ref = np.sign(cy) if abs(cy) > 1.0 else (f if stroke.startswith("forehand") else -f)
-    u = rng.random()
+    u = rng.random() / (RETURN_SIDE_SHARE if is_return else 1.0)
     if u < p.cross_court * (1.0 - 0.3 * duress):
         side = -ref                                   # cross court
     elif u < p.cross_court + p.down_the_line * (1.0 - 0.5 * duress):
@@ -171,7 +171,7 @@ def plan_rally_shot(p: PlayerProfile, end: int, stroke: str, contact_xyz: np.nda
     lob = False
     speed = p.rally_speed_mps * (0.88 + 0.35 * aggr) * (1.0 - 0.3 * duress)
     if is_return:
-        speed *= RETURN_SPEED_FACTOR
+        speed *= p.return_pace
     spin, spin_label = p.topspin_mps * (RETURN_SPIN_FACTOR if is_return else 1.0), "topspin"
     volley = stroke.endswith("volley")
     if stroke == "overhead":

@@ -264,17 +264,19 @@ def acceptance_2011(named: dict[str, PlayerProfile], targets: pd.DataFrame, n_po
 # statistic -> profile parameter: "add": param += damping * gain * (real - generated);
 # "log": param *= exp(damping * gain * (real - generated)); clipped to [lo, hi]. Gains are the
 # inverse sensitivities measured on the physics: a contact height or a court position moves
-# its statistic one for one; a second serve crosses the net ~0.02 m higher per m/s of kick;
-# a rally ball ~0.065 m lower per m/s of pace (at ~33 m/s: -2.1 m per unit of log pace).
+# its statistic one for one; a second serve crosses the net ~0.02 m higher per m/s of kick; a
+# rally ball or a return ~2.1 m lower per unit of log pace (~0.065 m per m/s at 31-34 m/s).
+# Pace follows the net height; topspin stays at the seeds' (men 6, Nadal 8.5, women 4 m/s):
+# fitted too, it chased the opponent's contact height and drove both pace and spin up.
 HAWKEYE_KNOBS: tuple[tuple[str, str, str, float, float, float], ...] = (
     ("serve_contact_z_median", "contact_height_m", "add", 1.0, 2.3, 3.3),
     ("return1_contact_behind_m_median", "return_depth_m", "add", 1.0, -2.5, 6.0),
     ("return2_contact_behind_m_median", "second_return_depth_m", "add", 1.0, -2.5, 6.0),
     ("rally_contact_behind_m_median", "recovery_depth_m", "add", 1.0, -1.0, 5.0),
     ("serve2_net_z_median", "second_serve_spin_mps", "add", 30.0, 0.0, 12.0),
-    ("rally_net_z_median", "rally_speed_mps", "log", -0.45, 20.0, 45.0),
+    ("rally_net_z_median", "rally_speed_mps", "log", -0.45, 24.0, 42.0),
     ("rally_depth_m_median", "rally_depth_margin_m", "add", 1.0, 1.5, 6.0),
-    ("rally_contact_z_median", "rally_contact_z_m", "add", 1.0, 0.5, 1.6),
+    ("return_net_z_median", "return_pace", "log", -0.45, 0.5, 1.3),
 )
 SERVE_ZONE_STATS = ("serve1_wide_share", "serve1_body_share", "serve1_t_share")
 SERVE_ZONE_FIELDS = ("serve_wide", "serve_body", "serve_t")

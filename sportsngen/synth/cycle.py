@@ -51,6 +51,10 @@ TOSS_ABOVE_CONTACT_M = 0.25
 FALLBACK_PACE = (1.3, 0.8, 1.7)  # pace multipliers tried when the planned speed cannot land
 DRIVE_ELEVATION_DEG = 5.0        # no pace lands: driven at the target, the physics decides
 AZIMUTH_NOISE_RATIO = 1.6        # lateral aim errors are larger in angle than depth errors
+# How a player picks among the contacts he can reach: cost per metre from his comfortable
+# height, per unit of duress (share of his movement capacity), per second of waiting, per
+# metre deeper than he likes, and the bonus of a volley for a player at the net.
+CONTACT_COST = {"height": 3.0, "duress": 1.5, "early": 0.2, "deep": 0.3, "volley": 1.0}
 
 
 @dataclass(frozen=True)
@@ -299,11 +303,11 @@ def find_intercept(flight: physics.Flight, t_react: float, pos: np.ndarray,
     """Best contact on the flight (local times) for a player who starts to move at `t_react`.
 
     Reachable: from (pos, vel) a disk drifting with the current velocity (while the player
-    cancels it) whose radius grows as he accelerates must reach within `REACH_PLAN_FACTOR` of
-    his reach. Among reachable contacts he prefers a comfortable height, little running, an
-    early ball and not deeper behind his baseline than `depth_m`. When none is reachable, the
-    contact he is least late for (`reachable` False). None when the flight offers no contact
-    at a playable height on his side at all."""
+    brakes it to zero) whose radius grows as he accelerates must reach within
+    `REACH_PLAN_FACTOR` of his reach. Among reachable contacts he prefers (`CONTACT_COST`) a
+    comfortable height, little running, an early ball and not deeper behind his baseline than
+    `depth_m`. When none is reachable, the contact he is least late for (`reachable` False).
+    None when the flight offers no contact at a playable height on his side at all."""
     t0 = max(t_react, 0.05)
     if t_stop <= t0:
         return None
@@ -321,8 +325,11 @@ def find_intercept(flight: physics.Flight, t_react: float, pos: np.ndarray,
     if not valid.any():
         return None
     avail = tau - t_react
-    speed = math.hypot(vel[0], vel[1])
-    drift = np.minimum(avail, speed / body.max_accel_mps2)
+    # While he cancels his velocity the player still drifts: by v d - a d^2 / 2 after d seconds
+    # of braking, at most his braking distance v^2 / (2 a).
+    t_brake = math.hypot(vel[0], vel[1]) / body.max_accel_mps2
+    d = np.minimum(avail, t_brake)
+    drift = d - 0.5 * d * d / t_brake if t_brake > 0 else np.zeros_like(d)
     gap = np.hypot(ball[:, 0] - pos[0] - vel[0] * drift, ball[:, 1] - pos[1] - vel[1] * drift)
     travel = np.maximum(gap - REACH_PLAN_FACTOR * body.reach_m, 0.0)
     need = min_time_s(travel, body.max_speed_mps, body.max_accel_mps2)
@@ -333,7 +340,9 @@ def find_intercept(flight: physics.Flight, t_react: float, pos: np.ndarray,
     reachable = max_distance_m(avail, body.max_speed_mps, body.max_accel_mps2)
     duress = np.clip(travel / np.maximum(reachable, 1e-6), 0.0, 1.0)
     deep = np.maximum(np.abs(ball[:, 0]) - BASELINE_X_M - depth_m, 0.0)
-    cost = np.abs(z - body.contact_z_m) + 1.5 * duress + 0.2 * tau + 0.3 * deep - 1.0 * ok_pre
+    w = CONTACT_COST
+    cost = w["height"] * np.abs(z - body.contact_z_m) + w["duress"] * duress + \
+        w["early"] * tau + w["deep"] * deep - w["volley"] * ok_pre
     k = int(np.argmin(np.where(ok, cost, np.inf)))
     return Intercept(float(tau[k]), ball[k].copy(), bool(ok_pre[k]), float(duress[k]))
 

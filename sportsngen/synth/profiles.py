@@ -62,8 +62,7 @@ class PlayerProfile:
     "serve plus one" a good serve sets up).
 
     Rally: ``rally_speed_mps`` a neutral groundstroke's speed; ``rally_depth_margin_m`` how far
-    inside the baseline it is aimed; ``rally_contact_z_m`` the height he likes to meet the ball
-    at; ``rally_noise_deg`` its execution
+    inside the baseline it is aimed; ``topspin_mps`` its spin; ``rally_noise_deg`` its execution
     noise; ``rally_pressure`` multiplies the opponent's aim noise on this player's rally balls
     (weight of shot: pace, spin and depth beyond what the aim point says); ``aggression``
     (0 safe, 1 all-out) moves targets toward the lines and raises speed
@@ -71,7 +70,7 @@ class PlayerProfile:
     backhands hit with slice; ``cross_court``/``down_the_line`` direction mix (the rest goes to
     the middle); ``forehand_preference`` how readily the player runs around the backhand;
     ``return_anticipation_s`` shortens the reaction to serves; ``return_noise_deg`` the aim noise
-    of returns.
+    of returns; ``return_pace`` the speed of a return as a share of the rally ball's.
     """
 
     name: str
@@ -108,7 +107,6 @@ class PlayerProfile:
     # rally
     rally_speed_mps: float = 31.0
     rally_depth_margin_m: float = 3.4
-    rally_contact_z_m: float = 1.0
     rally_noise_deg: float = 1.5
     rally_pressure: float = 1.0
     aggression: float = 0.4
@@ -121,6 +119,7 @@ class PlayerProfile:
     forehand_preference: float = 0.5
     return_anticipation_s: float = 0.1
     return_noise_deg: float = 1.4
+    return_pace: float = 0.85
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:

@@ -38,11 +38,18 @@ from sportsngen.tennis.court import BASELINE_X_M
 # the decoder that a ball passing nearer the body is never struck, so rollouts whose receiver
 # stood in the ball's path let it through).
 CONTACT_LATERAL_RANGE_M = (0.3, 1.2)
+IDEAL_CONTACT_Z_M = 1.0         # the most comfortable contact height
 INITIATIVE_DECAY = 0.85         # per server shot, of the serve's initiative (log scale)
 INITIATIVE_CARRY = 0.3          # share (in log) of the ball's difficulty passed on to the reply
 SERVE_INSIDE_BASELINE_M = 0.5   # the serve is struck this far inside the baseline (Hawk-Eye:
 #                                 0.43-0.64 m for the named players)
 MIN_RETURN_REACTION_S = 0.08
+# After the serve, before the return: back behind the baseline but no deeper than this (a
+# server retreating to his rally depth met short returns going backward).
+SERVE_RECOVERY_DEPTH_M = 0.3
+# Players read the opponent's swing: the first step after a rally contact comes this much
+# sooner than the plain reaction time (the serve has its own `return_anticipation_s`).
+RALLY_ANTICIPATION_S = 0.05
 
 
 def _difficulty(n_shots: int, previous: float, server: PlayerProfile, serve_number: int,
@@ -87,7 +94,7 @@ class ProfilePolicy:
         self.profiles = (server, receiver)
         self.ends = (server_end, -server_end)
         self.bodies = tuple(Body(p.max_speed_mps, p.max_accel_mps2, p.reach_m,
-                                 p.rally_contact_z_m, bh.rally_depth_m(p, surface),
+                                 IDEAL_CONTACT_Z_M, bh.rally_depth_m(p, surface),
                                  bh.return_depth_m(p, serve_number, surface))
                             for p in self.profiles)
         self.at_net = [False, False]
@@ -107,7 +114,7 @@ class ProfilePolicy:
     def reaction_s(self, role: int, to_serve: bool) -> float:
         p = self.profiles[role]
         if not to_serve:
-            return p.reaction_s
+            return p.reaction_s - RALLY_ANTICIPATION_S
         return max(p.reaction_s + self.profiles[0].serve_disguise_s - p.return_anticipation_s,
                    MIN_RETURN_REACTION_S)
 
@@ -124,8 +131,12 @@ class ProfilePolicy:
             u = rng.random() if landed_in else shape_rng.random()
             self.at_net[0] = u < 0.5 * p.net_approach
             target = bh.recovery_target(p, end, target_y, self.at_net[0], self.surface)
-            # serve and volley: the first volley around the service line
-            return (end * 6.0, target[1]) if self.at_net[0] else target
+            # serve and volley: the first volley around the service line; else back behind
+            # the baseline, but no deeper than SERVE_RECOVERY_DEPTH_M before the return
+            if self.at_net[0]:
+                return end * 6.0, target[1]
+            depth = min(abs(target[0]) - BASELINE_X_M, SERVE_RECOVERY_DEPTH_M)
+            return end * (BASELINE_X_M + depth), target[1]
         return bh.recovery_target(p, end, target_y, self.at_net[hitter], self.surface)
 
     def can_volley(self, role: int, pos_m: np.ndarray) -> bool:

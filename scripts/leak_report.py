@@ -1,0 +1,47 @@
+"""The leak check of issue 16 on generated play: Federer v Nadal on hard and Djokovic v Murray on
+clay, `--points` each, `sportsngen.eval.leaks.check_leaks` at k = 6 and 12 frames.
+
+    python scripts/leak_report.py [--points 800] [--seed 1] [--boot 1000] [--out /tmp/leaks]
+
+Matchup k is generated from seed + k. Writes ``<out>_<matchup>.csv`` and ``<out>.md`` (both
+tables) and prints how many AUCs lie outside [0.4, 0.6]. Run it from another revision's tree
+(PYTHONPATH) to measure that generator with the same check.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from sportsngen.eval.leaks import check_leaks, outside_band, render_leaks
+from sportsngen.synth import generate_matches
+from sportsngen.synth.dataset import GENERATOR_VERSION
+
+MATCHUPS = ((("Roger Federer", "Rafael Nadal"), "hard"),
+            (("Novak Djokovic", "Andy Murray"), "clay"))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--points", type=int, default=800)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--boot", type=int, default=1000)
+    ap.add_argument("--out", type=Path, default=Path("/tmp/leaks"))
+    args = ap.parse_args()
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    parts = [f"# Leak check, generator version {GENERATOR_VERSION}: {args.points} points a "
+             f"matchup, seed {args.seed} + k, {args.boot} bootstrap resamples\n"]
+    for k, ((a, b), surface) in enumerate(MATCHUPS):
+        data = generate_matches([(a, b)], surface, args.points, seed=args.seed + k)
+        table = check_leaks(data, ks=(6, 12), n_boot=args.boot, seed=0)
+        name = f"{a.split()[-1]}_{b.split()[-1]}_{surface}".lower()
+        table.to_csv(args.out.parent / f"{args.out.name}_{name}.csv", index=False)
+        parts += [f"## {a} v {b}, {surface}\n", render_leaks(table), ""]
+        print(f"{a} v {b} ({surface}): {int(outside_band(table).sum())} of {len(table)} AUCs "
+              "outside [0.4, 0.6]", flush=True)
+    args.out.with_suffix(".md").write_text("\n".join(parts))
+    print(f"wrote {args.out.with_suffix('.md')}")
+
+
+if __name__ == "__main__":
+    main()
