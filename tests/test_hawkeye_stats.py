@@ -324,6 +324,12 @@ def test_compare_flags_and_markdown():
     assert "| serve1_kmh_median | 8 | 190 / 184 |" in md
     assert "**20 / 10**" in md and "**2.05 / 1.80**" in md and "| 2.50 / 2.30 |" in md
     assert "| within tolerance | | 2/4 |" in md
+    # Beside an earlier comparison: "now / real (before)", the earlier one in italics if out.
+    earlier = cmp.assign(generated=cmp["generated"] + 1.0,
+                         within=cmp["within"].map(lambda w: w if w is pd.NA else False))
+    md = comparison_markdown(cmp, before=earlier)
+    assert "| serve1_kmh_median | 8 | 190 / 184 (*191*) |" in md
+    assert "| within tolerance | | 0/4 -> 2/4 |" in md
 
 
 @pytest.mark.skipif(hawkeye_targets_path() is None, reason=HAWKEYE_TARGETS_MISSING)

@@ -293,13 +293,17 @@ def _short(player: str) -> str:
     return player if player in ("ATP", "WTA") else player.split()[-1]
 
 
-def comparison_markdown(cmp: pd.DataFrame, title: str | None = None) -> str:
+def comparison_markdown(cmp: pd.DataFrame, title: str | None = None,
+                        before: pd.DataFrame | None = None) -> str:
     """A markdown table of `compare`'s output: one row a statistic, one column a (player,
     surface) group, cells "generated / real", in bold when outside the tolerance; shares in
-    percent, speeds in km/h, heights and distances in metres. A last row counts the statistics
-    within tolerance per group."""
+    percent, speeds in km/h, heights and distances in metres. With `before` (an earlier
+    `compare` of the same groups, e.g. another generator version) cells read "generated / real
+    (before)", the earlier figure in italics when it was outside. A last row counts the
+    statistics within tolerance per group (before -> now)."""
     groups = list(dict.fromkeys(zip(cmp["player"], cmp["surface"])))
     by = cmp.set_index(["player", "surface", "statistic"])
+    old = before.set_index(["player", "surface", "statistic"]) if before is not None else None
     heads = group_labels(groups)
     lines = [f"### {title}", ""] if title else []
     lines += ["| statistic | tol. | " + " | ".join(heads) + " |",
@@ -312,14 +316,22 @@ def comparison_markdown(cmp: pd.DataFrame, title: str | None = None) -> str:
             row = by.loc[(p, s, stat)]
             cell = f"{_fmt(row['generated'], kind)} / {_fmt(row['real'], kind)}"
             outside = row["within"] is not pd.NA and not row["within"]
-            cells.append(f"**{cell}**" if outside else cell)
+            cell = f"**{cell}**" if outside else cell
+            if old is not None and (p, s, stat) in old.index:
+                prev = old.loc[(p, s, stat)]
+                text = _fmt(prev["generated"], kind)
+                was_out = prev["within"] is not pd.NA and not prev["within"]
+                cell += f" ({'*' + text + '*' if was_out else text})"
+            cells.append(cell)
         tol_s = f"{100 * tol:.0f} pp" if kind == "share" else (
             f"{tol:.0f}" if kind == "kmh" else f"{tol:.2f}")
         lines.append(f"| {stat} | {tol_s} | " + " | ".join(cells) + " |")
-    counts = []
-    for p, s in groups:
-        w = cmp.loc[(cmp["player"] == p) & (cmp["surface"] == s), "within"]
-        counts.append(f"{int((w == True).sum())}/{int(w.notna().sum())}")  # noqa: E712
+    def within(c: pd.DataFrame, p: str, s: str) -> str:
+        w = c.loc[(c["player"] == p) & (c["surface"] == s), "within"]
+        return f"{int((w == True).sum())}/{int(w.notna().sum())}"  # noqa: E712
+
+    counts = [(f"{within(before, p, s)} -> " if before is not None else "") + within(cmp, p, s)
+              for p, s in groups]
     lines.append("| within tolerance | | " + " | ".join(counts) + " |")
     return "\n".join(lines) + "\n"
 
