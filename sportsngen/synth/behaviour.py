@@ -16,8 +16,8 @@ import math
 
 import numpy as np
 
-from sportsngen.synth.cycle import ShotPlan
 from sportsngen.synth.profiles import PlayerProfile
+from sportsngen.synth.shot import ShotPlan
 from sportsngen.tennis import court
 from sportsngen.tennis.court import BASELINE_X_M, SERVICE_LINE_X_M, SINGLES_HALF_WIDTH_M
 
