@@ -30,6 +30,9 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=2011)
     ap.add_argument("--init", action="store_true", help="start from the seeds (profile_seeds.json)")
     ap.add_argument("--only", nargs="*", help="calibrate only these players")
+    ap.add_argument("--tour-for-thin", action="store_true",
+                    help="calibrate players with one match of Hawk-Eye data (Murray on clay, "
+                         "Sharapova) to their tour's figures (calibrate.calibration_targets)")
     ap.add_argument("--out", type=Path, default=prof.PROFILES_JSON,
                     help="profiles file to start from (unless --init) and to write")
     ap.add_argument("--report", type=int, metavar="N_POINTS", default=0,
@@ -53,6 +56,7 @@ def main() -> None:
     if not (args.report or args.hawkeye_report):
         cal.calibrate(named, args.rounds, args.points, args.hawkeye_points, args.seed,
                       args.workers, args.damping, only=args.only, out=args.out,
+                      tour_for_thin=args.tour_for_thin,
                       log=lambda s: print(f"[{time.time() - t0:.0f} s] {s}", flush=True))
     print(f"done in {time.time() - t0:.0f} s", flush=True)
 

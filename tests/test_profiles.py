@@ -124,3 +124,28 @@ def test_profile_is_frozen():
     p = get_profile("Rafael Nadal")
     with pytest.raises(dataclasses.FrozenInstanceError):
         p.aggression = 0.9  # type: ignore[misc]
+
+
+def test_thin_real_figures_fall_back_to_the_tour_in_calibration():
+    import pandas as pd
+
+    from sportsngen.synth.calibrate import MIN_OWN_RALLY_STRIKES, calibration_targets
+    from sportsngen.synth.profiles import PlayerProfile
+
+    rows = []
+    for player, surface, n, value in [("Her", "hard", MIN_OWN_RALLY_STRIKES - 1, 0.7),
+                                      ("Her", "clay", MIN_OWN_RALLY_STRIKES, 0.8),
+                                      ("WTA", "hard", 9000, 0.9), ("WTA", "clay", 9000, 1.0),
+                                      ("ATP", "hard", 9000, 1.1)]:
+        for stat, v in (("rally_contact_z_median", value), ("rally_net_z_median", value + 1)):
+            rows.append((player, surface, stat, v, n))
+    t = pd.DataFrame(rows, columns=["player", "surface", "statistic", "value", "n"])
+    got = calibration_targets(t, {"Her": PlayerProfile(name="Her", gender="women")})
+    her = got[got["player"] == "Her"].set_index(["surface", "statistic"])["value"]
+    # one match too few on hard: the WTA's figures; enough on clay: her own
+    assert her[("hard", "rally_contact_z_median")] == 0.9
+    assert her[("hard", "rally_net_z_median")] == 1.9
+    assert her[("clay", "rally_contact_z_median")] == 0.8
+    assert len(her) == 4
+    # the tours' own rows are kept as they are
+    assert len(got[got["player"] == "ATP"]) == 2 and len(got[got["player"] == "WTA"]) == 4
