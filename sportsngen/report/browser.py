@@ -251,13 +251,15 @@ def check_report(html: str | Path, out_dir: str | Path | None = None,
                   "has_whatif": False}
     t0 = time.monotonic()
     with Chromium(binary) as browser:
+        def snap(name: str, selector: str | None = None) -> None:
+            if out_dir is not None:
+                seen["screenshots"].append(str(browser.screenshot(out_dir / name, selector)))
+
         browser.open(html)
         browser.pump(0.3)
         seen["timeline_rects"] = browser.evaluate(
             "document.querySelectorAll('#timeline svg rect').length")
-        if out_dir is not None:
-            seen["screenshots"].append(str(browser.screenshot(out_dir / "timeline.png",
-                                                              "#timeline-section")))
+        snap("timeline.png", "#timeline-section")
         # The first key moment whose point has a rally (else the first key moment).
         target = browser.evaluate(
             "(() => { const d = JSON.parse(document.getElementById('match-data').textContent);"
@@ -277,9 +279,7 @@ def check_report(html: str | Path, out_dir: str | Path | None = None,
                 seen["animated"] = f2 > f1
                 seen["frames_seen"] = [f1, f2]
                 browser.pump(rally_play_s)
-            if out_dir is not None:
-                seen["screenshots"].append(str(browser.screenshot(out_dir / "rally.png",
-                                                                  "#point-section")))
+            snap("rally.png", "#point-section")
         n_whatif = browser.evaluate("document.querySelectorAll('.wi-list button').length")
         seen["has_whatif"] = bool(n_whatif)
         if seen["has_whatif"]:
@@ -287,11 +287,8 @@ def check_report(html: str | Path, out_dir: str | Path | None = None,
             browser.pump(0.4)
             seen["whatif_bars"] = browser.evaluate(
                 "document.querySelectorAll('#whatif-chart svg rect').length")
-            if out_dir is not None:
-                seen["screenshots"].append(str(browser.screenshot(out_dir / "whatif.png",
-                                                                  ".row")))
-        if out_dir is not None:
-            seen["screenshots"].append(str(browser.screenshot(out_dir / "page.png")))
+            snap("whatif.png", ".row")
+        snap("page.png")
         browser.pump(0.1)
         seen.update(browser.problems())
     seen["seconds"] = round(time.monotonic() - t0, 2)
