@@ -2,16 +2,20 @@
 clay, `--points` each, `sportsngen.eval.leaks.check_leaks` at k = 6 and 12 frames.
 
     python scripts/leak_report.py [--points 800] [--seed 1] [--boot 1000] [--out /tmp/leaks]
+        [--before /tmp/leaks_v5]
 
 Matchup k is generated from seed + k. Writes ``<out>_<matchup>.csv`` and ``<out>.md`` (both
 tables) and prints how many AUCs lie outside [0.4, 0.6]. Run it from another revision's tree
-(PYTHONPATH) to measure that generator with the same check.
+(PYTHONPATH) to measure that generator with the same check; ``--before`` names such a run's
+``--out`` and adds ``<out>_compare.md``, one table of both (before -> now, bold outside).
 """
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
+
+import pandas as pd
 
 from sportsngen.eval.leaks import check_leaks, outside_band, render_leaks
 from sportsngen.synth import generate_matches
@@ -27,6 +31,8 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--boot", type=int, default=1000)
     ap.add_argument("--out", type=Path, default=Path("/tmp/leaks"))
+    ap.add_argument("--before", type=Path, default=None,
+                    help="--out of a run on another revision: also write a comparison table")
     args = ap.parse_args()
     args.out.parent.mkdir(parents=True, exist_ok=True)
     parts = [f"# Leak check, generator version {GENERATOR_VERSION}: {args.points} points a "
@@ -41,6 +47,37 @@ def main() -> None:
               "outside [0.4, 0.6]", flush=True)
     args.out.with_suffix(".md").write_text("\n".join(parts))
     print(f"wrote {args.out.with_suffix('.md')}")
+    if args.before is not None:
+        path = args.out.parent / f"{args.out.name}_compare.md"
+        path.write_text(compare(args.before, args.out))
+        print(f"wrote {path}")
+
+
+def _cell(row: pd.Series) -> str:
+    text = f"{row['auc']:.2f} [{row['lo']:.2f}, {row['hi']:.2f}]"
+    return f"**{text}**" if not 0.4 <= row["auc"] <= 0.6 else text
+
+
+def compare(before: Path, now: Path) -> str:
+    """A markdown table: a row per (pair, role, feature), a column per matchup and k, each cell
+    ``before -> now`` (AUC [interval]), bold outside [0.4, 0.6]."""
+    key = ["pair", "role", "feature"]
+    cols, rows = [], None
+    for (a, b), surface in MATCHUPS:
+        name = f"{a.split()[-1]}_{b.split()[-1]}_{surface}".lower()
+        old, new = (pd.read_csv(d.parent / f"{d.name}_{name}.csv") for d in (before, now))
+        for k in sorted(new["k"].unique()):
+            o, n = (t[t["k"] == k].set_index(key) for t in (old, new))
+            col = f"{a.split()[-1]} v {b.split()[-1]} k={k}"
+            cell = pd.Series({i: f"{_cell(o.loc[i])} → {_cell(n.loc[i])}" for i in n.index},
+                             name=col)
+            rows = cell.to_frame() if rows is None else rows.join(cell)
+            cols.append(col)
+    lines = ["| pair | role | feature | " + " | ".join(cols) + " |",
+             "|---|---|---|" + "---|" * len(cols)]
+    for (pair, role, feature), r in rows.iterrows():
+        lines.append(f"| {pair} | {role} | {feature.split('_')[0]} | " + " | ".join(r) + " |")
+    return "\n".join(lines) + "\n"
 
 
 if __name__ == "__main__":
