@@ -10,6 +10,7 @@ from sportsngen.data.points import as_points_table
 from sportsngen.eval.stats import (
     SERVE_STATS_COLUMNS,
     rally_distribution,
+    rally_hazards,
     return_stats,
     serve_stats,
     serve_stats_table,
@@ -111,6 +112,15 @@ def test_rally_distribution_custom_bins_and_errors():
         rally_distribution(_table(), bins=((3, 1),))
     with pytest.raises(ValueError, match="group by"):
         rally_distribution(_table(), by="nope")
+
+
+def test_rally_hazards_exact():
+    h = rally_hazards([1, 1, 2, 3, 3, 3, np.nan, 0], max_length=4)
+    assert h["reached"].tolist() == [6, 4, 3, 0] and h["ended"].tolist() == [2, 1, 3, 0]
+    np.testing.assert_allclose(h["hazard"].to_numpy()[:3], [2 / 6, 1 / 4, 1.0])
+    assert np.isnan(h["hazard"].iat[3])
+    with pytest.raises(ValueError, match="max_length"):
+        rally_hazards([1], max_length=0)
 
 
 def test_serve_stats_table_text():

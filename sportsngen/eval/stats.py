@@ -174,6 +174,27 @@ def rally_distribution(
     return out
 
 
+def rally_hazards(rally, max_length: int = 10) -> pd.DataFrame:
+    """Per rally length L (1 .. `max_length`): how many points reached L shots (``reached``),
+    how many ended there (``ended``) and the share that did (``hazard``; NaN where none
+    reached it). `rally` is the points' rally lengths (NaN unknown, left out).
+
+    With the 2011 convention (1 an ace or unreturned serve, 2 a return winner or the server's
+    error on the third ball, ...) odd lengths end with the server winning, even ones with the
+    receiver: the hazard at each length tells who the rally favours shot by shot, which the
+    binned shares of `rally_distribution` average away."""
+    r = pd.to_numeric(pd.Series(rally), errors="coerce").dropna().to_numpy(dtype=float)
+    if max_length < 1:
+        raise ValueError(f"rally_hazards: max_length must be >= 1, got {max_length}")
+    lengths = np.arange(1, max_length + 1)
+    reached = (r[None, :] >= lengths[:, None]).sum(axis=1)
+    ended = (r[None, :] == lengths[:, None]).sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        hazard = np.where(reached > 0, ended / np.maximum(reached, 1), np.nan)
+    return pd.DataFrame({"reached": reached, "ended": ended, "hazard": hazard},
+                        index=pd.Index(lengths, name="rally"))
+
+
 def serve_stats_table(stats: pd.DataFrame) -> str:
     """A readable fixed-width table of `serve_stats` output: percentages and km/h."""
     pct = [("first_serve_in", "1st in"), ("ace", "ace"), ("double_fault", "DF"),

@@ -198,8 +198,10 @@ def table_2011(named: dict[str, PlayerProfile], sims: dict[str, dict],
     return "\n".join(lines)
 
 
-def _opponents(p: PlayerProfile, named: dict[str, PlayerProfile], n: int,
-               seed: int) -> list[PlayerProfile]:
+def population_opponents(p: PlayerProfile, named: dict[str, PlayerProfile], n: int,
+                         seed: int) -> list[PlayerProfile]:
+    """`n` population players of `p`'s gender around the named players' average: the
+    opponents the 2011 figures are measured against."""
     centre = prof.average_profile(p.gender, profiles=list(named.values()))
     return sample_population(n, seed=seed, gender=p.gender, base=centre)
 
@@ -207,7 +209,7 @@ def _opponents(p: PlayerProfile, named: dict[str, PlayerProfile], n: int,
 def measure_2011(named: dict[str, PlayerProfile], n_points: int, seed: int, workers: int,
                  n_opponents: int = 96) -> dict[str, dict]:
     """2011 statistics of every named player against population players of his gender."""
-    jobs = [(p, _opponents(p, named, n_opponents, seed + 1000 + i), n_points, seed + i)
+    jobs = [(p, population_opponents(p, named, n_opponents, seed + 1000 + i), n_points, seed + i)
             for i, p in enumerate(named.values())]
     if workers > 1:
         with get_context("spawn").Pool(workers) as pool:
@@ -232,7 +234,7 @@ def acceptance_2011(named: dict[str, PlayerProfile], targets: pd.DataFrame, n_po
             + " |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     for i, (name, p) in enumerate(named.items()):
-        pop = _opponents(p, named, n_opponents, seed + 500 + i)
+        pop = population_opponents(p, named, n_opponents, seed + 500 + i)
         pts = service_points([(p, q) for q in pop], list(SURFACES_2011), n_points, seed + i,
                              workers=workers)
         st = serve_stats(pts).loc[name]

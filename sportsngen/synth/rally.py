@@ -39,7 +39,11 @@ from sportsngen.tennis.court import BASELINE_X_M
 # stood in the ball's path let it through).
 CONTACT_LATERAL_RANGE_M = (0.3, 1.2)
 IDEAL_CONTACT_Z_M = 1.0         # the most comfortable contact height
-INITIATIVE_DECAY = 0.85         # per server shot, of the serve's initiative (log scale)
+# Per server shot, of the serve's initiative (log scale): none. In the 2011 slams the chance
+# that the server wins the point at his shot (or the receiver's next) stays 0.23-0.24 from the
+# third shot to the ninth (Nadal, Djokovic serving; 0.21-0.26 all men); decaying by 0.85 a
+# shot left the receivers' errors piled on the first rally balls (5-8-shot points 5 short).
+INITIATIVE_DECAY = 1.0
 INITIATIVE_CARRY = 0.3          # share (in log) of the ball's difficulty passed on to the reply
 SERVE_INSIDE_BASELINE_M = 0.5   # the serve is struck this far inside the baseline (Hawk-Eye:
 #                                 0.43-0.64 m for the named players)
@@ -47,6 +51,9 @@ MIN_RETURN_REACTION_S = 0.08
 # After the serve, before the return: back behind the baseline but no deeper than this (a
 # server retreating to his rally depth met short returns going backward).
 SERVE_RECOVERY_DEPTH_M = 0.3
+# From the serve to the return contact (generated, first / second serves: 0.76 / 0.88 s on
+# average), less a split step: the server's recovery run stops by then.
+SERVE_SETTLE_S = (0.65, 0.75)
 # Players read the opponent's swing: the first step after a rally contact comes this much
 # sooner than the plain reaction time (the serve has its own `return_anticipation_s`).
 RALLY_ANTICIPATION_S = 0.05
@@ -136,8 +143,23 @@ class ProfilePolicy:
             if self.at_net[0]:
                 return end * 6.0, target[1]
             depth = min(abs(target[0]) - BASELINE_X_M, SERVE_RECOVERY_DEPTH_M)
-            return end * (BASELINE_X_M + depth), target[1]
-        return bh.recovery_target(p, end, target_y, self.at_net[hitter], self.surface)
+            return self._settled((end * (BASELINE_X_M + depth), target[1]))
+        target = bh.recovery_target(p, end, target_y, self.at_net[hitter], self.surface)
+        return self._settled(target) if plan is not None and plan.stroke == "serve" else target
+
+    def _settled(self, target: tuple[float, float]) -> tuple[float, float]:
+        """The server's recovery after a serve, cut to what he can cover from his stance and
+        stop at by the return (`SERVE_SETTLE_S`): he split-steps as the returner swings, so
+        he can start for a return to either side (running through the return, he lost 19 %
+        of the points in which he still ran at 2.5-4 m/s to return winners)."""
+        x0, y0 = bh.serve_stance(self.server_end, self.serving_side)
+        dx, dy = target[0] - x0, target[1] - y0
+        dist = math.hypot(dx, dy)
+        reach = 0.25 * self.profiles[0].max_accel_mps2 * \
+            SERVE_SETTLE_S[self.serve_number - 1] ** 2
+        if dist <= reach:
+            return target
+        return x0 + dx * reach / dist, y0 + dy * reach / dist
 
     def can_volley(self, role: int, pos_m: np.ndarray) -> bool:
         return self.at_net[role]
