@@ -9,7 +9,8 @@ CourtVision).
 
 Writes ``<out>.md`` (a table: statistics by group, "generated / real", bold outside the
 README's tolerance) and ``<out>.csv`` (`sportsngen.eval.hawkeye.compare`'s columns), and prints
-the statistics outside tolerance.
+the statistics outside tolerance. ``--before CSV`` (an earlier run's csv; generator version
+5's figures are kept in ``docs/figures/hawkeye_generator_v5.csv``) adds them in brackets.
 """
 
 from __future__ import annotations
@@ -17,6 +18,8 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+
+import pandas as pd
 
 from sportsngen.data.paths import HAWKEYE_TARGETS_MISSING, hawkeye_targets_path
 from sportsngen.eval.hawkeye import comparison_markdown, keypoint_strikes
@@ -40,6 +43,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, required=True, help="output path without suffix")
     ap.add_argument("--keypoints", type=Path, help="measure real keypoint files instead")
     ap.add_argument("--title", default=None, help="title of the markdown table")
+    ap.add_argument("--before", type=Path, default=None,
+                    help="an earlier run's csv: its figures in brackets (italic if outside)")
     args = ap.parse_args(argv)
     if hawkeye_targets_path() is None:
         print(HAWKEYE_TARGETS_MISSING, file=sys.stderr)
@@ -57,7 +62,8 @@ def main(argv: list[str] | None = None) -> int:
     title = args.title or f"Hawk-Eye statistics: {source} / real"
     args.out.parent.mkdir(parents=True, exist_ok=True)
     cmp.to_csv(args.out.with_suffix(".csv"), index=False)
-    args.out.with_suffix(".md").write_text(comparison_markdown(cmp, title))
+    before = pd.read_csv(args.before) if args.before is not None else None
+    args.out.with_suffix(".md").write_text(comparison_markdown(cmp, title, before=before))
     off = outside_tolerance(cmp)
     print(f"{len(off)} of {int(cmp['within'].notna().sum())} comparisons outside tolerance:")
     for _, r in off.iterrows():

@@ -24,7 +24,9 @@ TOSS_HAND_Z_M = 1.0
 TOSS_RELEASE_Z_M = 1.9
 TOSS_RELEASE_S = 0.35
 TOSS_ABOVE_CONTACT_M = 0.25
-FALLBACK_PACE = (1.3, 0.8, 1.7)  # pace multipliers tried when the planned speed cannot land
+# Pace multipliers tried in turn when the planned speed cannot land (slower before blind: with
+# only 1.3, 0.8 and 1.7, 1.6 % of servers' third balls were driven at the net or long).
+FALLBACK_PACE = (1.3, 0.8, 0.65, 0.5, 1.7)
 DRIVE_ELEVATION_DEG = 5.0        # no pace lands: driven at the target, the physics decides
 AZIMUTH_NOISE_RATIO = 1.6        # lateral aim errors are larger in angle than depth errors
 # How a player picks among the contacts he can reach: cost per metre from his comfortable
