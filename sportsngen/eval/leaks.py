@@ -33,8 +33,9 @@ if contact frame + k is strictly before its pair's visible frame. k is in frames
 (scaled to the data's fps).
 
 Stratified by what both players could see: positives are compared only with negatives of the
-same stratum (the hitter and opponent, the serve number, the shot's direction label, the role's
-speed at the contact in `CONTACT_SPEED_BINS_MPS`, and the ball's flight as seen a reaction time
+same stratum (the hitter and opponent, the serve number, the shot's direction label, the
+hitter's depth behind his baseline at the contact in `CONTACT_DEPTH_BINS_M`, the role's speed
+at the contact in `CONTACT_SPEED_BINS_MPS`, and the ball's flight as seen a reaction time
 before the measured frame, ``seen_flight``), and the AUC pools the strata by their number of
 pairs. Without that, causes everyone can see pass for leaks: a player who aces more and whose
 receiver reacts later, a wide serve (more often an ace) after which the server recovers further,
@@ -89,10 +90,15 @@ PAIRS = {"fault_vs_in": "land_frame", "ace_vs_returned": "outcome_frame",
          "winner_vs_returned": "outcome_frame", "error_vs_in": "land_frame"}
 FEATURE_COLUMNS = tuple(f"{r}_{f}" for r in ROLES for f in FEATURES)
 CONTACT_SPEED_COLUMNS = tuple(f"{r}_speed0_mps" for r in ROLES)
-STRATA_COLUMNS = ("hitter", "opponent", "serve_number", "direction", "seen_flight")
+STRATA_COLUMNS = ("hitter", "opponent", "serve_number", "direction", "contact_depth",
+                  "seen_flight")
 TABLE_COLUMNS = ("rally_id", "shot_index", "frame", "k", "at_frame", "land_frame",
                  "outcome_frame") + tuple(PAIRS) + FEATURE_COLUMNS
 CONTACT_SPEED_BINS_MPS = (0.25, 0.75, 1.5, 2.25, 3.0, 4.0, 5.0)
+# The hitter's distance behind his baseline at the contact: inside / up to 1 m / deeper. A
+# player who struck from inside the court recovers backward, and such balls are more often
+# winners (the hitter's speed 12 frames on: AUC 0.61 -> 0.56 with this stratum).
+CONTACT_DEPTH_BINS_M = (0.0, 1.0)
 SEEN_LAG_S = 0.2     # a player's reaction time: he acts at frame t on the flight seen by then
 SEEN_MARGIN_BINS_M = (-0.5, 0.5, 2.0)  # bounce inside the target by: clearly out .. well in
 SEEN_NET_MARGIN_M = 0.2  # seen crossing the cord within this: close; further below: net
@@ -307,7 +313,10 @@ def contact_kinematics(data: RallyData, ks=DEFAULT_KS) -> pd.DataFrame:
         return np.where(ok, speed, np.nan).round(3), np.where(ok, acc, np.nan).round(2)
 
     slots = (("hitter", hitter_slot), ("opponent", opp_slot))
+    hitter_x = pos[np.where(f < track_end, row0 + f, 0), hitter_slot, 0]
+    depth_bin = np.digitize(np.abs(hitter_x) - BASELINE_X_M, CONTACT_DEPTH_BINS_M)
     base = c.assign(land_frame=land.astype(np.int64), outcome_frame=outcome.astype(np.int64),
+                    contact_depth=depth_bin.astype(np.int64),
                     **{f"{role}_speed0_mps": kinematics(f, slot)[0] for role, slot in slots})
     parts = []
     lag = int(round(SEEN_LAG_S * data.fps))
