@@ -39,11 +39,6 @@ from sportsngen.tennis.court import BASELINE_X_M
 # stood in the ball's path let it through).
 CONTACT_LATERAL_RANGE_M = (0.3, 1.2)
 IDEAL_CONTACT_Z_M = 1.0         # the most comfortable contact height
-# Per server shot, of the serve's initiative (log scale): none. In the 2011 slams the chance
-# that the server wins the point at his shot (or the receiver's next) stays 0.23-0.24 from the
-# third shot to the ninth (Nadal, Djokovic serving; 0.21-0.26 all men); decaying by 0.85 a
-# shot left the receivers' errors piled on the first rally balls (5-8-shot points 5 short).
-INITIATIVE_DECAY = 1.0
 INITIATIVE_CARRY = 0.3          # share (in log) of the ball's difficulty passed on to the reply
 SERVE_INSIDE_BASELINE_M = 0.5   # the serve is struck this far inside the baseline (Hawk-Eye:
 #                                 0.43-0.64 m for the named players)
@@ -67,8 +62,10 @@ def _difficulty(n_shots: int, previous: float, server: PlayerProfile, serve_numb
     face the hitter's rally pressure times the inverse of the difficulty of the ball the hitter
     himself got, to the power `INITIATIVE_CARRY` (a weak reply hands over the initiative; half
     that for the server's first ball after the return, whose weakness is mostly in the
-    return's errors). The server's rally balls also carry the serve's initiative, decaying by
-    `INITIATIVE_DECAY` per shot in log scale."""
+    return's errors). The server's rally balls also carry the serve's initiative, undiminished:
+    in the 2011 slams the chance that the server wins the point at his shot (or the receiver's
+    next) stays 0.23-0.24 from the third shot to the ninth (Nadal, Djokovic serving), and
+    decaying it by 0.85 a shot piled the receivers' errors on the first rally balls."""
     if n_shots == 1:
         d = server.serve_heaviness if serve_number == 1 else math.sqrt(server.serve_heaviness)
     else:
@@ -77,7 +74,7 @@ def _difficulty(n_shots: int, previous: float, server: PlayerProfile, serve_numb
         if n_shots % 2 == 1:
             boost = server.serve_initiative if serve_number == 1 else \
                 server.second_serve_initiative
-            d *= boost ** (INITIATIVE_DECAY ** ((n_shots - 3) // 2))
+            d *= boost
     return min(max(d, 0.2), 10.0)
 
 
