@@ -27,6 +27,7 @@ from sportsngen.eval.leaks import (
     PAIRS,
     SEEN_NET,
     SEEN_NONE,
+    SEEN_ON_LINE,
     STRATA_COLUMNS,
     TABLE_COLUMNS,
     auc,
@@ -95,6 +96,9 @@ def test_stratified_auc_compares_only_alike_contacts():
     key = ("error_vs_in", "hitter", "speed_mps")
     assert raw.set_index(["pair", "role", "feature"]).loc[key, "auc"] == pytest.approx(0.25)
     assert strat.set_index(["pair", "role", "feature"]).loc[key, "auc"] == 0.5
+    # Comparable pairs: 5 x 15 within A and 15 x 5 within C; unstratified all 20 x 20.
+    assert strat.set_index(["pair", "role", "feature"]).loc[key, "n_pairs"] == 150
+    assert raw.set_index(["pair", "role", "feature"]).loc[key, "n_pairs"] == 400
     # The role's speed at the contact separates strata too.
     kin = _table(rows).assign(hitter_speed0_mps=[4.0] * 20 + [0.0] * 20)
     strat = leak_auc(kin, n_boot=0)
@@ -128,7 +132,7 @@ def test_seen_flight_bins_the_extrapolated_bounce():
     # (start, landing, serve?, seen frame, expected code); contacts at frame 0, hitter at +x.
     cases = [
         ((11.0, 0.0, 1.0), (-13.0, 0.0), False, 7, 0),    # 1.1 m long: clearly out
-        ((11.0, 0.0, 1.0), (-11.685, 0.0), False, 7, 1),  # 0.2 m inside the baseline: close
+        ((11.0, 0.0, 1.0), (-11.685, 0.0), False, 7, SEEN_ON_LINE),  # 0.2 m inside: close
         ((11.0, 1.0, 1.0), (-10.885, 3.5), False, 7, 2),  # 0.6 m inside the sideline
         ((11.0, 0.0, 1.0), (-8.0, 0.0), False, 7, 3),     # 3.9 m inside: well in
         ((11.0, 0.0, 0.5), (2.0, 0.0), False, 7, SEEN_NET),  # lands on the hitter's side

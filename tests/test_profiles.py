@@ -149,3 +149,34 @@ def test_thin_real_figures_fall_back_to_the_tour_in_calibration():
     assert len(her) == 4
     # the tours' own rows are kept as they are
     assert len(got[got["player"] == "ATP"]) == 2 and len(got[got["player"] == "WTA"]) == 4
+
+
+def test_hawkeye_step_moves_each_knob_by_its_rule():
+    import math
+
+    import pandas as pd
+
+    from sportsngen.synth.calibrate import MIN_HAWKEYE_N, step_hawkeye
+    from sportsngen.synth.profiles import PlayerProfile
+
+    p = PlayerProfile(name="Him", gender="men", return_pace=1.0, contact_height_m=2.8)
+
+    def table(rows):
+        return pd.DataFrame([("Him",) + r for r in rows],
+                            columns=["player", "surface", "statistic", "value", "n"])
+
+    # generated returns cross 0.3 and 0.1 m above the real ones: the mean error -0.2 m
+    sim = table([("hard", "return_net_z_median", 2.0, 500),
+                 ("clay", "return_net_z_median", 1.9, 500),
+                 ("hard", "serve_contact_z_median", 2.7, 500),
+                 ("grass", "serve_contact_z_median", 2.0, MIN_HAWKEYE_N - 1)])  # too few
+    real = table([("hard", "return_net_z_median", 1.7, 400),
+                  ("clay", "return_net_z_median", 1.8, 400),
+                  ("hard", "serve_contact_z_median", 2.85, 400),
+                  ("grass", "serve_contact_z_median", 3.3, 400)])
+    q = step_hawkeye(p, sim, real, damping=0.5)
+    assert q.return_pace == pytest.approx(math.exp(0.5 * -0.45 * -0.2))  # faster, flatter
+    assert q.contact_height_m == pytest.approx(2.8 + 0.5 * 0.15)
+    assert q.rally_speed_mps == p.rally_speed_mps and q.serve_wide == p.serve_wide
+    # no real figures: unchanged
+    assert step_hawkeye(p, sim, real.assign(player="Other"), damping=0.5) == p

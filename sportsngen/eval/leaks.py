@@ -46,13 +46,15 @@ The seen flight (`seen_flight`): the ball's position, velocity and acceleration 
 ``at_frame - SEEN_LAG_S`` from three frames of its track after the contact, flown on to its
 bounce (`predict_flight`); the code is the bin in `SEEN_MARGIN_BINS_M` of the bounce's
 distance inside the target (the service box of a serve, the singles court beyond the net of a
-rally shot), at most the "close" bin for a ball seen within `SEEN_NET_MARGIN_M` of the cord,
-`SEEN_NET` for one seen going into the net (further below the cord) or landing short of it,
-and `SEEN_NONE` where fewer than three tracked frames lie between the contact and the seen
+rally shot), at most the "close" bin for a ball seen within `SEEN_NET_MARGIN_M` of the
+cord, `SEEN_NET` for one seen going into the net (further below the cord) or landing short of
+it, and `SEEN_NONE` where fewer than three tracked frames lie between the contact and the seen
 frame.
 The bins are wide on purpose: a player reads "clearly long" from the flight, not a ball that
 lands 10 cm out, and noisy tracking (the acceleration is a second difference) blurs the
-extrapolation.
+extrapolation. The price: a fault lies beyond the line by definition, so in the "close" bin
+faults meet ins that came elsewhere, and movement that varies smoothly with where the ball
+comes can pass for a leak (`docs/synthetic-data.md`, the receiver before faults).
 
 An AUC far from 0.5 says the classes move differently before the outcome is visible; it is a
 prompt to look, not proof of a leak: the opponent sees the ball in flight, and a ball that sends
@@ -100,9 +102,14 @@ CONTACT_SPEED_BINS_MPS = (0.25, 0.75, 1.5, 2.25, 3.0, 4.0, 5.0)
 # winners (the hitter's speed 12 frames on: AUC 0.61 -> 0.56 with this stratum).
 CONTACT_DEPTH_BINS_M = (0.0, 1.0)
 SEEN_LAG_S = 0.2     # a player's reaction time: he acts at frame t on the flight seen by then
-SEEN_MARGIN_BINS_M = (-0.5, 0.5, 2.0)  # bounce inside the target by: clearly out .. well in
+# Bounce inside the target by: clearly out, close, in, well in. Narrower bins at the lines
+# (a +-0.2 m bin) were tried for the receiver before faults (module doc): on two 10,000-point
+# samples his speed 12 frames on gave AUC 0.46 and 0.24 against 0.34 and 0.35 with these, on a
+# third of the comparable pairs: noisier, not steadier.
+SEEN_MARGIN_BINS_M = (-0.5, 0.5, 2.0)
 SEEN_NET_MARGIN_M = 0.2  # seen crossing the cord within this: close; further below: net
 SEEN_NONE, SEEN_NET = -1, len(SEEN_MARGIN_BINS_M) + 1
+SEEN_ON_LINE = int(np.digitize(0.0, SEEN_MARGIN_BINS_M))  # the "close" bin: on a line
 SEEN_MAX_SPACING_FRAMES = 3  # frames between the three track points of the seen flight
 SEEN_MAX_AERO_MPS2 = 60.0    # drag plus Magnus beyond this is tracking noise
 SEEN_MAX_SPEEDUP = 1.5       # aerodynamic forces scaled by at most this (a falling lob gains)
@@ -245,7 +252,7 @@ def seen_flight(ball_m: np.ndarray, contact: np.ndarray, seen: np.ndarray, row0:
     net = (clear < -SEEN_NET_MARGIN_M) | (far_x <= 0)
     # A ball seen skimming the cord is a close call whatever its bounce.
     code = np.digitize(inside, SEEN_MARGIN_BINS_M)
-    code = np.where(clear < SEEN_NET_MARGIN_M, np.minimum(code, 1), code)
+    code = np.where(clear < SEEN_NET_MARGIN_M, np.minimum(code, SEEN_ON_LINE), code)
     code = np.where(net, SEEN_NET, code)
     return np.where(~ok | np.isnan(land[:, 0]), SEEN_NONE, code).astype(np.int64)
 
@@ -373,6 +380,15 @@ def stratified_auc(pos: np.ndarray, neg: np.ndarray, w_pos: np.ndarray, w_neg: n
         return np.where(den > 0, num / den, np.nan)
 
 
+def comparable_pairs(s_pos: np.ndarray, s_neg: np.ndarray) -> int:
+    """How many (positive, negative) pairs share a stratum: what a stratified AUC rests on
+    (a handful of contacts can make thousands of n_pos x n_neg but few comparable pairs)."""
+    if len(s_pos) == 0 or len(s_neg) == 0:
+        return 0
+    size = int(max(s_pos.max(), s_neg.max())) + 1
+    return int(np.dot(np.bincount(s_pos, minlength=size), np.bincount(s_neg, minlength=size)))
+
+
 def auc(pos, neg) -> float:
     """Mann-Whitney AUC of two samples, P(pos > neg) + 0.5 P(pos == neg); NaN if one is empty."""
     pos, neg = np.asarray(pos, dtype=float).ravel(), np.asarray(neg, dtype=float).ravel()
@@ -396,7 +412,8 @@ def leak_auc(kin: pd.DataFrame, n_boot: int = 1000, seed: int = 0, level: float 
     not before the pair's visible frame left out; NaN features dropped), stratified (module
     doc) unless `stratify` is False, with `level` bootstrap percentile intervals from `n_boot`
     resamples of whole rallies (all the contacts of a rally share its weight, so shots of one
-    rally are not taken as independent; n_pos and n_neg vary between replicates). The
+    rally are not taken as independent; n_pos and n_neg vary between replicates). ``n_pairs``
+    counts the (positive, negative) pairs within a stratum, what the AUC rests on. The
     generator is seeded per (seed, pair, k): fixed results."""
     need = TABLE_COLUMNS + ((STRATA_COLUMNS + CONTACT_SPEED_COLUMNS) if stratify else ())
     missing = [col for col in need if col not in kin.columns]
@@ -441,6 +458,7 @@ def leak_auc(kin: pd.DataFrame, n_boot: int = 1000, seed: int = 0, level: float 
                 out.append({"pair": pair, "role": role, "feature": feature, "k": k,
                             "auc": float(point), "lo": lo, "hi": hi,
                             "n_pos": int(mp.sum()), "n_neg": int(mn.sum()),
+                            "n_pairs": comparable_pairs(cj[mp], cj[mn]),
                             "mean_pos": x[mp, j].mean() if mp.any() else np.nan,
                             "mean_neg": x[mn, j].mean() if mn.any() else np.nan})
     return pd.DataFrame(out)
@@ -462,12 +480,14 @@ def render_leaks(table: pd.DataFrame, band=(0.4, 0.6)) -> str:
     """A markdown table of `leak_auc` rows, rows outside `band` marked LEAK, and a summary."""
     flag = outside_band(table, band)
     fmt = lambda v, d=2: "-" if pd.isna(v) else f"{v:.{d}f}"  # noqa: E731
-    lines = ["| pair | role | feature | k | AUC [interval] | n_pos | n_neg | mean pos | "
-             "mean neg | |", "|---|---|---|---|---|---|---|---|---|---|"]
-    for (_, row), bad in zip(table.iterrows(), flag):
+    pairs = table["n_pairs"] if "n_pairs" in table else pd.Series(np.nan, index=table.index)
+    lines = ["| pair | role | feature | k | AUC [interval] | n_pos | n_neg | pairs | mean pos | "
+             "mean neg | |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for (_, row), bad, n_pairs in zip(table.iterrows(), flag, pairs):
         lines.append(f"| {row['pair']} | {row['role']} | {row['feature']} | {row['k']} | "
                      f"{fmt(row['auc'], 3)} [{fmt(row['lo'])}, {fmt(row['hi'])}] | "
-                     f"{row['n_pos']} | {row['n_neg']} | {fmt(row['mean_pos'])} | "
-                     f"{fmt(row['mean_neg'])} | {'LEAK' if bad else ''} |")
+                     f"{row['n_pos']} | {row['n_neg']} | {fmt(n_pairs, 0)} | "
+                     f"{fmt(row['mean_pos'])} | {fmt(row['mean_neg'])} | "
+                     f"{'LEAK' if bad else ''} |")
     lines.append(f"\n{int(flag.sum())} of {len(table)} AUCs outside [{band[0]:g}, {band[1]:g}].")
     return "\n".join(lines)
