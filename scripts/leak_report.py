@@ -1,13 +1,15 @@
 """The leak check of issue 16 on generated play: Federer v Nadal on hard and Djokovic v Murray on
-clay, `--points` each, `sportsngen.eval.leaks.check_leaks` at k = 6 and 12 frames.
+clay, `--points` each, `sportsngen.eval.leaks.check_leaks` at k = 6 and 12 frames, and the
+path-matched fault check (`sportsngen.eval.leak_paths`).
 
     python scripts/leak_report.py [--points 800] [--seed 1] [--boot 1000] [--out /tmp/leaks]
         [--before /tmp/leaks_v5]
 
-Matchup k is generated from seed + k. Writes ``<out>_<matchup>.csv`` and ``<out>.md`` (both
-tables) and prints how many AUCs lie outside [0.4, 0.6]. Run it from another revision's tree
-(PYTHONPATH) to measure that generator with the same check; ``--before`` names such a run's
-``--out`` and adds ``<out>_compare.md``, one table of both (before -> now, bold outside).
+Matchup k is generated from seed + k. Writes ``<out>_<matchup>.csv``,
+``<out>_<matchup>_paths.csv`` and ``<out>.md`` (the tables) and prints how many AUCs lie outside
+[0.4, 0.6]. Run it from another revision's tree (PYTHONPATH) to measure that generator with the
+same check; ``--before`` names such a run's ``--out`` and adds ``<out>_compare.md``, one table
+of both (before -> now, bold outside).
 """
 
 from __future__ import annotations
@@ -18,6 +20,11 @@ from pathlib import Path
 import pandas as pd
 
 from sportsngen.eval.leaks import check_leaks, outside_band, render_leaks
+
+try:  # absent from trees older than the path-matched check (a --before run)
+    from sportsngen.eval.leak_paths import check_fault_paths
+except ImportError:
+    check_fault_paths = None
 from sportsngen.synth import generate_matches
 from sportsngen.synth.dataset import GENERATOR_VERSION
 
@@ -45,6 +52,13 @@ def main() -> None:
         parts += [f"## {a} v {b}, {surface}\n", render_leaks(table), ""]
         print(f"{a} v {b} ({surface}): {int(outside_band(table).sum())} of {len(table)} AUCs "
               "outside [0.4, 0.6]", flush=True)
+        if check_fault_paths is not None:
+            paths = check_fault_paths(data, ks=(6, 12), n_boot=args.boot)
+            paths.to_csv(args.out.parent / f"{args.out.name}_{name}_paths.csv", index=False)
+            parts += ["Path-matched, fault against in (`eval.leak_paths`):\n",
+                      render_leaks(paths), ""]
+            print(f"  path-matched faults: {int(outside_band(paths).sum())} of {len(paths)} "
+                  "outside", flush=True)
     args.out.with_suffix(".md").write_text("\n".join(parts))
     print(f"wrote {args.out.with_suffix('.md')}")
     if args.before is not None:

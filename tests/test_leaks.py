@@ -350,6 +350,12 @@ def test_cli_exit_codes(clean, leaky, tmp_path, capsys):
     written = pd.read_csv(csv)
     assert len(written) == 16 and set(written["k"]) == {12}
     assert main(["leaks", str(tmp_path / "leaky"), "--band", "0", "1", "--boot", "0"]) == 0
+    # With the path-matched fault check (these tracks have no faults: its AUCs are NaN).
+    assert main(["leaks", str(tmp_path / "clean"), "--boot", "0", "--k", "12", "--paths",
+                 "--csv", str(csv)]) == 0
+    assert "Path-matched, fault against in" in capsys.readouterr().out
+    written = pd.read_csv(csv)
+    assert len(written) == 16 + 4 and (written["check"] == "path_matched").sum() == 4
     assert main(["leaks", str(tmp_path / "nowhere")]) == 2
     assert main(["leaks", str(tmp_path / "clean"), "--band", "0.6", "0.4"]) == 2
     assert "--band" in capsys.readouterr().err

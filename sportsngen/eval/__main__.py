@@ -4,15 +4,16 @@
     python -m sportsngen.eval report --sim FOLDER --ref-synthetic "Roger Federer,Rafael Nadal" \\
         [--surface hard] [--points N] [--seed 0] [--real-year 2011 | --no-real] --out DIR
     python -m sportsngen.eval leaks FOLDER [--k 6 12] [--boot N] [--seed S] [--csv PATH] \\
-        [--band 0.4 0.6]
+        [--band 0.4 0.6] [--paths]
 
 Folders are `RallyData.save` folders, read without physics validation (simulated rallies may
 break physics and are flagged, not refused). `--ref-synthetic` generates the reference with
 `sportsngen.synth.generate_matches` (default: the simulated data's surfaces and number of
 points). Real slam points of `--real-year` served by the same players form a third column when
 the shared data is present; without it the report is written without them and a note says why.
-`leaks` prints the AUC table of `sportsngen.eval.leaks` and exits with status 1 when some AUC
-lies outside the band (a gate for CI).
+`leaks` prints the AUC table of `sportsngen.eval.leaks` (with `--paths` also the path-matched
+fault check of `sportsngen.eval.leak_paths`) and exits with status 1 when some AUC lies outside
+the band (a gate for CI).
 Exit status 2 on a missing folder, empty data or a bad option.
 """
 
@@ -103,6 +104,8 @@ def run_report(args: argparse.Namespace) -> Path:
 def run_leaks(args: argparse.Namespace) -> int:
     """The leak check on a folder: prints the table, writes the CSV; 1 if an AUC is outside
     the band, else 0."""
+    import pandas as pd
+
     from sportsngen.eval.leaks import check_leaks, outside_band, render_leaks
 
     lo, hi = args.band
@@ -119,6 +122,13 @@ def run_leaks(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(f"leaks: {args.folder}: {exc}") from exc
     print(render_leaks(table, (lo, hi)))
+    if args.paths:
+        from sportsngen.eval.leak_paths import check_fault_paths
+
+        paths = check_fault_paths(data, ks=args.k, n_boot=args.boot, seed=args.seed)
+        print("\nPath-matched, fault against in (sportsngen.eval.leak_paths):\n")
+        print(render_leaks(paths, (lo, hi)))
+        table = pd.concat([table, paths.assign(check="path_matched")], ignore_index=True)
     if args.csv is not None:
         args.csv.parent.mkdir(parents=True, exist_ok=True)
         table.to_csv(args.csv, index=False)
@@ -159,6 +169,9 @@ def build_parser() -> argparse.ArgumentParser:
     leaks.add_argument("--raw", action="store_true",
                        help="raw AUCs, not stratified by what the players could see at the "
                             "contact (pairing, serve number, direction, speed)")
+    leaks.add_argument("--paths", action="store_true",
+                       help="also the path-matched check of faults: is the movement before a "
+                            "fault explained by the ball's path and the player's position?")
     leaks.add_argument("--band", type=float, nargs=2, default=[0.4, 0.6],
                        metavar=("LOW", "HIGH"), help="AUCs outside it fail (default 0.4 0.6)")
     return ap
