@@ -20,13 +20,13 @@ from pathlib import Path
 import pandas as pd
 
 from sportsngen.eval.leaks import check_leaks, outside_band, render_leaks
+from sportsngen.synth import generate_matches
+from sportsngen.synth.dataset import GENERATOR_VERSION
 
 try:  # absent from trees older than the path-matched check (a --before run)
     from sportsngen.eval.leak_paths import check_fault_paths
 except ImportError:
     check_fault_paths = None
-from sportsngen.synth import generate_matches
-from sportsngen.synth.dataset import GENERATOR_VERSION
 
 MATCHUPS = ((("Roger Federer", "Rafael Nadal"), "hard"),
             (("Novak Djokovic", "Andy Murray"), "clay"))

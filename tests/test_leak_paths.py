@@ -11,7 +11,7 @@ from sportsngen.eval.leaks import leak_auc
 
 
 def _serves(fault_receiver_speed: float | None = None) -> pd.DataFrame:
-    """Serves on three lateral lines (the receiver at y = 0): his speed 12 frames on is half the
+    """Serves on three lateral lines (the receiver at y = 0): his speed 12 frames on grows with the
     lateral distance to the ball's line, whatever the outcome. Faults land 0.1-0.3 m long, ins
     0.1-0.9 m inside the service line; faults come mostly on the wide line (y = 4), so within
     one stratum faults move more than ins. `fault_receiver_speed` plants a leak."""
@@ -20,7 +20,7 @@ def _serves(fault_receiver_speed: float | None = None) -> pd.DataFrame:
         for i in range(n_in + n_fault):
             fault = i >= n_in
             bx = 6.5 + 0.1 * (i % 3) if fault else 6.3 - 0.2 * (i % 5)
-            speed = 0.5 * line_y
+            speed = 0.23 + 0.35 * line_y  # inexact in binary: equal speeds must still tie
             if fault and fault_receiver_speed is not None:
                 speed = fault_receiver_speed
             rows.append({"k": 12, "fault_vs_in": int(fault), "at_frame": 40, "land_frame": 45,
@@ -56,8 +56,8 @@ def test_movement_that_follows_the_path_is_not_a_leak():
 def test_a_receiver_who_stops_before_faults_is_flagged():
     got = path_matched_auc(_serves(fault_receiver_speed=0.0), n_neighbours=5, n_boot=200)
     row = _row(got, "opponent", "speed_mps")
-    # On the middle line a stopped receiver ties the ins' speed 0; elsewhere he is below them.
-    assert row["auc"] == pytest.approx(0.5 * 2 / 20) and row["hi"] < 0.2
+    # A stopped receiver is below the ins on his path on every line.
+    assert (row["auc"], row["hi"]) == (0.0, 0.0)
     assert _row(got, "hitter", "speed_mps")["auc"] == 0.5
     with pytest.raises(ValueError, match="n_neighbours"):
         path_matched_auc(_serves(), n_neighbours=0)

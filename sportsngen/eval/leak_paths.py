@@ -19,7 +19,7 @@ Only fault against in: its label is a line on the path, which neighbours on the 
 Ace against returned is a matter of reach, a sharp function of path and position (on 10,000
 generated points the receiver is at full acceleration 12 frames after all 929 aces, he sprints
 at any serve he can barely reach, and after 81 % of the returned serves), so the mean of ten
-neighbours does not predict it (residual AUC 0.34 where the stratified check reads 0.51); the
+neighbours does not predict it (residual AUC 0.34 where the stratified check reads 0.52); the
 stratified check, which compares him with receivers on the same seen flight at the same speed,
 is the tool there.
 
@@ -74,17 +74,18 @@ def serve_paths(data: RallyData, kin: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
-def _residuals(x: np.ndarray, cov: np.ndarray, neg: np.ndarray, n_neighbours: int) -> np.ndarray:
-    """x minus the mean of x over each row's `n_neighbours` nearest negatives (not itself)."""
+def _neighbour_means(cov: np.ndarray, neg: np.ndarray, x: np.ndarray,
+                     n_neighbours: int) -> np.ndarray:
+    """Per row, the mean of each column of `x` (rows, features) over the row's `n_neighbours`
+    nearest negatives in `cov` (a negative not counting itself)."""
     neg_rows = np.flatnonzero(neg)
-    tree = cKDTree(cov[neg])
-    _, idx = tree.query(cov, k=n_neighbours + 1)
-    own = np.full(len(x), -1)
+    _, idx = cKDTree(cov[neg]).query(cov, k=n_neighbours + 1)
+    own = np.full(len(cov), -1)
     own[neg_rows] = np.arange(len(neg_rows))
     keep = idx != own[:, None]
     keep &= np.cumsum(keep, axis=1) <= n_neighbours
-    picked = np.where(keep, x[neg_rows][idx], 0.0)
-    return x - picked.sum(axis=1) / n_neighbours
+    picked = np.where(keep[:, :, None], x[neg_rows][idx], 0.0)
+    return picked.sum(axis=1) / n_neighbours
 
 
 def path_matched_auc(table: pd.DataFrame, n_neighbours: int = 10, n_boot: int = 500,
@@ -105,36 +106,41 @@ def path_matched_auc(table: pd.DataFrame, n_neighbours: int = 10, n_boot: int = 
             group = pd.factorize(sub["serve_number"].astype(str) + "|" + sub["hitter"].astype(str)
                                  + "|" + sub["opponent"].astype(str))[0]
             rng = np.random.default_rng([seed, pi, k])
+            cls = sub[pair].to_numpy()
             for role in ROLES:
                 cols = list(PATH_SCALES) + [f"{role}_x", f"{role}_y"]
                 scale = np.array(list(PATH_SCALES.values()) + [POSITION_SCALE_M] * 2)
                 cov = sub[cols].to_numpy(dtype=float) / scale
-                for feature in FEATURES:
-                    x = sub[f"{role}_{feature}"].to_numpy(dtype=float)
-                    ok = np.isfinite(x) & np.isfinite(cov).all(axis=1)
-                    res = np.full(len(sub), np.nan)
-                    for g in np.unique(group):
-                        rows = ok & (group == g)
-                        neg = rows & (sub[pair].to_numpy() == 0)
-                        if neg.sum() > n_neighbours:
-                            res[rows] = _residuals(x[rows], cov[rows], neg[rows], n_neighbours)
-                    cls = sub[pair].to_numpy()
-                    mp, mn = np.isfinite(res) & (cls == 1), np.isfinite(res) & (cls == 0)
+                # Speed and acceleration come from the same frames: missing together.
+                x = sub[[f"{role}_{f}" for f in FEATURES]].to_numpy(dtype=float)
+                ok = np.isfinite(x).all(axis=1) & np.isfinite(cov).all(axis=1)
+                res = np.full(x.shape, np.nan)
+                for g in np.unique(group):
+                    rows = ok & (group == g)
+                    neg = rows & (cls == 0)
+                    if neg.sum() > n_neighbours:
+                        # Rounded: equal movement must tie, not differ by summation order
+                        # (features are rounded to 1 mm/s and 0.01 m/s^2 already).
+                        res[rows] = np.round(x[rows] - _neighbour_means(
+                            cov[rows], neg[rows], x[rows], n_neighbours), 6)
+                mp, mn = np.isfinite(res[:, 0]) & (cls == 1), np.isfinite(res[:, 0]) & (cls == 0)
+                for j, feature in enumerate(FEATURES):
                     row = {"pair": pair, "role": role, "feature": feature, "k": k,
                            "auc": np.nan, "lo": np.nan, "hi": np.nan,
                            "n_pos": int(mp.sum()), "n_neg": int(mn.sum()),
-                           "mean_pos": x[mp].mean() if mp.any() else np.nan,
-                           "mean_neg": x[mn].mean() if mn.any() else np.nan}
+                           "mean_pos": x[mp, j].mean() if mp.any() else np.nan,
+                           "mean_neg": x[mn, j].mean() if mn.any() else np.nan}
                     if mp.any() and mn.any():
-                        row["auc"] = float(weighted_auc(res[mp], res[mn], np.ones((1, mp.sum())),
+                        r = res[:, j]
+                        row["auc"] = float(weighted_auc(r[mp], r[mn], np.ones((1, mp.sum())),
                                                         np.ones((1, mn.sum())))[0])
                         if n_boot:
                             both = np.flatnonzero(mp | mn)
-                            w = np.zeros((n_boot, len(res)))
+                            w = np.zeros((n_boot, len(r)))
                             w[:, both] = rng.multinomial(len(both), np.full(len(both),
                                                                             1 / len(both)),
                                                          size=n_boot)
-                            boot = weighted_auc(res[mp], res[mn], w[:, mp], w[:, mn])
+                            boot = weighted_auc(r[mp], r[mn], w[:, mp], w[:, mn])
                             row["lo"], row["hi"] = np.nanpercentile(boot, q)
                     out.append(row)
     return pd.DataFrame(out)

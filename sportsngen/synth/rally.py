@@ -127,7 +127,8 @@ class ProfilePolicy:
                  shape_rng: np.random.Generator) -> tuple[float, float]:
         p, end = self.profiles[hitter], self.ends[hitter]
         target_y = plan.target_y_m if plan is not None else 0.0
-        if plan is not None and plan.stroke == "serve" and self.serve_number == 1:
+        serve = plan is not None and plan.stroke == "serve"
+        if serve and self.serve_number == 1:
             # Serve and volley is the server's choice before the serve, at the same chance
             # on every first serve; version 5 drew it from the play's stream on serves in,
             # so it still does there (outcomes keep their seeds) and from the side stream
@@ -142,7 +143,7 @@ class ProfilePolicy:
             depth = min(abs(target[0]) - BASELINE_X_M, SERVE_RECOVERY_DEPTH_M)
             return self._settled((end * (BASELINE_X_M + depth), target[1]))
         target = bh.recovery_target(p, end, target_y, self.at_net[hitter], self.surface)
-        return self._settled(target) if plan is not None and plan.stroke == "serve" else target
+        return self._settled(target) if serve else target
 
     def _settled(self, target: tuple[float, float]) -> tuple[float, float]:
         """The server's recovery after a serve, cut to what he can cover from his stance and
