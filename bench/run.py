@@ -22,6 +22,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "benchmarks.md"
+ALL_SECTIONS = ("generator", "training", "precision", "simulation")
 
 # One generator run in a child process: wall time, points, frames, peak RSS of the process and
 # of its worker processes (the per-worker figure is the one that must stay flat).
@@ -119,10 +120,11 @@ def _old_sections() -> dict[str, list[str]]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small sizes (smoke run)")
-    parser.add_argument("--only", default="generator,training,simulation",
-                        help="comma list of generator, training, simulation (the other "
+    parser.add_argument("--only", default=",".join(ALL_SECTIONS),
+                        help="comma list of generator, training, precision, simulation (the other "
                              "sections of docs/benchmarks.md are kept as they are)")
-    parser.add_argument("--threads", type=int, default=2, help="torch threads (simulation)")
+    parser.add_argument("--threads", type=int, default=2,
+                        help="torch threads (simulation, precision)")
     args = parser.parse_args()
     only = set(args.only.split(","))
     sections = _old_sections()
@@ -135,6 +137,11 @@ def main() -> None:
         from bench_model import bench_training
 
         lines, _ = bench_training(args.quick)
+        sections[lines[0]] = lines
+    if "precision" in only:
+        from bench_model import bench_precision
+
+        lines, _ = bench_precision(args.quick, threads=args.threads)
         sections[lines[0]] = lines
     if "simulation" in only:
         from bench_sim import bench_simulation
@@ -149,7 +156,7 @@ def main() -> None:
         "# Benchmarks",
         "",
         f"Written by `python bench/run.py{' --quick' if args.quick else ''}"
-        f"{'' if only == {'generator', 'training', 'simulation'} else ' --only ' + args.only}`"
+        f"{'' if only == set(ALL_SECTIONS) else ' --only ' + args.only}`"
         f" on {stamp} (sections not re-run are kept from before).",
         "",
         f"Machine: {machine()}.",

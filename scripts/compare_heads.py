@@ -41,7 +41,7 @@ import torch
 from hydra import compose, initialize_config_dir
 from torch.utils.data import DataLoader
 
-from sportsngen.data.tokens import BALL, WindowDataset, centre_m, object_features, rally_arrays
+from sportsngen.data.tokens import BALL, WindowDataset, object_features, rally_arrays
 from sportsngen.data.tracking import RallyData
 from sportsngen.model.export import load_model, read_extra
 from sportsngen.synth.dataset import cache_root
@@ -176,9 +176,9 @@ def evaluate(model_path: Path, batch_size: int, search: list[Path], cache: dict)
         h = model(feats, batch["ident"], ctx)
         disc.update(model, batch, h)
         pos, vel, nxt = batch["pos_m"], batch["vel_mps"], batch["next_pos_m"]
-        p_idx, b_idx = model.target_bins(pos, vel, nxt)
+        p_idx, b_idx = model.target_bins(pos, vel, nxt, batch.get("prev_vel_mps"))
         p_nll, b_nll = model.nll(h, p_idx, b_idx)
-        off = nxt - centre_m(pos, vel, cfg.fps, cfg.bin_centre)
+        off = nxt - model.centres(pos, vel, batch.get("prev_vel_mps"))
         cv_err = nxt - (pos + vel / cfg.fps)
         m = batch["has_next"].bool()
         near = batch["near_contact"].bool()

@@ -30,7 +30,7 @@ import numpy as np
 import torch
 from torch.utils.data import default_collate
 
-from sportsngen.data.tokens import BALL, WindowDataset, centre_m, rally_arrays
+from sportsngen.data.tokens import BALL, WindowDataset, rally_arrays
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.sim import Simulator
 from sportsngen.synth.generate import generate_matches
@@ -159,9 +159,9 @@ def contact_mass(sim: Simulator, data, offsets=range(-3, 2)) -> dict[int, tuple[
         if len(contacts) < 2 or contacts[1] + max(offsets) >= cfg.window_frames - 1:
             continue
         p_rev = reversal_prob(model, window_states(model, default_collate([w]))[0, :, BALL])
-        off = w["next_pos_m"][:, BALL, 0] - centre_m(
-            torch.as_tensor(w["pos_m"]), torch.as_tensor(w["vel_mps"]), cfg.fps,
-            cfg.bin_centre)[:, BALL, 0].numpy()
+        off = w["next_pos_m"][:, BALL, 0] - model.centres(
+            torch.as_tensor(w["pos_m"]), torch.as_tensor(w["vel_mps"]),
+            torch.as_tensor(w["prev_vel_mps"]))[:, BALL, 0].numpy()
         for k in offsets:
             f = contacts[1] + k
             out[k].append((float(p_rev[f]), float(abs(off[f]) > REVERSAL_M)))
@@ -187,8 +187,8 @@ def onset_mass(sim: Simulator, data, offsets=range(-2, 2)) -> dict[int, tuple[fl
         h = window_states(model, w)[0, :, 1]
         p = model.player_head.dim_logits(h, torch.zeros(len(h), 2, dtype=torch.long), 0)
         moving = 1.0 - p.softmax(-1)[:, still].sum(-1)
-        off = w["next_pos_m"][0, :, 1, 0] - centre_m(w["pos_m"][0], w["vel_mps"][0], cfg.fps,
-                                                     cfg.bin_centre)[:, 1, 0]
+        off = w["next_pos_m"][0, :, 1, 0] - model.centres(w["pos_m"][0],
+                                                          w["vel_mps"][0])[:, 1, 0]
         for k in offsets:
             if 0 <= f0 + k < len(h) and bool(w["has_next"][0, f0 + k]):
                 out[k].append((float(moving[f0 + k]), float(abs(off[f0 + k]) >= 1e-3)))

@@ -239,21 +239,28 @@ def test_generic_identity_shares_one_embedding():
         make_model()(feats, torch.tensor([[9, 3, 0]]), c)
 
 
-def test_sample_next_players_on_ground_and_reproducible():
-    model = make_model(bin_centre="cv")
+@pytest.mark.parametrize("ball_centre", ["velocity", "physics"])
+def test_sample_next_players_on_ground_and_reproducible(ball_centre):
+    model = make_model(bin_centre="cv", ball_centre=ball_centre)
     feats, ident, ctx = inputs(model.cfg)
-    pos = torch.rand(2, 6, 3, 3)
+    pos = torch.rand(2, 6, 3, 3) + torch.tensor([0.0, 0.0, 1.0])
     pos[..., :2, 2] = 0
     vel = torch.randn(2, 6, 3, 3)
+    prev = vel + 0.1 * torch.randn(2, 6, 3, 3)
     with torch.no_grad():
         h = model(feats, ident, model.context_tokens(*ctx))
-        a = model.sample_next(h, pos, vel, 0.9, 0.9, torch.Generator().manual_seed(3))
-        b = model.sample_next(h, pos, vel, 0.9, 0.9, torch.Generator().manual_seed(3))
+        a = model.sample_next(h, pos, vel, 0.9, 0.9, torch.Generator().manual_seed(3), prev)
+        b = model.sample_next(h, pos, vel, 0.9, 0.9, torch.Generator().manual_seed(3), prev)
     assert torch.equal(a, b)
     assert (a[..., :2, 2] == 0).all()
-    cv = pos + vel / 25.0
+    centre = pos + vel / 25.0
+    if ball_centre == "physics":  # the track's acceleration, eased by drag, one more step
+        from sportsngen.model.centre import flight_acceleration_mps2 as base
+        acc = (vel - prev)[..., 2, :] * 25.0 + base(vel[..., 2, :]) - base(prev[..., 2, :])
+        centre[..., 2, :] += acc / 625.0
+    assert torch.allclose(model.centres(pos, vel, prev), centre, atol=1e-6)
     lim = torch.tensor([80.0, 40.0, 40.0]) / 25.0
-    assert ((a[..., 2, :] - cv[..., 2, :]).abs() <= lim + 1e-6).all()
+    assert ((a[..., 2, :] - centre[..., 2, :]).abs() <= lim + 1e-6).all()
 
 
 def test_event_classifier_sees_the_whole_window():

@@ -220,6 +220,20 @@ def test_train_py_through_hydra_resume_mismatch_and_finetune(tmp_path, monkeypat
         assert torch.equal(v, m4.state_dict()[k]), k
     assert not all(torch.equal(v, ec4.state_dict()[k]) for k, v in ec.state_dict().items())
 
+    # Re-centre the ball's bins while fine-tuning: the same weights start, the new centre
+    # is saved; a wrong name is refused.
+    assert cfg.ball_centre == "physics"
+    rc = train_from_config(_compose([*fast, f"init={out / 'model.pt'}", "trainer.max_steps=0",
+                                     "init_ball_centre=velocity", "events.enabled=false"]),
+                           tmp_path / "rc")
+    m5, _, _, cfg5 = load_model(rc["model_file"])
+    assert cfg5.ball_centre == "velocity" and cfg5.bin_centre == cfg.bin_centre
+    for k, v in model.state_dict().items():
+        assert torch.equal(v, m5.state_dict()[k]), k
+    with pytest.raises(ValueError, match="ball_centre"):
+        train_from_config(_compose([*fast, f"init={out / 'model.pt'}", "trainer.max_steps=0",
+                                    "init_ball_centre=spin"]), tmp_path / "rc2")
+
 
 def test_same_seed_same_weights(tmp_path):
     over = ["experiment=tiny", "data=toy", "data.n_rallies=12", "trainer.max_steps=3",

@@ -6,7 +6,7 @@ constants of the sport: position (3), velocity (3, backward finite difference, s
 sees the future), distance to the ball (0 for the ball) and time since the rally began. The
 context of a window is its rally's surface, tournament, first/second serve and a numeric score
 vector. The target of a frame is every object's position at the next frame; the model turns it
-into bin indices around a centre (`centre_m`) with `sportsngen.model.bins`.
+into bin indices around a centre (`sportsngen.model.centre`) with `sportsngen.model.bins`.
 
 `rally_arrays` converts a `RallyData` once into flat numpy arrays; `WindowDataset` cuts windows
 from them (random crops and augmentation when training, a fixed tiling otherwise). Each frame also
@@ -263,16 +263,6 @@ def _near_contact(shots, rid_to_pos: dict, first: np.ndarray, start: np.ndarray,
     return near
 
 
-def centre_m(pos_m: torch.Tensor, vel_mps: torch.Tensor, fps: float, mode: str) -> torch.Tensor:
-    """Where the bins of the next-frame offset are centred: the current position ("current",
-    the paper) or a constant-velocity extrapolation ("cv")."""
-    if mode == "current":
-        return pos_m
-    if mode == "cv":
-        return pos_m + vel_mps / fps
-    raise ValueError(f"bin centre must be 'current' or 'cv', got {mode!r}")
-
-
 def object_features(pos_m: torch.Tensor, vel_mps: torch.Tensor, t_s: torch.Tensor) -> torch.Tensor:
     """(..., T, 3, 3) positions and velocities, (..., T) times -> (..., T, 3, N_FEATURES)."""
     scale = torch.tensor(POS_SCALE_M, dtype=pos_m.dtype, device=pos_m.device)
@@ -355,6 +345,13 @@ class WindowDataset(Dataset):
         valid = np.arange(w) < m
         has_next = np.arange(w) < n_next
         vel[~valid] = 0.0
+        # The velocity a frame earlier (the ball's physics centre reads its acceleration):
+        # 0 for the rally's first two frames.
+        prev_vel = np.zeros_like(vel)
+        prev_vel[1:] = vel[:-1]
+        if s >= 2:
+            prev_vel[0] = (rows[s - 1] - rows[s - 2]) * a.fps
+        prev_vel[~valid] = 0.0
         labels = np.zeros((w, len(LABELS)), dtype=np.int64)
         labels[:m] = a.labels[a.start[ri] + s:a.start[ri] + s + m]
         near = np.zeros(w, dtype=bool)
@@ -367,8 +364,10 @@ class WindowDataset(Dataset):
                 pos[:m, BALL, 2] = np.maximum(pos[:m, BALL, 2], 0.0)
             if aug.flip and self.rng.random() < 0.5:
                 pos, vel, nxt = flip_xy(pos), flip_xy(vel), flip_xy(nxt)
+                prev_vel = flip_xy(prev_vel)
         return {
             "rally_id": int(a.rally_id[ri]), "pos_m": pos, "vel_mps": vel, "next_pos_m": nxt,
+            "prev_vel_mps": prev_vel,
             "t_s": ((s + np.arange(w)) / a.fps).astype(np.float32), "valid": valid,
             "has_next": has_next, "ident": a.ident[ri], "surface": int(a.surface[ri]),
             "tournament": int(a.tournament[ri]), "serve": int(a.serve[ri]),
@@ -379,7 +378,9 @@ class WindowDataset(Dataset):
 def check_finite(batch: dict) -> None:
     """Raise ValueError naming the rallies whose window holds NaN or infinite numbers."""
     bad = torch.zeros(batch["pos_m"].shape[0], dtype=torch.bool, device=batch["pos_m"].device)
-    for key in ("pos_m", "vel_mps", "next_pos_m", "t_s", "score"):
+    for key in ("pos_m", "vel_mps", "prev_vel_mps", "next_pos_m", "t_s", "score"):
+        if key not in batch:  # prev_vel_mps: batches built by hand may leave it out
+            continue
         x = batch[key]
         bad |= ~torch.isfinite(x).reshape(x.shape[0], -1).all(dim=1)
     if bad.any():

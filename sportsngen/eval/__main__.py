@@ -5,15 +5,17 @@
         [--surface hard] [--points N] [--seed 0] [--real-year 2011 | --no-real] --out DIR
     python -m sportsngen.eval leaks FOLDER [--k 6 12] [--boot N] [--seed S] [--csv PATH] \\
         [--band 0.4 0.6] [--paths]
+    python -m sportsngen.eval diagnose [--model PATH] [--points 400] [--seed 0] [--csv PATH]
 
 Folders are `RallyData.save` folders, read without physics validation (simulated rallies may
 break physics and are flagged, not refused). `--ref-synthetic` generates the reference with
 `sportsngen.synth.generate_matches` (default: the simulated data's surfaces and number of
 points). Real slam points of `--real-year` served by the same players form a third column when
 the shared data is present; without it the report is written without them and a note says why.
-`leaks` prints the AUC table of `sportsngen.eval.leaks` (with `--paths` also the path-matched
-fault check of `sportsngen.eval.leak_paths`) and exits with status 1 when some AUC lies outside
-the band (a gate for CI).
+`diagnose` prints the rollout diagnostics of `sportsngen.eval.diagnostics` for a model file
+(default the bundled model). `leaks` prints the AUC table of `sportsngen.eval.leaks` (with
+`--paths` also the path-matched fault check of `sportsngen.eval.leak_paths`) and exits with
+status 1 when some AUC lies outside the band (a gate for CI).
 Exit status 2 on a missing folder, empty data or a bad option.
 """
 
@@ -136,6 +138,40 @@ def run_leaks(args: argparse.Namespace) -> int:
     return int(outside_band(table, (lo, hi)).any())
 
 
+def run_diagnose(args: argparse.Namespace) -> int:
+    """The rollout diagnostics of a model: prints the table (and writes the CSV)."""
+    import time
+
+    import pandas as pd
+
+    from sportsngen.eval.diagnostics import DiagnosticsSetup, run_diagnostics
+    from sportsngen.sim import Simulator
+
+    if args.points < 20 or args.seed < 0 or args.boot < 0:
+        raise UsageError(f"--points must be >= 20, --seed and --boot >= 0, got {args.points}, "
+                         f"{args.seed}, {args.boot}")
+    try:
+        sim = Simulator.from_pretrained(args.model)
+    except FileNotFoundError as exc:
+        raise UsageError(f"--model: {exc}") from exc
+    t0 = time.perf_counter()
+    setup = DiagnosticsSetup(server=args.server, receiver=args.receiver, surface=args.surface,
+                             n_points=args.points, seed=args.seed, leak_boot=args.boot)
+    try:
+        table = run_diagnostics(sim, setup)
+    except ValueError as exc:
+        raise UsageError(f"diagnose: {exc}") from exc
+    with pd.option_context("display.width", 160, "display.max_colwidth", 60):
+        print(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    print(f"({time.perf_counter() - t0:.0f} s, {setup.n_points} points of "
+          f"{setup.server} serving to {setup.receiver} on {setup.surface}, seed {setup.seed})")
+    if args.csv is not None:
+        args.csv.parent.mkdir(parents=True, exist_ok=True)
+        table.to_csv(args.csv, index=False)
+        print(f"wrote {args.csv}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="python -m sportsngen.eval",
                                  description="Realism evaluation of simulated tennis tracking.")
@@ -174,6 +210,18 @@ def build_parser() -> argparse.ArgumentParser:
                             "fault explained by the ball's path and the player's position?")
     leaks.add_argument("--band", type=float, nargs=2, default=[0.4, 0.6],
                        metavar=("LOW", "HIGH"), help="AUCs outside it fail (default 0.4 0.6)")
+    diag = sub.add_parser("diagnose", help="rollout diagnostics of a model: branch return "
+                                           "share, free-flight residual, contact probability, "
+                                           "receivers at the bounce, leaks on rollouts")
+    diag.add_argument("--model", default=None, help="model file (default: the bundled model)")
+    diag.add_argument("--points", type=int, default=400,
+                      help="ground-truth points generated to branch from (default 400)")
+    diag.add_argument("--seed", type=int, default=0, help="seed of the truth and the rollouts")
+    diag.add_argument("--server", default="Roger Federer")
+    diag.add_argument("--receiver", default="Rafael Nadal")
+    diag.add_argument("--surface", default="hard", choices=["hard", "clay", "grass"])
+    diag.add_argument("--boot", type=int, default=200, help="bootstrap resamples of the leaks")
+    diag.add_argument("--csv", type=Path, default=None, help="write the table as CSV here")
     return ap
 
 
@@ -182,6 +230,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.command == "leaks":
             return run_leaks(args)
+        if args.command == "diagnose":
+            return run_diagnose(args)
         path = run_report(args)
     except UsageError as exc:
         print(f"error: {exc}", file=sys.stderr)

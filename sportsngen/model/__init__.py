@@ -8,9 +8,11 @@ One simulation step, as the simulator would run it (B rallies in a batch)::
     cache = model.init_cache(ident, ctx)                                # ident (B, 3)
     feats = object_features(pos[:, None], vel[:, None], t_s[:, None])   # -> (B, 1, 3, 8)
     h, cache = model.forward_step(feats[:, 0], cache)                   # (B, 3, d)
-    nxt = model.sample_next(h, pos, vel, top_p_player, top_p_ball, generator)  # (B, 3, 3)
+    nxt = model.sample_next(h, pos, vel, top_p_player, top_p_ball, generator,
+                            prev_vel)                                   # (B, 3, 3)
 
-(`object_features` from `sportsngen.data.tokens`; velocities are backward differences.)
+(`object_features` from `sportsngen.data.tokens`; velocities are backward differences,
+`prev_vel` those of the frame before, for the ball's physics centre.)
 """
 
 from sportsngen.model.config import ModelConfig

@@ -7,6 +7,9 @@ from dataclasses import asdict, dataclass, fields
 HEAD_KINDS = ("joint", "factorised")
 BIN_SPACINGS = ("uniform", "nonuniform")
 BIN_CENTRES = ("current", "cv")
+BALL_CENTRES = ("physics", "velocity", "current")
+# Model files saved before `ball_centre` existed centred the ball like the players.
+LEGACY_BALL_CENTRE = {"current": "current", "cv": "velocity"}
 # The object-feature groups as `sportsngen.data.tokens.object_features` lays them out: name ->
 # (first, end) column of the N_FEATURES = 8 features. Ablations switch groups off by name.
 FEATURE_GROUPS = {"position": (0, 3), "velocity": (3, 6), "distance": (6, 7), "time": (7, 8)}
@@ -36,7 +39,10 @@ class ModelConfig:
     head: str = "factorised"             # "joint" (paper) or "factorised" (x, y|x, z|x,y)
     head_hidden: int = 128               # width of the factorised heads' conditional MLPs
     bin_spacing: str = "uniform"         # "uniform" (paper) or "nonuniform" (finer near 0)
-    bin_centre: str = "current"          # "current" (paper) or "cv" (constant velocity)
+    bin_centre: str = "current"          # players: "current" (paper) or "cv" (constant velocity)
+    # The ball: "physics" (one flight step: gravity, drag, Magnus read from the track),
+    # "velocity" (constant velocity) or "current" (the paper); `sportsngen.model.centre`.
+    ball_centre: str = "physics"
     player_max_speed_mps: float = 10.0   # bin range: offsets up to this speed over one frame
     ball_max_speed_mps: tuple[float, float, float] = (80.0, 40.0, 40.0)
     window_s: float = 6.0
@@ -76,6 +82,9 @@ class ModelConfig:
         if self.bin_centre not in BIN_CENTRES:
             raise ValueError(f"model.bin_centre must be one of {BIN_CENTRES}, "
                              f"got {self.bin_centre!r}")
+        if self.ball_centre not in BALL_CENTRES:
+            raise ValueError(f"model.ball_centre must be one of {BALL_CENTRES}, "
+                             f"got {self.ball_centre!r}")
         for name in ("dropout", "attn_dropout"):
             if not 0.0 <= getattr(self, name) < 1.0:
                 raise ValueError(f"model.{name} must be in [0, 1), got {getattr(self, name)}")
@@ -109,4 +118,6 @@ class ModelConfig:
         extra = sorted(set(d) - known)
         if extra:
             raise ValueError(f"unknown model config keys {extra}; known: {sorted(known)}")
+        if "ball_centre" not in d:
+            d["ball_centre"] = LEGACY_BALL_CENTRE.get(d.get("bin_centre", "current"), "current")
         return cls(**d)

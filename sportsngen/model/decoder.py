@@ -24,8 +24,9 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from sportsngen.data.tokens import BALL, GENERIC_ID, N_OBJECTS, N_SPECIAL_IDS, centre_m
+from sportsngen.data.tokens import BALL, GENERIC_ID, N_OBJECTS, N_SPECIAL_IDS
 from sportsngen.model.bins import Bins
+from sportsngen.model.centre import object_centres_m
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.embedding import ContextEmbedding, ObjectEmbedding, run_mlp
 from sportsngen.model.heads import make_head
@@ -261,9 +262,17 @@ class SportsNGEN(nn.Module):
         return self
 
     # --- targets and sampling ------------------------------------------------------------
-    def target_bins(self, pos_m, vel_mps, next_pos_m):
+    def centres(self, pos_m: torch.Tensor, vel_mps: torch.Tensor,
+                prev_vel_mps: torch.Tensor | None = None) -> torch.Tensor:
+        """Where each object's bins are centred (..., 3, 3) (`sportsngen.model.centre`);
+        `prev_vel_mps`, the velocities a frame earlier, lets the ball's physics step read its
+        acceleration from the track (without it: gravity and drag)."""
+        return object_centres_m(pos_m, vel_mps, prev_vel_mps, self.cfg.fps, self.cfg.bin_centre,
+                                self.cfg.ball_centre, BALL)
+
+    def target_bins(self, pos_m, vel_mps, next_pos_m, prev_vel_mps=None):
         """Bin indices of the next positions: (players (..., 2, 2), ball (..., 3))."""
-        off = next_pos_m - centre_m(pos_m, vel_mps, self.cfg.fps, self.cfg.bin_centre)
+        off = next_pos_m - self.centres(pos_m, vel_mps, prev_vel_mps)
         return (self.player_bins.index(off[..., :BALL, :2]),
                 self.ball_bins.index(off[..., BALL, :]))
 
@@ -275,10 +284,11 @@ class SportsNGEN(nn.Module):
     @torch.no_grad()
     def sample_next(self, h: torch.Tensor, pos_m: torch.Tensor, vel_mps: torch.Tensor,
                     top_p_player: float = 1.0, top_p_ball: float = 1.0,
-                    generator: torch.Generator | None = None) -> torch.Tensor:
+                    generator: torch.Generator | None = None,
+                    prev_vel_mps: torch.Tensor | None = None) -> torch.Tensor:
         """Next positions (..., 3, 3) from output states h (..., 3, d): nucleus per object
         kind, then uniform inside the chosen bin. Players stay on the ground (z = 0)."""
-        centre = centre_m(pos_m, vel_mps, self.cfg.fps, self.cfg.bin_centre)
+        centre = self.centres(pos_m, vel_mps, prev_vel_mps)
         pi = self.player_head.sample(h[..., :BALL, :], top_p_player, generator)
         bi = self.ball_head.sample(h[..., BALL, :], top_p_ball, generator)
         p_off = self.player_bins.value(pi, uniform_in_bin(pi.shape, h.device, generator))

@@ -111,8 +111,8 @@ class Constraint(Protocol):
     def give_up(self, rows: np.ndarray) -> None: ...
 
 
-def _constrain(model, constraint, alive, n, h, pos, vel, nxt, top_p_player, top_p_ball,
-               generator):
+def _constrain(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top_p_player,
+               top_p_ball, generator):
     """Resample the rows `constraint` rejects: up to its max_tries from the nucleus, then as
     many from the whole distribution. -> (frames, redraws per live row)."""
     bad = ~constraint.accept(alive, n, pos, nxt)
@@ -124,7 +124,7 @@ def _constrain(model, constraint, alive, n, h, pos, vel, nxt, top_p_player, top_
         wide = tries >= constraint.max_tries
         again = model.sample_next(h[idx], pos[idx], vel[idx],
                                   1.0 if wide else top_p_player, 1.0 if wide else top_p_ball,
-                                  generator)
+                                  generator, prev_vel[idx])
         nxt[idx] = again
         drawn[idx.cpu().numpy()] += 1
         ok = constraint.accept(alive[idx.cpu().numpy()], n, pos[idx], again)
@@ -243,9 +243,10 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             pos = hist[:, n - 1]
             prev = hist[:, n - 2] if n >= 2 else pos
             vel = (pos - prev) * fps
-            nxt = model.sample_next(h, pos, vel, top_p_player, top_p_ball, generator)
+            prev_vel = (prev - hist[:, n - 3]) * fps if n >= 3 else torch.zeros_like(vel)
+            nxt = model.sample_next(h, pos, vel, top_p_player, top_p_ball, generator, prev_vel)
             if constraint is not None:
-                nxt, drawn = _constrain(model, constraint, alive, n, h, pos, vel, nxt,
+                nxt, drawn = _constrain(model, constraint, alive, n, h, pos, vel, prev_vel, nxt,
                                         top_p_player, top_p_ball, generator)
                 resampled[alive] += drawn
             hist[:, n] = nxt

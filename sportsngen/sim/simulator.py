@@ -161,17 +161,23 @@ class Simulator:
 
     def simulate_rallies(self, plan: pd.DataFrame, seed: int = 0, progress: bool = False,
                          init_pos_m: np.ndarray | None = None,
-                         constraint: Constraint | None = None) -> RallyData:
+                         constraint: Constraint | None = None,
+                         max_duration_s: float | None = None) -> RallyData:
         """One rally for each row of `plan` (columns `PLAN_COLUMNS`), in batches of
         `batch_size` -> RallyData with the simulator's columns (see `sportsngen.sim.assemble`).
 
         Rallies start from serve starts drawn from the model's pool, or from `init_pos_m`
         (len(plan), T0, 3, 3) (branching from a real rally); `constraint` restricts sampling
-        (`sportsngen.sim.rollout.Constraint`; row indices are plan positions)."""
+        (`sportsngen.sim.rollout.Constraint`; row indices are plan positions).
+        `max_duration_s` (default the simulator's) cuts rallies that last longer: they end
+        undecided (diagnostics that only need a rally's first shots)."""
         check_plan(plan)
         rng = np.random.default_rng(check_int("seed", seed, 0))
         parts = []
-        max_frames = int(math.ceil(self.max_duration_s * self.fps)) + 2
+        duration_s = self.max_duration_s if max_duration_s is None else float(max_duration_s)
+        if not duration_s > 0:
+            raise ArgumentError(f"max_duration_s must be positive, got {max_duration_s!r}")
+        max_frames = int(math.ceil(duration_s * self.fps)) + 2
         for lo in range(0, len(plan), self.batch_size):
             part = plan.iloc[lo:lo + self.batch_size].reset_index(drop=True)
             inputs = self._inputs(part, rng, None if init_pos_m is None else
@@ -181,8 +187,7 @@ class Simulator:
             if con is not None:
                 con.offset = lo
             tracker = RallyTracker(part["server_end"].to_numpy(), part["side"].to_numpy(),
-                                   part["serve_number"].to_numpy(), self.fps,
-                                   self.max_duration_s)
+                                   part["serve_number"].to_numpy(), self.fps, duration_s)
             gen = torch.Generator(device=next(self.model.parameters()).device)
             gen.manual_seed(int(rng.integers(2 ** 62)))
             t0 = inputs.init_pos_m.shape[1]

@@ -19,7 +19,7 @@ import math
 
 import torch
 
-from sportsngen.data.tokens import BALL, centre_m, check_finite, object_features
+from sportsngen.data.tokens import BALL, check_finite, object_features
 from sportsngen.model.decoder import SportsNGEN
 
 CV_SIGMAS_M = torch.logspace(-3.5, 0.5, 25, dtype=torch.float64)
@@ -70,11 +70,12 @@ class NextFrameMetrics:
         if h is None:
             h = window_states(model, batch)
         pos, vel, nxt = batch["pos_m"], batch["vel_mps"], batch["next_pos_m"]
-        p_idx, b_idx = model.target_bins(pos, vel, nxt)
+        prev = batch.get("prev_vel_mps")
+        p_idx, b_idx = model.target_bins(pos, vel, nxt, prev)
         p_nll, b_nll = model.nll(h, p_idx, b_idx)
         p_top = model.player_head.top1(h[..., :BALL, :])
         b_top = model.ball_head.top1(h[..., BALL, :])
-        centre = centre_m(pos, vel, cfg.fps, cfg.bin_centre)
+        centre = model.centres(pos, vel, prev)
         off = nxt - centre
         cv_mean = pos + vel / cfg.fps - centre
         m = batch["has_next"].bool()

@@ -99,7 +99,7 @@ class DecoderModule(L.LightningModule):
     def _forward(self, batch: dict):
         h = window_states(self.model, batch)
         p_idx, b_idx = self.model.target_bins(batch["pos_m"], batch["vel_mps"],
-                                              batch["next_pos_m"])
+                                              batch["next_pos_m"], batch.get("prev_vel_mps"))
         p_nll, b_nll = self.model.nll(h, p_idx, b_idx)
         return h, p_idx, b_idx, p_nll, b_nll
 

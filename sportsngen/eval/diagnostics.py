@@ -1,0 +1,215 @@
+"""Rollout diagnostics: fast, low-noise signals of what a model gets wrong on its own rollouts.
+
+All of them start from recorded serves of a ground truth (the generator's, by default Roger
+Federer serving to Rafael Nadal on hard) and compare the model with that truth:
+
+- **branch return share**: each recorded serve is rolled out from `BRANCH_AFTER_FRAMES` frames
+  after its contact (the model has seen the toss and the strike, then plays on); of the
+  branches whose serve lands in the box, the share the receiver returns (a second racket
+  contact by the rally-end rules), against the same share of the recorded serves. A model
+  whose receivers stand and watch shows it here first;
+- **free-flight residual**: on those branches, how far each free-flight frame lies from one
+  physics step of the ball (`sportsngen.eval.flight`, p50 and p90 per axis in mm; the
+  recorded ball: well under 1 mm), and the share of those frames inside the centre bin of the
+  model's ball bins in all three axes;
+- **receivers still at the bounce**: the share of serves in the box whose receiver has moved
+  less than `STILL_M` from where he stood at the contact when the serve bounces, branches
+  against recorded serves;
+- **contact probability within reach**: teacher-forced on the recorded serves that were
+  returned, the model's largest probability of a racket contact (a next ball frame more than
+  `REVERSAL_M` from its bin centre along x) over the frames the ball is within `REACH_M` of
+  the receiver. Low means the model lets balls fly past players who could hit them;
+- **leak check on rollouts** (`sportsngen.eval.leaks`, the serve pairs, with bootstrap
+  intervals; cells on fewer than `MIN_LEAK_PAIRS` comparable pairs left blank): whether the
+  model's players, after the branch point, move as if they knew the serve's outcome.
+
+`run_diagnostics` computes them all (well under two minutes on two cores for the defaults);
+``python -m sportsngen.eval diagnose`` prints them for any model file.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+import torch
+from torch.utils.data import default_collate
+
+from sportsngen.data.tokens import BALL, OBJECTS, Vocab, WindowDataset, rally_arrays
+from sportsngen.data.tracking import RallyData
+from sportsngen.eval.flight import flight_residuals, rally_tracks
+from sportsngen.eval.leaks import check_leaks
+from sportsngen.eval.rules import analyse_rally_data
+from sportsngen.sim.assemble import PLAN_COLUMNS
+from sportsngen.tennis.court import is_in_service_box
+from sportsngen.train.metrics import window_states
+
+BRANCH_AFTER_FRAMES = 3   # frames after the serve contact kept from the record
+HORIZON_S = 3.0           # a branch is rolled out this long: the serve, the return, its flight
+STILL_M = 0.05
+REACH_M = 1.5
+REVERSAL_M = 0.5
+SERVE_PAIRS = ("fault_vs_in", "ace_vs_returned")
+RECEIVER_SLOT = OBJECTS.index("receiver")
+# A leak cell resting on fewer comparable pairs is left blank (NaN): with 3 pairs an AUC is 0,
+# 0.33, 0.67 or 1 whatever the model does.
+MIN_LEAK_PAIRS = 30
+
+
+@dataclass(frozen=True)
+class DiagnosticsSetup:
+    """Which truth the diagnostics branch from."""
+
+    server: str = "Roger Federer"
+    receiver: str = "Rafael Nadal"
+    surface: str = "hard"
+    n_points: int = 400
+    seed: int = 0
+    leak_boot: int = 200
+
+
+def truth_points(setup: DiagnosticsSetup) -> RallyData:
+    """The generator's points of the setup's matchup, only those `server` serves."""
+    from sportsngen.synth import generate_matches
+
+    data = generate_matches([(setup.server, setup.receiver)], setup.surface,
+                            n_points=setup.n_points, seed=setup.seed, workers=1)
+    r = data.rallies
+    return data.subset(r.loc[r["server"] == setup.server, "rally_id"])
+
+
+def serve_outcomes(data: RallyData) -> pd.DataFrame:
+    """Per rally (rules on the tracks): serve in the box, returned, the receiver's movement
+    from the serve contact to the first bounce (m)."""
+    rules = analyse_rally_data(data)
+    arr = rally_arrays(data, _generic_vocab(data))
+    rows = []
+    for ri, rid in enumerate(arr.rally_id):
+        rule = rules.loc[rid]
+        contacts, bounces = rule["contact_frames"], rule["bounce_frames"]
+        in_box, moved = False, np.nan
+        if len(contacts) and len(bounces) and bounces[0] > contacts[0]:
+            bx, by = rule["bounces_m"][0][:2]
+            in_box = bool(is_in_service_box(bx, by, int(rule["server_end"]), str(rule["side"])))
+            track = arr.pos_m[arr.start[ri]:arr.start[ri] + arr.length[ri], RECEIVER_SLOT, :2]
+            moved = float(np.hypot(*(track[bounces[0]] - track[contacts[0]])))
+        rows.append({"rally_id": int(rid), "in_box": in_box,
+                     "returned": in_box and int(rule["n_shots"]) >= 2, "moved_m": moved})
+    return pd.DataFrame(rows).set_index("rally_id")
+
+
+def _generic_vocab(data: RallyData) -> Vocab:
+    return Vocab.from_data(data, generic=True)
+
+
+def serve_branches(sim, truth: RallyData, seed: int = 0,
+                   horizon_s: float = HORIZON_S) -> tuple[RallyData, np.ndarray]:
+    """Each recorded serve rolled out once from `BRANCH_AFTER_FRAMES` frames after its contact
+    -> (the branches, the recorded rally id of each branch in order)."""
+    arr = rally_arrays(truth, _generic_vocab(truth))
+    serve_frame = truth.shots[truth.shots["shot_index"] == 0].set_index("rally_id")["frame"]
+    first = truth.frames.groupby("rally_id")["frame"].min()
+    rallies = truth.rallies.set_index("rally_id")
+    groups: dict[int, list[int]] = {}
+    for ri, rid in enumerate(arr.rally_id):
+        if rid not in serve_frame.index:
+            continue
+        k = int(serve_frame[rid] - first[rid]) + BRANCH_AFTER_FRAMES + 1
+        if k < arr.length[ri]:
+            groups.setdefault(k, []).append(ri)
+    parts, order = [], []
+    for g, (k, idx) in enumerate(sorted(groups.items())):
+        rids = arr.rally_id[idx]
+        plan = rallies.loc[rids].reset_index()[PLAN_COLUMNS].copy()
+        plan["rally_id"] = np.arange(len(plan)) + 100_000 * g
+        plan["match_id"] = "branch"
+        init = np.stack([arr.pos_m[arr.start[i]:arr.start[i] + k] for i in idx])
+        parts.append(sim.simulate_rallies(plan, seed=seed + g, init_pos_m=init,
+                                          max_duration_s=k / sim.fps + horizon_s))
+        order.extend(rids.tolist())
+    return RallyData.concat(parts), np.asarray(order)
+
+
+@torch.no_grad()
+def contact_probability(sim, truth: RallyData, outcomes: pd.DataFrame) -> float:
+    """Mean over returned recorded serves of the model's largest teacher-forced P(contact)
+    while the ball is within `REACH_M` of the receiver, from the bounce to the return (first
+    window of each rally)."""
+    model, cfg = sim.model, sim.model.cfg
+    arr = rally_arrays(truth, sim.vocab, unknown="generic")
+    windows = WindowDataset(arr, cfg.window_frames)
+    first = {ri: i for i, (ri, s) in enumerate(windows.items) if s == 0}
+    rules = analyse_rally_data(truth)
+    edges = model.ball_bins.edges[0]
+    far = ((edges[:-1] + edges[1:]) / 2).abs() > REVERSAL_M
+    best = []
+    for ri, rid in enumerate(arr.rally_id):
+        if not outcomes.at[rid, "returned"]:
+            continue
+        contacts, bounces = rules.at[rid, "contact_frames"], rules.at[rid, "bounce_frames"]
+        lo, hi = bounces[0], contacts[1]
+        if hi >= cfg.window_frames - 1:
+            continue
+        w = windows[first[ri]]
+        pos = np.asarray(w["pos_m"])
+        gap = np.hypot(*(pos[lo:hi + 1, BALL, :2] - pos[lo:hi + 1, RECEIVER_SLOT, :2]).T)
+        frames = lo + np.flatnonzero(gap <= REACH_M)
+        if not len(frames):
+            continue
+        h = window_states(model, default_collate([w]))[0, :, BALL]
+        p = model.ball_head.dim_logits(h, torch.zeros(len(h), 3, dtype=torch.long), 0)
+        best.append(float(p.softmax(-1)[frames][:, far].sum(-1).max()))
+    return float(np.mean(best)) if best else float("nan")
+
+
+def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.DataFrame:
+    """Every diagnostic of the module doc -> a table: signal, model, data (NaN where the
+    signal has no data side), n (serves, frames or, for a leak AUC, comparable pairs) and, for
+    the leak AUCs, the bootstrap interval lo-hi (blank under `MIN_LEAK_PAIRS` pairs)."""
+    truth = truth_points(setup)
+    truth_out = serve_outcomes(truth)
+    branches, order = serve_branches(sim, truth, seed=setup.seed)
+    branch_out = serve_outcomes(branches)
+    rows = []
+
+    def share(out, col, sel):
+        s = out.loc[sel, col]
+        return float(s.mean()) if len(s) else float("nan"), int(len(s))
+
+    m, n = share(branch_out, "returned", branch_out["in_box"])
+    d, _ = share(truth_out, "returned", truth_out["in_box"])
+    rows.append(("branch return share (serves in the box)", m, d, n))
+    still_m = branch_out.loc[branch_out["in_box"], "moved_m"] < STILL_M
+    still_d = truth_out.loc[truth_out["in_box"], "moved_m"] < STILL_M
+    rows.append(("receivers still at the bounce", float(still_m.mean()),
+                 float(still_d.mean()), int(len(still_m))))
+    arr = rally_arrays(branches, _generic_vocab(branches))
+    res = flight_residuals(rally_tracks(arr.pos_m, arr.start, arr.length), sim.fps)
+    s = res.summary(sim.model.cfg)
+    truth_arr = rally_arrays(truth, _generic_vocab(truth))
+    ts = flight_residuals(rally_tracks(truth_arr.pos_m, truth_arr.start, truth_arr.length),
+                          truth.fps).summary(sim.model.cfg)
+    for q in ("median", "p90"):
+        for ax in "xyz":
+            key = f"{q}_{ax}_mm"
+            rows.append((f"free-flight residual {q} {ax} (mm)", s[key], ts[key],
+                         int(s["frames"])))
+    rows.append(("free-flight frames in the physics step's centre bin",
+                 s.get("centre_bin_share", float("nan")), ts.get("centre_bin_share", float("nan")),
+                 int(s["frames"])))
+    rows.append(("contact probability within reach (returned serves)",
+                 contact_probability(sim, truth, truth_out), float("nan"),
+                 int(truth_out["returned"].sum())))
+    table = pd.DataFrame(rows, columns=["signal", "model", "data", "n"])
+    leaks = check_leaks(branches, n_boot=setup.leak_boot, seed=setup.seed)
+    leaks = leaks[leaks["pair"].isin(SERVE_PAIRS)]
+    few = leaks["n_pairs"] < MIN_LEAK_PAIRS
+    leak_rows = pd.DataFrame({
+        "signal": [f"leak AUC {r.pair} {r.role} {r.feature} k={int(r.k)}"
+                   for r in leaks.itertuples()],
+        "model": leaks["auc"].where(~few).to_numpy(float), "data": np.nan,
+        "n": leaks["n_pairs"].to_numpy(int),
+        "lo": leaks["lo"].where(~few).to_numpy(float),
+        "hi": leaks["hi"].where(~few).to_numpy(float)})
+    return pd.concat([table, leak_rows], ignore_index=True)

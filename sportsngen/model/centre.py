@@ -1,0 +1,112 @@
+"""Where the bins of an object's next-frame offset are centred.
+
+The model predicts each object's next position as a class over bins around a centre, so the
+centre decides what it must learn. Players: the current position ("current", the paper) or a
+constant-velocity extrapolation ("cv"). The ball (`ModelConfig.ball_centre`):
+
+- ``"current"``: the current position (the paper);
+- ``"velocity"``: one frame at the current velocity;
+- ``"physics"``: one step of the ball's flight. The acceleration (gravity, drag and Magnus
+  together) is read from the last three frames (the second difference), which carries the
+  spin without estimating it; where that reading is not a flight (a racket contact or a bounce
+  fell among those frames, or the track is too noisy: it departs from gravity plus drag by
+  more than `MAX_LIFT_MPS2`) the step uses gravity plus drag alone for those frames. A step
+  that would end below the ground bounces (`BOUNCE_RESTITUTION`).
+
+Velocities are backward differences (frame t minus frame t-1, times the frame rate), so the
+physics step is the exact extrapolation of a constant acceleration:
+``p(t+1) = p(t) + v(t) dt + a dt^2`` with ``a = (v(t) - v(t-1)) / dt``. In free flight of the
+generated ball the next frame then lies in the centre bin of all three dimensions for almost
+every frame (`docs/architecture.md`), and the model spends its capacity on contacts and
+bounces, not on re-learning the flight.
+"""
+
+from __future__ import annotations
+
+import torch
+
+from sportsngen.tennis.court import BALL_RADIUS_M
+
+BALL_CENTRES = ("physics", "velocity", "current")
+PLAYER_CENTRES = ("current", "cv")
+GRAVITY_MPS2 = 9.81
+# Drag per metre of a standard ball, rho pi R^2 C_d / (2 m) with air 1.21 kg/m^3, R 33.5 mm,
+# 57 g and C_d 0.55 (the generator's values, `sportsngen.synth.physics`): 51 m/s^2 at 50 m/s.
+DRAG_PER_M = 0.0206
+# Magnus of a rally ball is at most ~15 m/s^2 (8 m/s of topspin at 30 m/s: 6 m/s^2); a second
+# difference further than this from gravity plus drag holds a contact or a bounce.
+MAX_LIFT_MPS2 = 30.0
+# Vertical speed kept by a bounce inside the step (the surfaces' 0.73-0.80; the exact bounce
+# is the model's to learn, the centre only has to be near it).
+BOUNCE_RESTITUTION = 0.77
+
+
+def flight_acceleration_mps2(vel_mps: torch.Tensor) -> torch.Tensor:
+    """(..., 3) velocities -> gravity plus drag (..., 3), no spin."""
+    speed = torch.linalg.vector_norm(vel_mps, dim=-1, keepdim=True)
+    acc = -DRAG_PER_M * speed * vel_mps
+    acc[..., 2] -= GRAVITY_MPS2
+    return acc
+
+
+def ball_acceleration_mps2(vel_mps: torch.Tensor, prev_vel_mps: torch.Tensor | None,
+                           fps: float) -> torch.Tensor:
+    """The ball's acceleration over the next frame (..., 3): the track's second difference
+    where it reads as flight, else gravity plus drag (module doc)."""
+    base = flight_acceleration_mps2(vel_mps)
+    if prev_vel_mps is None:
+        return base
+    track = (vel_mps - prev_vel_mps) * fps
+    flight = torch.linalg.vector_norm(track - base, dim=-1, keepdim=True) <= MAX_LIFT_MPS2
+    # The second difference is the acceleration at frame t - 1; the step (velocity at
+    # t - 1/2 to t + 1/2) needs it at frame t, one frame later, by when drag has eased with the
+    # speed: uncorrected, a 30 m/s ball's step missed by 1.1 mm, more than the centre bin's
+    # half-width (0.9 mm in x at 61 non-uniform bins); corrected, by 0.3 mm.
+    eased = track + (base - flight_acceleration_mps2(prev_vel_mps))
+    return torch.where(flight, eased, base)
+
+
+def physics_step_m(pos_m: torch.Tensor, vel_mps: torch.Tensor,
+                   prev_vel_mps: torch.Tensor | None, fps: float) -> torch.Tensor:
+    """The ball's position one frame on (..., 3) from its position, velocity and previous
+    velocity (..., 3), bounced off the ground if the step ends below it."""
+    acc = ball_acceleration_mps2(vel_mps, prev_vel_mps, fps)
+    nxt = pos_m + vel_mps / fps + acc / (fps * fps)
+    z = nxt[..., 2]
+    below = (z < BALL_RADIUS_M) & (vel_mps[..., 2] < 0)
+    bounced = BALL_RADIUS_M + BOUNCE_RESTITUTION * (BALL_RADIUS_M - z)
+    return torch.cat([nxt[..., :2], torch.where(below, bounced, z)[..., None]], dim=-1)
+
+
+def player_centre_m(pos_m: torch.Tensor, vel_mps: torch.Tensor, fps: float,
+                    mode: str) -> torch.Tensor:
+    """Centre of a player's (or, with the legacy modes, any object's) bins."""
+    if mode == "current":
+        return pos_m
+    if mode == "cv":
+        return pos_m + vel_mps / fps
+    raise ValueError(f"bin centre must be one of {PLAYER_CENTRES}, got {mode!r}")
+
+
+def ball_centre_m(pos_m: torch.Tensor, vel_mps: torch.Tensor,
+                  prev_vel_mps: torch.Tensor | None, fps: float, mode: str) -> torch.Tensor:
+    """Centre of the ball's bins (..., 3) by `mode` (one of `BALL_CENTRES`)."""
+    if mode == "physics":
+        return physics_step_m(pos_m, vel_mps, prev_vel_mps, fps)
+    if mode == "velocity":
+        return pos_m + vel_mps / fps
+    if mode == "current":
+        return pos_m
+    raise ValueError(f"ball centre must be one of {BALL_CENTRES}, got {mode!r}")
+
+
+def object_centres_m(pos_m: torch.Tensor, vel_mps: torch.Tensor,
+                     prev_vel_mps: torch.Tensor | None, fps: float, player_mode: str,
+                     ball_mode: str, ball: int) -> torch.Tensor:
+    """Centres of all objects (..., N, 3): players by `player_mode`, object `ball` by
+    `ball_mode`."""
+    out = player_centre_m(pos_m, vel_mps, fps, player_mode).clone()
+    prev = None if prev_vel_mps is None else prev_vel_mps[..., ball, :]
+    out[..., ball, :] = ball_centre_m(pos_m[..., ball, :], vel_mps[..., ball, :], prev, fps,
+                                      ball_mode)
+    return out

@@ -1,0 +1,113 @@
+"""The bins' centres (`sportsngen.model.centre`): the ball's physics step against the
+generator's own flights, and its fallbacks at contacts and bounces."""
+
+import numpy as np
+import pytest
+import torch
+
+from sportsngen.model.centre import (
+    BALL_RADIUS_M,
+    DRAG_PER_M,
+    GRAVITY_MPS2,
+    MAX_LIFT_MPS2,
+    ball_acceleration_mps2,
+    ball_centre_m,
+    flight_acceleration_mps2,
+    object_centres_m,
+)
+from sportsngen.model.config import ModelConfig
+from sportsngen.synth.physics import DEFAULT_AERO, fly
+
+FPS = 25.0
+
+
+def track(flight, n_frames: int) -> torch.Tensor:
+    """Frames of a flight at 25 Hz (n, 3)."""
+    return torch.as_tensor(flight.at(np.arange(n_frames) / FPS), dtype=torch.float32)
+
+
+def miss_m(pos: torch.Tensor, mode: str) -> torch.Tensor:
+    """|next frame - centre| (n - 3, 3) for frames 2 .. n - 2 of a track."""
+    vel = (pos[1:] - pos[:-1]) * FPS           # backward differences of frames 1 ..
+    c = ball_centre_m(pos[2:-1], vel[1:-1], vel[:-2], FPS, mode)
+    return (pos[3:] - c).abs()
+
+
+def test_drag_constant_is_the_generators():
+    assert DRAG_PER_M == pytest.approx(DEFAULT_AERO.k_per_m * DEFAULT_AERO.drag_coefficient,
+                                       rel=0.01)
+
+
+@pytest.mark.parametrize("spin_mps", [0.0, 8.0, -4.0])
+def test_physics_step_follows_a_spinning_flight_to_a_millimetre(spin_mps):
+    # A rally ball with top- or backspin, before its bounce: constant velocity misses by
+    # centimetres (gravity alone moves it 1.6 cm a frame), the physics step by < 1 mm.
+    f = fly([-12.0, 1.0, 1.0], [30.0, -2.0, 4.0], spin_mps, "hard", 0.6, max_bounces=1)
+    pos = track(f, 14)
+    assert float(pos[:, 2].min()) > 0.3                       # no bounce in these frames
+    assert float(miss_m(pos, "physics").max()) < 0.4e-3
+    assert float(miss_m(pos, "velocity")[:, 2].min()) > 0.01
+    assert float(miss_m(pos, "current")[:, 0].min()) > 0.5
+
+
+def eased(vel: torch.Tensor, prev: torch.Tensor) -> torch.Tensor:
+    """The track's acceleration carried a frame on by the change of gravity plus drag."""
+    return (vel - prev) * FPS + (flight_acceleration_mps2(vel) - flight_acceleration_mps2(prev))
+
+
+def test_acceleration_reads_the_track_in_flight_and_falls_back_at_a_contact():
+    vel = torch.tensor([[30.0, 0.0, 2.0], [30.0, 0.0, 2.0]])
+    # In flight: the second difference (Magnus included), eased as drag eases.
+    flight_prev = vel[:1] - torch.tensor([[-19.0, 0.0, -12.0]]) / FPS
+    acc = ball_acceleration_mps2(vel[:1], flight_prev, FPS)
+    assert torch.allclose(acc, eased(vel[:1], flight_prev), atol=1e-4)
+    assert float((acc - torch.tensor([[-19.0, 0.0, -12.0]])).abs().max()) < 2.0
+    # A racket contact between the frames (the velocity reversed): gravity and drag only.
+    contact_prev = torch.tensor([[-25.0, 0.0, -3.0]])
+    acc = ball_acceleration_mps2(vel[:1], contact_prev, FPS)
+    speed = float(torch.linalg.vector_norm(vel[0]))
+    expect = torch.tensor([[-DRAG_PER_M * speed * 30.0, 0.0,
+                            -DRAG_PER_M * speed * 2.0 - GRAVITY_MPS2]])
+    assert torch.allclose(acc, expect, atol=1e-4)
+    # Without the earlier velocity (the rally's first frames): gravity and drag.
+    assert torch.allclose(ball_acceleration_mps2(vel, None, FPS), flight_acceleration_mps2(vel))
+
+
+def test_lift_threshold_separates_flight_from_contact():
+    vel = torch.tensor([[20.0, 0.0, 0.0]])
+    for extra, taken in ((MAX_LIFT_MPS2 - 1.0, True), (MAX_LIFT_MPS2 + 1.0, False)):
+        prev = vel - (flight_acceleration_mps2(vel) + torch.tensor([[0.0, 0.0, extra]])) / FPS
+        acc = ball_acceleration_mps2(vel, prev, FPS)
+        expect = eased(vel, prev) if taken else flight_acceleration_mps2(vel)
+        assert torch.allclose(acc, expect, atol=1e-3)
+
+
+def test_a_step_into_the_ground_bounces():
+    pos = torch.tensor([[0.0, 0.0, 0.1]])
+    vel = torch.tensor([[20.0, 0.0, -5.0]])          # 0.2 m down in a frame: below the ground
+    c = ball_centre_m(pos, vel, None, FPS, "physics")
+    assert float(c[0, 2]) > BALL_RADIUS_M
+    assert float(c[0, 0]) == pytest.approx(0.8 - DRAG_PER_M * float(vel.norm()) * 20.0 / 625,
+                                           abs=1e-4)
+    rising = ball_centre_m(pos, -vel * torch.tensor([1.0, 1.0, -1.0]), None, FPS, "physics")
+    assert float(rising[0, 2]) > 0.1                 # going up: no bounce
+
+
+def test_object_centres_mix_player_and_ball_modes():
+    pos = torch.zeros(2, 3, 3)
+    pos[:, 2, 2] = 1.0
+    vel = torch.ones(2, 3, 3)
+    c = object_centres_m(pos, vel, vel, FPS, "cv", "current", ball=2)
+    assert torch.allclose(c[:, :2], pos[:, :2] + vel[:, :2] / FPS)
+    assert torch.equal(c[:, 2], pos[:, 2])
+    with pytest.raises(ValueError, match="ball centre"):
+        ball_centre_m(pos[:, 2], vel[:, 2], None, FPS, "magnus")
+
+
+def test_model_files_saved_before_ball_centre_keep_their_centre():
+    assert ModelConfig.from_dict({"bin_centre": "cv"}).ball_centre == "velocity"
+    assert ModelConfig.from_dict({"bin_centre": "current"}).ball_centre == "current"
+    assert ModelConfig.from_dict({"bin_centre": "cv", "ball_centre": "physics"}).ball_centre \
+        == "physics"
+    with pytest.raises(ValueError, match="ball_centre"):
+        ModelConfig(ball_centre="spin")

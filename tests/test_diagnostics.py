@@ -1,0 +1,118 @@
+"""Rollout diagnostics (`sportsngen.eval.diagnostics`) and the free-flight residual
+(`sportsngen.eval.flight`): hand-made tracks with known answers, generated truth, and a run on
+the tiny test model."""
+
+import numpy as np
+import pytest
+
+from sportsngen.eval.diagnostics import (
+    DiagnosticsSetup,
+    run_diagnostics,
+    serve_outcomes,
+    truth_points,
+)
+from sportsngen.eval.flight import (
+    MIN_PLAYER_DISTANCE_M,
+    centre_bin_share,
+    flight_residuals,
+    free_flight_frames,
+)
+from sportsngen.model.config import ModelConfig
+from sportsngen.sim import Simulator
+
+FPS = 25.0
+
+
+def straight_track(n: int = 20, vel=(20.0, 1.0, 0.0), z: float = 2.0) -> np.ndarray:
+    """Players far away at the baselines, the ball on a straight line at constant velocity."""
+    pos = np.zeros((n, 3, 3))
+    pos[:, 0, :2] = (-12.0, 0.0)
+    pos[:, 1, :2] = (12.0, 0.0)
+    t = np.arange(n) / FPS
+    pos[:, 2] = np.array([-6.0, 0.0, z]) + np.outer(t, vel)
+    return pos
+
+
+def test_free_flight_frames_leave_out_the_edges_players_and_ground():
+    pos = straight_track()
+    ok = free_flight_frames(pos, FPS)
+    # frame t needs t - 2 .. t + 1 on the track
+    assert not ok[:2].any() and not ok[-1] and ok[2:-1].all()
+    near = pos.copy()
+    near[10, 1, :2] = near[10, 2, :2] + (MIN_PLAYER_DISTANCE_M - 0.1, 0.0)  # a player at hand
+    ok = free_flight_frames(near, FPS)
+    assert not ok[9:13].any() and ok[8] and ok[13]
+    low = straight_track(z=0.1)                                          # along the ground
+    assert not free_flight_frames(low, FPS).any()
+
+
+def test_residuals_of_a_straight_track_are_zero_for_velocity_and_physics():
+    # The physics step reads the track's own acceleration (here none): no gravity imposed.
+    for mode in ("velocity", "physics"):
+        res = flight_residuals([straight_track()], FPS, mode).residual_m
+        assert res.shape == (17, 3)
+        np.testing.assert_allclose(res, 0.0, atol=1e-9)
+    cur = flight_residuals([straight_track()], FPS, "current").residual_m
+    np.testing.assert_allclose(cur, np.tile([0.8, 0.04, 0.0], (17, 1)), atol=1e-9)
+    cfg = ModelConfig(bin_spacing="nonuniform")
+    assert centre_bin_share(np.zeros((4, 3)), cfg) == 1.0
+    assert centre_bin_share(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.01]]), cfg) == 0.5
+
+
+def test_generated_truth_follows_the_physics_step():
+    truth = truth_points(DiagnosticsSetup(n_points=30, seed=3))
+    assert set(truth.rallies["server"]) == {"Roger Federer"}
+    from sportsngen.data.tokens import Vocab, rally_arrays
+    from sportsngen.eval.flight import rally_tracks
+
+    arr = rally_arrays(truth, Vocab.from_data(truth, generic=True))
+    s = flight_residuals(rally_tracks(arr.pos_m, arr.start, arr.length), FPS).summary(
+        ModelConfig(bin_spacing="nonuniform"))
+    assert s["frames"] > 500
+    assert max(s["p90_x_mm"], s["p90_y_mm"], s["p90_z_mm"]) < 0.5
+    assert s["centre_bin_share"] > 0.95
+    vel = flight_residuals(rally_tracks(arr.pos_m, arr.start, arr.length), FPS, "velocity")
+    assert vel.summary()["median_z_mm"] > 10.0        # gravity alone: 16 mm a frame
+
+
+def test_serve_outcomes_agree_with_the_shots_table():
+    truth = truth_points(DiagnosticsSetup(n_points=40, seed=4))
+    out = serve_outcomes(truth)
+    shots = truth.shots
+    returned = set(shots.loc[shots["shot_index"] == 1, "rally_id"])
+    faults = set(shots.loc[(shots["shot_index"] == 0) & (shots["outcome"] == "error"),
+                           "rally_id"])
+    assert out["in_box"].sum() > 10
+    for rid, row in out.iterrows():
+        assert row["returned"] == (rid in returned)
+        if rid in faults:
+            assert not row["in_box"]
+
+
+def test_run_diagnostics_on_the_tiny_model(tiny_model_file):
+    sim = Simulator.from_pretrained(tiny_model_file, max_retries=0)
+    with pytest.warns(UserWarning, match="unknown player"):
+        table = run_diagnostics(sim, DiagnosticsSetup(n_points=24, seed=1, leak_boot=5))
+    signals = list(table["signal"])
+    assert signals[0] == "branch return share (serves in the box)"
+    assert "contact probability within reach (returned serves)" in signals
+    assert any(s.startswith("leak AUC ace_vs_returned") for s in signals)
+    data_side = table.set_index("signal")["data"]
+    assert data_side["free-flight residual p90 z (mm)"] < 0.5
+    assert 0.5 < data_side["branch return share (serves in the box)"] <= 1.0
+    shares = table[table["signal"].str.contains("share|still")]
+    assert shares["model"].between(0, 1).all()
+    leak = table[table["signal"].str.startswith("leak")]
+    assert {"lo", "hi"} <= set(table.columns)
+    assert leak.loc[leak["n"] < 30, "model"].isna().all()
+    ok = leak[leak["n"] >= 30]
+    assert ((ok["lo"] <= ok["model"]) & (ok["model"] <= ok["hi"])).all()
+
+
+def test_diagnose_command_refuses_bad_input(tmp_path, capsys):
+    from sportsngen.eval.__main__ import main
+
+    assert main(["diagnose", "--points", "5"]) == 2
+    assert "--points must be >= 20" in capsys.readouterr().err
+    assert main(["diagnose", "--model", str(tmp_path / "none.pt")]) == 2
+    assert "no model file" in capsys.readouterr().err
