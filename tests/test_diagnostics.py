@@ -7,6 +7,7 @@ import pytest
 
 from sportsngen.eval.diagnostics import (
     DiagnosticsSetup,
+    paired_return_gap,
     run_diagnostics,
     serve_outcomes,
     truth_points,
@@ -89,18 +90,35 @@ def test_serve_outcomes_agree_with_the_shots_table():
             assert not row["in_box"]
 
 
+def test_paired_return_gap_on_known_serves():
+    import pandas as pd
+
+    truth = pd.DataFrame({"in_box": [True] * 4, "returned": [True, True, True, False]},
+                         index=[10, 11, 12, 13])
+    branch = pd.DataFrame({"in_box": [True, True, False, True],
+                           "returned": [True, False, False, False]}, index=[0, 1, 2, 3])
+    order = pd.Series([10, 11, 12, 13], index=[0, 1, 2, 3])
+    gap, lo, hi = paired_return_gap(branch, truth, order, n_boot=200, seed=0)
+    assert gap == pytest.approx(1 / 3 - 3 / 4)
+    assert lo <= gap <= hi and hi - lo > 0.2
+    same, lo, hi = paired_return_gap(truth.set_axis([0, 1, 2, 3]), truth, order, 50, 0)
+    assert same == 0.0 and lo == 0.0 and hi == 0.0
+
+
 def test_run_diagnostics_on_the_tiny_model(tiny_model_file):
     sim = Simulator.from_pretrained(tiny_model_file, max_retries=0)
     with pytest.warns(UserWarning, match="unknown player"):
         table = run_diagnostics(sim, DiagnosticsSetup(n_points=24, seed=1, leak_boot=5))
     signals = list(table["signal"])
     assert signals[0] == "branch return share (serves in the box)"
+    assert signals[1] == "branch return share minus recorded (paired)"
     assert "contact probability within reach (returned serves)" in signals
     assert any(s.startswith("leak AUC ace_vs_returned") for s in signals)
     data_side = table.set_index("signal")["data"]
     assert data_side["free-flight residual p90 z (mm)"] < 0.5
     assert 0.5 < data_side["branch return share (serves in the box)"] <= 1.0
-    shares = table[table["signal"].str.contains("share|still")]
+    shares = table[table["signal"].str.contains("share|still") &
+                   ~table["signal"].str.contains("minus")]
     assert shares["model"].between(0, 1).all()
     leak = table[table["signal"].str.startswith("leak")]
     assert {"lo", "hi"} <= set(table.columns)
