@@ -82,21 +82,25 @@ def truth_points(setup: DiagnosticsSetup) -> RallyData:
 
 def serve_outcomes(data: RallyData) -> pd.DataFrame:
     """Per rally (rules on the tracks): serve in the box, returned, the receiver's movement
-    from the serve contact to the first bounce (m)."""
+    from the serve contact to the first bounce (m), the frames (from the rally's first) of
+    that bounce and of the return (-1 where there is none)."""
     rules = analyse_rally_data(data)
     arr = rally_arrays(data, _generic_vocab(data))
     rows = []
     for ri, rid in enumerate(arr.rally_id):
         rule = rules.loc[rid]
         contacts, bounces = rule["contact_frames"], rule["bounce_frames"]
-        in_box, moved = False, np.nan
+        in_box, moved, bounce = False, np.nan, -1
         if len(contacts) and len(bounces) and bounces[0] > contacts[0]:
+            bounce = int(bounces[0])
             bx, by = rule["bounces_m"][0][:2]
             in_box = bool(is_in_service_box(bx, by, int(rule["server_end"]), str(rule["side"])))
             track = arr.pos_m[arr.start[ri]:arr.start[ri] + arr.length[ri], RECEIVER_SLOT, :2]
             moved = float(np.hypot(*(track[bounces[0]] - track[contacts[0]])))
-        rows.append({"rally_id": int(rid), "in_box": in_box,
-                     "returned": in_box and int(rule["n_shots"]) >= 2, "moved_m": moved})
+        returned = in_box and int(rule["n_shots"]) >= 2
+        rows.append({"rally_id": int(rid), "in_box": in_box, "returned": returned,
+                     "moved_m": moved, "bounce_frame": bounce,
+                     "return_frame": int(contacts[1]) if returned else -1})
     return pd.DataFrame(rows).set_index("rally_id")
 
 
@@ -105,7 +109,7 @@ def _generic_vocab(data: RallyData) -> Vocab:
 
 
 def serve_branches(sim, truth: RallyData, seed: int = 0,
-                   horizon_s: float = HORIZON_S) -> tuple[RallyData, np.ndarray]:
+                   horizon_s: float = HORIZON_S) -> tuple[RallyData, pd.Series]:
     """Each recorded serve rolled out once from `BRANCH_AFTER_FRAMES` frames after its contact
     -> (the branches, a Series: branch rally id -> the recorded rally id it branched from)."""
     arr = rally_arrays(truth, _generic_vocab(truth))
@@ -156,35 +160,36 @@ def paired_return_gap(branch_out: pd.DataFrame, truth_out: pd.DataFrame, order: 
 
 
 @torch.no_grad()
-def contact_probability(sim, truth: RallyData, outcomes: pd.DataFrame) -> float:
-    """Mean over returned recorded serves of the model's largest teacher-forced P(contact)
-    while the ball is within `REACH_M` of the receiver, from the bounce to the return (first
-    window of each rally)."""
+def contact_probability(sim, truth: RallyData, outcomes: pd.DataFrame,
+                        batch_size: int = 32) -> tuple[float, int]:
+    """Mean over returned recorded serves (`serve_outcomes`) of the model's largest
+    teacher-forced P(contact) while the ball is within `REACH_M` of the receiver, from the
+    bounce to the return (first window of each rally, windows in batches) -> (mean, serves
+    averaged)."""
     model, cfg = sim.model, sim.model.cfg
     arr = rally_arrays(truth, sim.vocab, unknown="generic")
     windows = WindowDataset(arr, cfg.window_frames)
     first = {ri: i for i, (ri, s) in enumerate(windows.items) if s == 0}
-    rules = analyse_rally_data(truth)
     edges = model.ball_bins.edges[0]
     far = ((edges[:-1] + edges[1:]) / 2).abs() > REVERSAL_M
-    best = []
+    picked = []   # (window, frames within reach)
     for ri, rid in enumerate(arr.rally_id):
-        if not outcomes.at[rid, "returned"]:
-            continue
-        contacts, bounces = rules.at[rid, "contact_frames"], rules.at[rid, "bounce_frames"]
-        lo, hi = bounces[0], contacts[1]
-        if hi >= cfg.window_frames - 1:
+        lo, hi = outcomes.at[rid, "bounce_frame"], outcomes.at[rid, "return_frame"]
+        if not outcomes.at[rid, "returned"] or hi >= cfg.window_frames - 1:
             continue
         w = windows[first[ri]]
-        pos = np.asarray(w["pos_m"])
-        gap = np.hypot(*(pos[lo:hi + 1, BALL, :2] - pos[lo:hi + 1, RECEIVER_SLOT, :2]).T)
-        frames = lo + np.flatnonzero(gap <= REACH_M)
-        if not len(frames):
-            continue
-        h = window_states(model, default_collate([w]))[0, :, BALL]
-        p = model.ball_head.dim_logits(h, torch.zeros(len(h), 3, dtype=torch.long), 0)
-        best.append(float(p.softmax(-1)[frames][:, far].sum(-1).max()))
-    return float(np.mean(best)) if best else float("nan")
+        pos = w["pos_m"][lo:hi + 1]
+        gap = np.hypot(*(pos[:, BALL, :2] - pos[:, RECEIVER_SLOT, :2]).T)
+        if (gap <= REACH_M).any():
+            picked.append((w, lo + np.flatnonzero(gap <= REACH_M)))
+    best = []
+    for b0 in range(0, len(picked), batch_size):
+        chunk = picked[b0:b0 + batch_size]
+        h = window_states(model, default_collate([w for w, _ in chunk]))[:, :, BALL]
+        p = model.ball_head.dim_logits(h, torch.zeros(*h.shape[:2], 3, dtype=torch.long), 0)
+        p_contact = p.softmax(-1)[..., far].sum(-1)
+        best += [float(p_contact[i, frames].max()) for i, (_, frames) in enumerate(chunk)]
+    return (float(np.mean(best)) if best else float("nan")), len(best)
 
 
 def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.DataFrame:
@@ -223,9 +228,9 @@ def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.Dat
     rows.append(("free-flight frames in the physics step's centre bin",
                  s.get("centre_bin_share", float("nan")), ts.get("centre_bin_share", float("nan")),
                  int(s["frames"])))
-    rows.append(("contact probability within reach (returned serves)",
-                 contact_probability(sim, truth, truth_out), float("nan"),
-                 int(truth_out["returned"].sum())))
+    p_contact, n_contact = contact_probability(sim, truth, truth_out)
+    rows.append(("contact probability within reach (returned serves)", p_contact,
+                 float("nan"), n_contact))
     table = pd.DataFrame(rows, columns=["signal", "model", "data", "n"])
     gap_row = pd.DataFrame([{"signal": "branch return share minus recorded (paired)",
                              "model": gap, "data": np.nan, "n": len(order), "lo": lo, "hi": hi}])
