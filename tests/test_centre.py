@@ -10,6 +10,7 @@ from sportsngen.model.centre import (
     DRAG_PER_M,
     GRAVITY_MPS2,
     MAX_LIFT_MPS2,
+    MAX_LIFT_PER_M,
     ball_acceleration_mps2,
     ball_centre_m,
     flight_acceleration_mps2,
@@ -73,13 +74,28 @@ def test_acceleration_reads_the_track_in_flight_and_falls_back_at_a_contact():
     assert torch.allclose(ball_acceleration_mps2(vel, None, FPS), flight_acceleration_mps2(vel))
 
 
-def test_lift_threshold_separates_flight_from_contact():
-    vel = torch.tensor([[20.0, 0.0, 0.0]])
-    for extra, taken in ((MAX_LIFT_MPS2 - 1.0, True), (MAX_LIFT_MPS2 + 1.0, False)):
+@pytest.mark.parametrize("speed_mps", [5.0, 20.0, 45.0])
+def test_lift_threshold_is_what_magnus_can_do_at_that_speed(speed_mps):
+    # 5 m/s (a toss): 0.47 m/s^2; 20 m/s: 7.5 m/s^2; 45 m/s: capped at MAX_LIFT_MPS2.
+    limit = min(MAX_LIFT_PER_M * speed_mps ** 2, MAX_LIFT_MPS2)
+    assert limit == pytest.approx({5.0: 0.468, 20.0: 7.49, 45.0: 30.0}[speed_mps], abs=0.01)
+    vel = torch.tensor([[speed_mps, 0.0, 0.0]])
+    for extra, taken in ((0.9 * limit, True), (1.1 * limit, False)):
         prev = vel - (flight_acceleration_mps2(vel) + torch.tensor([[0.0, 0.0, extra]])) / FPS
         acc = ball_acceleration_mps2(vel, prev, FPS)
         expect = eased(vel, prev) if taken else flight_acceleration_mps2(vel)
         assert torch.allclose(acc, expect, atol=1e-3)
+
+
+def test_magnus_bound_is_the_generators_largest_lift():
+    # Topspin 100 m/s (far beyond any shot) at 30 m/s: the lift approaches, never passes, it.
+    f = fly([-12.0, 0.0, 1.0], [30.0, 0.0, 3.0], 100.0, "hard", 0.3, max_bounces=1)
+    pos = track(f, 5).double()
+    vel = (pos[1:] - pos[:-1]) * FPS
+    lift = (vel[1:] - vel[:-1]) * FPS - flight_acceleration_mps2(vel[1:]).double()
+    speed2 = (vel[1:] ** 2).sum(-1)
+    ratio = torch.linalg.vector_norm(lift, dim=-1) / speed2
+    assert float(ratio.max()) < MAX_LIFT_PER_M and float(ratio.min()) > 0.8 * MAX_LIFT_PER_M
 
 
 def test_a_step_into_the_ground_bounces():

@@ -246,7 +246,12 @@ def test_sample_next_players_on_ground_and_reproducible(ball_centre):
     pos = torch.rand(2, 6, 3, 3) + torch.tensor([0.0, 0.0, 1.0])
     pos[..., :2, 2] = 0
     vel = torch.randn(2, 6, 3, 3)
+    vel[..., 2, :] += torch.tensor([25.0, 0.0, 3.0])   # a rally ball
     prev = vel + 0.1 * torch.randn(2, 6, 3, 3)
+    # The ball's track: gravity and drag plus a lift Magnus could give at 25 m/s.
+    from sportsngen.model.centre import flight_acceleration_mps2
+    prev[..., 2, :] = vel[..., 2, :] - (flight_acceleration_mps2(vel[..., 2, :])
+                                        + 3.0 * torch.rand(2, 6, 3)) / 25.0
     with torch.no_grad():
         h = model(feats, ident, model.context_tokens(*ctx))
         a = model.sample_next(h, pos, vel, 0.9, 0.9, torch.Generator().manual_seed(3), prev)
@@ -334,3 +339,24 @@ def test_paper_joint_heads_size():
     assert m.player_head.proj.out_features == 61 ** 2
     assert m.ball_head.proj.out_features == 61 ** 3 == 226981
     assert math.isclose(m.ball_bins.edges[0, -1].item(), 80.0 / 25.0, rel_tol=1e-6)
+
+
+@pytest.mark.parametrize("ball_centre", ["velocity", "physics"])
+def test_physics_centred_ball_in_the_centre_bin_stays_on_the_step(ball_centre, monkeypatch):
+    # Uniform noise inside the centre bin would be integrated three times by a step that
+    # reads the acceleration from the track: with the physics centre the ball takes the step.
+    model = make_model(bin_centre="cv", ball_centre=ball_centre)
+    n = model.cfg.n_bins
+    monkeypatch.setattr(model.ball_head, "sample",
+                        lambda h, top_p, gen: torch.full((*h.shape[:-1], 3), n // 2))
+    pos = torch.tensor([[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [-5.0, 1.0, 2.0]]])
+    vel = torch.tensor([[[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [20.0, 0.0, 3.0]]])
+    h = torch.zeros(1, 3, model.cfg.d_model)
+    nxt = model.sample_next(h, pos, vel, generator=torch.Generator().manual_seed(0),
+                            prev_vel_mps=vel)
+    off = nxt[0, 2] - model.centres(pos, vel, vel)[0, 2]
+    half = model.ball_bins.width(torch.full((3,), n // 2)) / 2
+    if ball_centre == "physics":
+        assert torch.equal(off, torch.zeros(3))
+    else:
+        assert (off != 0).all() and (off.abs() <= half).all()

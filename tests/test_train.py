@@ -17,6 +17,7 @@ from sportsngen.data.toy import make_toy_rallies
 from sportsngen.model import load_model
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.decoder import SportsNGEN
+from sportsngen.model.export import read_extra
 from sportsngen.train.datamodule import load_rally_data
 from sportsngen.train.evaluate import data_config, evaluate_held_out, metrics_table
 from sportsngen.train.finetune import (
@@ -216,18 +217,23 @@ def test_train_py_through_hydra_resume_mismatch_and_finetune(tmp_path, monkeypat
                                     "events.retrain=true", "events.max_steps=2"]),
                           tmp_path / "g")
     m4, ec4 = load_model(g["model_file"])[:2]
+    # Serve starts: a player's fine-tune adds his to the base pool; a fine-tune on whole
+    # data (here the same data) keeps that data's pool alone, never the base's beside it.
+    pool = {name: len(read_extra(run["model_file"])["initial_conditions"]["server"])
+            for name, run in (("base", summary), ("player", ft), ("data", g))}
+    assert pool["data"] == pool["base"] and pool["player"] > pool["base"]
     for k, v in model.state_dict().items():
         assert torch.equal(v, m4.state_dict()[k]), k
     assert not all(torch.equal(v, ec4.state_dict()[k]) for k, v in ec.state_dict().items())
 
     # Re-centre the ball's bins while fine-tuning: the same weights start, the new centre
     # is saved; a wrong name is refused.
-    assert cfg.ball_centre == "physics"
+    assert cfg.ball_centre == "velocity"
     rc = train_from_config(_compose([*fast, f"init={out / 'model.pt'}", "trainer.max_steps=0",
-                                     "init_ball_centre=velocity", "events.enabled=false"]),
+                                     "init_ball_centre=physics", "events.enabled=false"]),
                            tmp_path / "rc")
     m5, _, _, cfg5 = load_model(rc["model_file"])
-    assert cfg5.ball_centre == "velocity" and cfg5.bin_centre == cfg.bin_centre
+    assert cfg5.ball_centre == "physics" and cfg5.bin_centre == cfg.bin_centre
     for k, v in model.state_dict().items():
         assert torch.equal(v, m5.state_dict()[k]), k
     with pytest.raises(ValueError, match="ball_centre"):

@@ -9,8 +9,9 @@ constant-velocity extrapolation ("cv"). The ball (`ModelConfig.ball_centre`):
 - ``"physics"``: one step of the ball's flight. The acceleration (gravity, drag and Magnus
   together) is read from the last three frames (the second difference), which carries the
   spin without estimating it; where that reading is not a flight (a racket contact or a bounce
-  fell among those frames, or the track is too noisy: it departs from gravity plus drag by
-  more than `MAX_LIFT_MPS2`) the step uses gravity plus drag alone for those frames. A step
+  fell among those frames, a toss left the hand, or the track is too noisy: it departs from
+  gravity plus drag by more than Magnus could at that speed, `MAX_LIFT_PER_M` |v|^2, capped
+  at `MAX_LIFT_MPS2`) the step uses gravity plus drag alone for those frames. A step
   that would end below the ground bounces (`BOUNCE_RESTITUTION`).
 
 Velocities are backward differences (frame t minus frame t-1, times the frame rate), so the
@@ -36,6 +37,12 @@ DRAG_PER_M = 0.0206
 # Magnus of a rally ball is at most ~15 m/s^2 (8 m/s of topspin at 30 m/s: 6 m/s^2); a second
 # difference further than this from gravity plus drag holds a contact or a bounce.
 MAX_LIFT_MPS2 = 30.0
+# Magnus can do no more than k |v|^2 / 2 for any spin (the generator's lift coefficient
+# spin / (2 |spin| + |v|) is under 1/2; k = DRAG_PER_M / C_d): 0.5 m/s^2 for a 5 m/s toss,
+# 17 m/s^2 at 30 m/s. A slow ball's second difference beyond that is no flight: read as one,
+# a toss's release (the hand stops, the ball flies on) was carried on as a 20-30 m/s^2 "lift"
+# that flew the model's own tosses backwards past the server (docs/evaluation.md).
+MAX_LIFT_PER_M = DRAG_PER_M / 0.55 / 2.0
 # Vertical speed kept by a bounce inside the step (the surfaces' 0.73-0.80; the exact bounce
 # is the model's to learn, the centre only has to be near it).
 BOUNCE_RESTITUTION = 0.77
@@ -57,7 +64,9 @@ def ball_acceleration_mps2(vel_mps: torch.Tensor, prev_vel_mps: torch.Tensor | N
     if prev_vel_mps is None:
         return base
     track = (vel_mps - prev_vel_mps) * fps
-    flight = torch.linalg.vector_norm(track - base, dim=-1, keepdim=True) <= MAX_LIFT_MPS2
+    speed2 = (vel_mps * vel_mps).sum(dim=-1, keepdim=True)
+    limit = torch.clamp(MAX_LIFT_PER_M * speed2, max=MAX_LIFT_MPS2)
+    flight = torch.linalg.vector_norm(track - base, dim=-1, keepdim=True) <= limit
     # The second difference is the acceleration at frame t - 1; the step (velocity at
     # t - 1/2 to t + 1/2) needs it at frame t, one frame later, by when drag has eased with the
     # speed: uncorrected, a 30 m/s ball's step missed by 1.1 mm, more than the centre bin's

@@ -40,9 +40,11 @@ class ModelConfig:
     head_hidden: int = 128               # width of the factorised heads' conditional MLPs
     bin_spacing: str = "uniform"         # "uniform" (paper) or "nonuniform" (finer near 0)
     bin_centre: str = "current"          # players: "current" (paper) or "cv" (constant velocity)
-    # The ball: "physics" (one flight step: gravity, drag, Magnus read from the track),
-    # "velocity" (constant velocity) or "current" (the paper); `sportsngen.model.centre`.
-    ball_centre: str = "physics"
+    # The ball: "velocity" (constant velocity), "physics" (one flight step: gravity, drag,
+    # Magnus read from the track) or "current" (the paper); `sportsngen.model.centre`. Chosen by
+    # the model's own serves and simulated points (docs/evaluation.md): physics makes a flight
+    # exact but carries the bin error of every decision frame through it.
+    ball_centre: str = "velocity"
     player_max_speed_mps: float = 10.0   # bin range: offsets up to this speed over one frame
     ball_max_speed_mps: tuple[float, float, float] = (80.0, 40.0, 40.0)
     window_s: float = 6.0

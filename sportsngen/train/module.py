@@ -8,10 +8,11 @@ import time
 import lightning as L
 import torch
 
-from sportsngen.data.tokens import Vocab, check_finite, object_features
+from sportsngen.data.tokens import BALL, Vocab, check_finite, object_features
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.model.event_classifier import EventClassifier
+from sportsngen.train.closed_loop import ClosedLoopConfig, mix_closed_loop
 from sportsngen.train.metrics import NextFrameMetrics, window_states
 
 
@@ -72,7 +73,8 @@ class DecoderModule(L.LightningModule):
     def __init__(self, model_cfg: dict, vocab: dict, lr: float = 3e-4,
                  weight_decay: float = 0.01, warmup_steps: int = 50,
                  trainable_id_rows: list[int] | None = None, contact_weight: float = 1.0,
-                 onset_weight: float = 1.0, change_weight: float = 1.0):
+                 onset_weight: float = 1.0, change_weight: float = 1.0,
+                 closed_loop: dict | None = None):
         super().__init__()
         weights = {"contact_weight": contact_weight, "onset_weight": onset_weight,
                    "change_weight": change_weight}
@@ -95,6 +97,8 @@ class DecoderModule(L.LightningModule):
         self._n_tokens = 0
         self._steps_timed = 0
         self._val_metrics = NextFrameMetrics()
+        self.closed_loop = ClosedLoopConfig(**(closed_loop or {}))
+        self._cl_generator: torch.Generator | None = None
 
     def _forward(self, batch: dict):
         h = window_states(self.model, batch)
@@ -114,7 +118,11 @@ class DecoderModule(L.LightningModule):
         be struck lets it fly past the player, and one unsure on which frame the receiver
         reacts leaves him standing (a receiver who has not moved by then is, in the data,
         watching an ace).
-        Weighting them spends more of the training on them and raises their probability."""
+        Weighting them spends more of the training on them and raises their probability.
+
+        A batch with a `token_mask` (B, T, 3) (closed-loop windows, `sportsngen.train.
+        closed_loop`) counts only the tokens it marks; without one, every token with a next
+        frame counts."""
         m = batch["has_next"]
         w = self.hparams.contact_weight
         if w != 1.0:
@@ -124,15 +132,39 @@ class DecoderModule(L.LightningModule):
             if w != 1.0:
                 mask = tokens(batch["vel_mps"], batch["pos_m"], batch["next_pos_m"], self.cfg.fps)
                 p_nll = p_nll * (1.0 + (w - 1.0) * mask.to(p_nll.dtype))
-        return (_masked_mean(p_nll.sum(-1), m) + _masked_mean(b_nll, m)) / 3.0
+        tokens = batch.get("token_mask")
+        if tokens is None:
+            return (_masked_mean(p_nll.sum(-1), m) + _masked_mean(b_nll, m)) / 3.0
+        # Per token: a player's mean times two is the frame's two-player sum, as above.
+        return (2.0 * _masked_mean(p_nll, tokens[..., :BALL])
+                + _masked_mean(b_nll, tokens[..., BALL])) / 3.0
 
     def training_step(self, batch: dict, batch_idx: int) -> torch.Tensor:
+        if self.closed_loop.fraction > 0:
+            batch = self._closed_loop_batch(batch)
         _, _, _, p_nll, b_nll = self._forward(batch)
         loss = self.loss(p_nll, b_nll, batch)
         self.log("train/loss", loss, prog_bar=True)
         self._n_frames += int(batch["valid"].sum())
         self._n_tokens += int(batch["valid"].sum()) * 3 + 4 * batch["valid"].shape[0]
         return loss
+
+    def _closed_loop_batch(self, batch: dict) -> dict:
+        """A share of the batch rolled out by the model itself (`closest_of_k`), logged: the
+        share of the rolled tokens kept in the loss and of the frames where the record took
+        over the players and the ball."""
+        if self._cl_generator is None:
+            # Its own stream, seeded by the run's seed and rank: resumed runs draw anew, which
+            # only changes which candidates are drawn.
+            self._cl_generator = torch.Generator(device=self.device)
+            self._cl_generator.manual_seed(int(torch.initial_seed() % 2 ** 31)
+                                           + 7919 * self.global_rank)
+        batch = mix_closed_loop(self.model, batch, self.closed_loop, self._cl_generator)
+        summary = batch["closed_loop_summary"]
+        for key in ("kept", "snapped_player", "snapped_ball"):
+            if key in summary:
+                self.log(f"train/cl_{key}", summary[key])
+        return batch
 
     # Throughput: wall time of training batches (data loading included), from the third step
     # on, with validation runs left out.
