@@ -96,6 +96,24 @@ def test_serve_outcomes_agree_with_the_shots_table():
             assert not row["in_box"]
 
 
+def test_serve_outcomes_of_a_bounce_just_past_the_last_frame(monkeypatch):
+    # The rules may round a cut-off rally's last bounce to the frame after its last one.
+    import sportsngen.eval.diagnostics as diagnostics
+
+    truth = truth_points(DiagnosticsSetup(n_points=20, seed=4))
+    real = diagnostics.analyse_rally_data(truth)
+    length = truth.frames.groupby("rally_id")["frame"].nunique()
+    shifted = real.copy()
+    shifted["bounce_frames"] = [[int(length[rid])] + list(b[1:]) if len(b) else b
+                                for rid, b in zip(shifted.index, shifted["bounce_frames"])]
+    monkeypatch.setattr(diagnostics, "analyse_rally_data", lambda data: shifted)
+    out = serve_outcomes(truth)
+    arr_len = {rid: int(n) for rid, n in length.items()}
+    moved = out.loc[out["bounce_frame"] >= 0]
+    assert len(moved) > 5 and moved["moved_m"].notna().all()
+    assert all(row.bounce_frame == arr_len[rid] for rid, row in moved.iterrows())
+
+
 def test_paired_return_gap_on_known_serves():
     import pandas as pd
 

@@ -105,7 +105,10 @@ def serve_outcomes(data: RallyData) -> pd.DataFrame:
             bx, by = rule["bounces_m"][0][:2]
             in_box = bool(is_in_service_box(bx, by, int(rule["server_end"]), str(rule["side"])))
             track = arr.pos_m[arr.start[ri]:arr.start[ri] + arr.length[ri], RECEIVER_SLOT, :2]
-            moved = float(np.hypot(*(track[bounces[0]] - track[contacts[0]])))
+            # The rules round an event to the nearer frame of its step, which for a rally cut
+            # short (a branch's horizon) can be the frame after its last one.
+            last = len(track) - 1
+            moved = float(np.hypot(*(track[min(bounce, last)] - track[min(contacts[0], last)])))
         returned = in_box and int(rule["n_shots"]) >= 2
         rows.append({"rally_id": int(rid), "in_box": in_box, "returned": returned,
                      "moved_m": moved, "bounce_frame": bounce,
