@@ -1,0 +1,130 @@
+"""What the output bins themselves cost a rollout, measured without any model.
+
+A model samples a bin, then a point inside it, so even a perfect model places each frame only
+to within its bin. Two measurements of what that does to the ball (`docs/evaluation.md`):
+
+- `centre_noise_drift`: a ball flying free, every frame in the centre bin, the point drawn
+  uniformly inside it, each next centre the ball centre of `sportsngen.model.centre`. The
+  physics step reads the acceleration from the last three frames, so that noise is integrated
+  three times; the constant-velocity or gravity-and-drag steps integrate it twice. Returns how
+  far the flight drifts from the same flight without noise.
+- `serves_redrawn_in_bins`: recorded serves whose two frames after the strike (where the
+  ball's offset is large and the bins wide) are drawn again inside their own bins, then flown on
+  by the physics step to the first bounce. Returns the share landing in the service box, against
+  the record and against the same flight loop on the unchanged record.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from sportsngen.data.tokens import BALL, Vocab, rally_arrays
+from sportsngen.data.tracking import RallyData
+from sportsngen.eval.rules import analyse_rally_data
+from sportsngen.model.bins import Bins
+from sportsngen.model.centre import (
+    BALL_RADIUS_M,
+    ball_acceleration_mps2,
+    flight_acceleration_mps2,
+    physics_step_m,
+)
+from sportsngen.tennis.court import is_in_service_box
+
+BALL_MAX_SPEED_MPS = (80.0, 40.0, 40.0)   # the model's default bin range (`ModelConfig`)
+MAX_FLIGHT_FRAMES = 80
+
+
+def ball_bins(n_bins: int = 61, spacing: str = "nonuniform", fps: float = 25.0) -> Bins:
+    """The ball's bins of a model with these settings (and the default range)."""
+    return Bins(tuple(s / fps for s in BALL_MAX_SPEED_MPS), n_bins, spacing)
+
+
+def centre_noise_drift(n_flights: int = 2000, frames: tuple[int, ...] = (10, 25, 50),
+                       use_track_acceleration: bool = True, n_bins: int = 61,
+                       spacing: str = "nonuniform", fps: float = 25.0,
+                       seed: int = 0) -> dict[int, np.ndarray]:
+    """90th percentile of |noisy - exact| position (m, per axis) after each of `frames` frames
+    of a 30 m/s rally ball's free flight whose every frame falls in the centre bin, placed
+    uniformly inside it; the centre is the physics step, reading the track's acceleration or
+    (`use_track_acceleration=False`) gravity and drag alone."""
+    gen = torch.Generator().manual_seed(seed)
+    half = ball_bins(n_bins, spacing, fps).width(torch.full((3,), n_bins // 2)).double() / 2
+    pos = torch.tensor([-11.0, 0.0, 1.0], dtype=torch.float64).repeat(n_flights, 1)
+    vel = torch.tensor([30.0, 1.0, 6.0], dtype=torch.float64).repeat(n_flights, 1)
+    hist = [pos.clone()]
+    for _ in range(2):                       # two clean frames: a velocity and an acceleration
+        acc = flight_acceleration_mps2(vel)
+        pos = pos + vel / fps + acc / fps ** 2
+        vel = vel + acc / fps
+        hist.append(pos.clone())
+    noisy, exact = list(hist), list(hist)
+    out = {}
+    for t in range(1, max(frames) + 1):
+        for track, noise in ((noisy, True), (exact, False)):
+            v = (track[-1] - track[-2]) * fps
+            pv = (track[-2] - track[-3]) * fps if use_track_acceleration else None
+            nxt = physics_step_m(track[-1], v, pv, fps)
+            if noise:
+                u = torch.rand(n_flights, 3, generator=gen, dtype=torch.float64)
+                nxt = nxt + (2 * u - 1) * half
+            track.append(nxt)
+        if t in frames:
+            out[t] = (noisy[-1] - exact[-1]).abs().quantile(0.9, dim=0).numpy()
+    return out
+
+
+def _landing_in_box(track: list[torch.Tensor], server_end: int, side: str, fps: float) -> bool:
+    """Fly the ball on from the last three frames of `track` by the physics step (no bounce
+    inside a step) to where it reaches the ground; in the service box?"""
+    hist = list(track)
+    for _ in range(MAX_FLIGHT_FRAMES):
+        pos, vel = hist[-1], (hist[-1] - hist[-2]) * fps
+        acc = ball_acceleration_mps2(vel, (hist[-2] - hist[-3]) * fps, fps)
+        nxt = pos + vel / fps + acc / fps ** 2
+        if nxt[2] < BALL_RADIUS_M:
+            s = (pos[2] - BALL_RADIUS_M) / (pos[2] - nxt[2])
+            x, y = (pos[:2] + s * (nxt[:2] - pos[:2])).tolist()
+            return bool(is_in_service_box(x, y, server_end, side))
+        hist.append(nxt)
+    return False
+
+
+def serves_redrawn_in_bins(truth: RallyData, n_bins: int = 61, spacing: str = "nonuniform",
+                           seed: int = 0) -> dict[str, float]:
+    """Shares of recorded serves landing in the box: as recorded (the rules' first bounce),
+    flown on from the record by the physics step ("loop", the method's own error), and with
+    the two frames after the strike re-drawn uniformly inside their bins ("redrawn"); plus
+    `n`, the serves counted (those with a bounce)."""
+    fps = float(truth.fps)
+    bins = ball_bins(n_bins, spacing, fps)
+    gen = torch.Generator().manual_seed(seed)
+    rules = analyse_rally_data(truth)
+    arr = rally_arrays(truth, Vocab.from_data(truth, generic=True))
+    serve_frame = truth.shots[truth.shots["shot_index"] == 0].set_index("rally_id")["frame"]
+    first = truth.frames.groupby("rally_id")["frame"].min()
+    counts = {"record": 0, "loop": 0, "redrawn": 0, "n": 0}
+    for ri, rid in enumerate(arr.rally_id):
+        rule = rules.loc[rid]
+        if rid not in serve_frame.index or not len(rule["bounce_frames"]):
+            continue
+        f = int(serve_frame[rid] - first[rid])
+        ball = arr.pos_m[arr.start[ri]:arr.start[ri] + arr.length[ri], BALL].astype(np.float64)
+        if f < 3 or f + 3 > len(ball):
+            continue
+        end, side = int(rule["server_end"]), str(rule["side"])
+        bx, by = rule["bounces_m"][0][:2]
+        counts["n"] += 1
+        counts["record"] += bool(is_in_service_box(bx, by, end, side))
+        track = [torch.as_tensor(p) for p in ball[:f + 3]]
+        counts["loop"] += _landing_in_box(track, end, side, fps)
+        for k in (f + 1, f + 2):
+            centre = physics_step_m(track[k - 1], (track[k - 1] - track[k - 2]) * fps,
+                                    (track[k - 2] - track[k - 3]) * fps, fps)
+            idx = bins.index((track[k] - centre).float()[None])
+            u = torch.rand(1, 3, generator=gen)
+            track[k] = centre + bins.value(idx, u)[0].double()
+        counts["redrawn"] += _landing_in_box(track, end, side, fps)
+    n = max(counts["n"], 1)
+    return {"record": counts["record"] / n, "loop": counts["loop"] / n,
+            "redrawn": counts["redrawn"] / n, "n": counts["n"]}

@@ -1,0 +1,34 @@
+"""What the bins alone cost a rollout (`sportsngen.eval.bin_resolution`), without a model."""
+
+import pytest
+
+from sportsngen.eval.bin_resolution import centre_noise_drift, serves_redrawn_in_bins
+from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
+
+
+def test_centre_bin_noise_is_integrated_three_times_by_the_track_acceleration():
+    track = centre_noise_drift(n_flights=500, frames=(10, 25))
+    plain = centre_noise_drift(n_flights=500, frames=(10, 25), use_track_acceleration=False)
+    # Under a millimetre a frame, yet half a metre after a second (gravity and drag: 5 cm).
+    assert track[25][0] > 0.3 and plain[25][0] < 0.1
+    assert track[25][0] > 5 * track[10][0]
+    # Finer bins near the centre (241 non-uniform: 1/16 the width) shrink it with them.
+    fine = centre_noise_drift(n_flights=500, frames=(10,), n_bins=241)
+    assert fine[10][0] < track[10][0] / 8
+
+
+@pytest.fixture(scope="module")
+def truth():
+    return truth_points(DiagnosticsSetup(n_points=80, seed=2))
+
+
+def test_serves_redrawn_in_their_bins_land_in_the_box_less_often(truth):
+    coarse = serves_redrawn_in_bins(truth, n_bins=61)
+    fine = serves_redrawn_in_bins(truth, n_bins=2001)
+    assert coarse["n"] == fine["n"] > 40
+    # The flight loop itself follows the record (the rules' bounce) closely ...
+    assert coarse["loop"] == fine["loop"]
+    assert abs(coarse["loop"] - coarse["record"]) < 0.06
+    # ... so what bins of 2001 lose is small, and bins of 61 lose a third of the serves.
+    assert abs(fine["redrawn"] - fine["loop"]) < 0.05
+    assert coarse["redrawn"] < coarse["loop"] - 0.2
