@@ -21,6 +21,7 @@ import torch
 
 from sportsngen.data.tokens import BALL, Vocab, rally_arrays
 from sportsngen.data.tracking import RallyData
+from sportsngen.eval.diagnostics import serve_strike_frames
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.model.bins import Bins
 from sportsngen.model.centre import (
@@ -29,15 +30,18 @@ from sportsngen.model.centre import (
     flight_acceleration_mps2,
     physics_step_m,
 )
+from sportsngen.model.config import ModelConfig
 from sportsngen.tennis.court import is_in_service_box
 
-BALL_MAX_SPEED_MPS = (80.0, 40.0, 40.0)   # the model's default bin range (`ModelConfig`)
 MAX_FLIGHT_FRAMES = 80
 
 
 def ball_bins(n_bins: int = 61, spacing: str = "nonuniform", fps: float = 25.0) -> Bins:
-    """The ball's bins of a model with these settings (and the default range)."""
-    return Bins(tuple(s / fps for s in BALL_MAX_SPEED_MPS), n_bins, spacing)
+    """The ball's bins of a model with these settings (the default range otherwise), as the
+    decoder builds them."""
+    cfg = ModelConfig(n_bins=n_bins, bin_spacing=spacing, fps=fps)
+    dt = 1.0 / cfg.fps
+    return Bins(tuple(v * dt for v in cfg.ball_max_speed_mps), cfg.n_bins, cfg.bin_spacing)
 
 
 def centre_noise_drift(n_flights: int = 2000, frames: tuple[int, ...] = (10, 25, 50),
@@ -101,14 +105,13 @@ def serves_redrawn_in_bins(truth: RallyData, n_bins: int = 61, spacing: str = "n
     gen = torch.Generator().manual_seed(seed)
     rules = analyse_rally_data(truth)
     arr = rally_arrays(truth, Vocab.from_data(truth, generic=True))
-    serve_frame = truth.shots[truth.shots["shot_index"] == 0].set_index("rally_id")["frame"]
-    first = truth.frames.groupby("rally_id")["frame"].min()
+    strike = serve_strike_frames(truth)
     counts = {"record": 0, "loop": 0, "redrawn": 0, "n": 0}
     for ri, rid in enumerate(arr.rally_id):
         rule = rules.loc[rid]
-        if rid not in serve_frame.index or not len(rule["bounce_frames"]):
+        if rid not in strike.index or not len(rule["bounce_frames"]):
             continue
-        f = int(serve_frame[rid] - first[rid])
+        f = int(strike[rid])
         ball = arr.pos_m[arr.start[ri]:arr.start[ri] + arr.length[ri], BALL].astype(np.float64)
         if f < 3 or f + 3 > len(ball):
             continue

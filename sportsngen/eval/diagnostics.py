@@ -26,8 +26,8 @@ Federer serving to Rafael Nadal on hard) and compare the model with that truth:
   the model file, as `simulate_points` plays them): the share struck at all (the rules stop a
   rally with no serve after 4 s), struck from the server's place, landing in the box and
   returned. The branches start after the recorded strike, so only these show a model that
-  drops its own toss (a physics-centred fine-tune left 12-17 % of its service points
-  without a serve while its branches returned 87 %, docs/evaluation.md);
+  drops its own toss (a physics-centred fine-tune struck no serve in 12-17 % of its rallies
+  while its branches returned 87 % of serves, docs/evaluation.md);
 - **leak check on rollouts** (`sportsngen.eval.leaks`, the serve pairs, with bootstrap
   intervals; cells on fewer than `MIN_LEAK_PAIRS` comparable pairs left blank): whether the
   model's players, after the branch point, move as if they knew the serve's outcome.
@@ -120,19 +120,26 @@ def _generic_vocab(data: RallyData) -> Vocab:
     return Vocab.from_data(data, generic=True)
 
 
+def serve_strike_frames(data: RallyData) -> pd.Series:
+    """Rally id -> the frame of its serve's strike (shots table, `shot_index` 0), counted from
+    the rally's first frame (rallies without a serve left out)."""
+    strike = data.shots[data.shots["shot_index"] == 0].set_index("rally_id")["frame"]
+    first = data.frames.groupby("rally_id")["frame"].min()
+    return (strike - first.reindex(strike.index)).astype(int)
+
+
 def serve_branches(sim, truth: RallyData, seed: int = 0,
                    horizon_s: float = HORIZON_S) -> tuple[RallyData, pd.Series]:
     """Each recorded serve rolled out once from `BRANCH_AFTER_FRAMES` frames after its contact
     -> (the branches, a Series: branch rally id -> the recorded rally id it branched from)."""
     arr = rally_arrays(truth, _generic_vocab(truth))
-    serve_frame = truth.shots[truth.shots["shot_index"] == 0].set_index("rally_id")["frame"]
-    first = truth.frames.groupby("rally_id")["frame"].min()
+    strike = serve_strike_frames(truth)
     rallies = truth.rallies.set_index("rally_id")
     groups: dict[int, list[int]] = {}
     for ri, rid in enumerate(arr.rally_id):
-        if rid not in serve_frame.index:
+        if rid not in strike.index:
             continue
-        k = int(serve_frame[rid] - first[rid]) + BRANCH_AFTER_FRAMES + 1
+        k = int(strike[rid]) + BRANCH_AFTER_FRAMES + 1
         if k < arr.length[ri]:
             groups.setdefault(k, []).append(ri)
     parts, order = [], []
@@ -221,13 +228,12 @@ def serve_contact_probability(sim, truth: RallyData, batch_size: int = 32) -> tu
     frame either side) -> (mean, serves averaged). The serve is the one contact no rollout
     can branch past: a model unsure of it drops the toss ("no_serve")."""
     arr, first = _first_windows(sim, truth)
-    serve_frame = truth.shots[truth.shots["shot_index"] == 0].set_index("rally_id")["frame"]
-    start = truth.frames.groupby("rally_id")["frame"].min()
+    strike = serve_strike_frames(truth)
     picked = []
     for ri, rid in enumerate(arr.rally_id):
-        if rid not in serve_frame.index:
+        if rid not in strike.index:
             continue
-        f = int(serve_frame[rid] - start[rid])
+        f = int(strike[rid])
         if 2 <= f < sim.model.cfg.window_frames - 1:
             picked.append((first[ri], np.arange(f - 2, f + 1)))
     best = _max_contact_probability(sim.model, picked, batch_size)
