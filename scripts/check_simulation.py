@@ -76,6 +76,8 @@ def main() -> None:
     ap.add_argument("--top-p-player", type=float, default=None)
     ap.add_argument("--top-p-ball", type=float, default=None)
     ap.add_argument("--threads", type=int, default=None)
+    ap.add_argument("--contact-odds", action="store_true",
+                    help="the ball's nucleus keeps the model's odds of a racket contact")
     ap.add_argument("--json", default=None)
     ap.add_argument("--no-physical-limits", action="store_true",
                     help="free rollouts, as the paper (no redraws, no net/ground correction)")
@@ -84,9 +86,12 @@ def main() -> None:
         torch.set_num_threads(args.threads)
     kw = {k: v for k, v in (("top_p_player", args.top_p_player),
                             ("top_p_ball", args.top_p_ball)) if v is not None}
+    if args.contact_odds:
+        kw["contact_odds"] = True
     sim = Simulator.from_pretrained(args.model, physical_limits=not args.no_physical_limits,
                                     **kw)
-    print(f"top-p player {sim.top_p_player}, ball {sim.top_p_ball}")
+    print(f"top-p player {sim.top_p_player}, ball {sim.top_p_ball}, "
+          f"contact odds {sim.contact_odds}")
     t0 = time.perf_counter()
     simd = sim.simulate_both_serving(*PLAYERS, "hard", args.points, seed=args.seed)
     sim_s = time.perf_counter() - t0

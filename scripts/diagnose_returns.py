@@ -31,6 +31,7 @@ import torch
 from torch.utils.data import default_collate
 
 from sportsngen.data.tokens import BALL, WindowDataset, rally_arrays
+from sportsngen.eval.diagnostics import REVERSAL_M, far_probability
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.sim import Simulator
 from sportsngen.synth.generate import generate_matches
@@ -41,7 +42,6 @@ from sportsngen.train.module import movement_onsets
 SERVER, RECEIVER = "Roger Federer", "Rafael Nadal"
 AFTER_BOUNCE_FRAMES = 30
 N_TOSS_FRAMES = 10       # nobody moves through the toss
-REVERSAL_M = 0.5         # an x offset this far from free flight is a racket contact
 STILL_M = 0.05           # a receiver who moved less by the bounce has not started
 
 
@@ -98,15 +98,6 @@ def first_windows(sim: Simulator, data) -> tuple[object, list[dict]]:
     return arr, [windows[first[ri]] for ri in range(len(arr))]
 
 
-def reversal_prob(model, h_ball: torch.Tensor) -> torch.Tensor:
-    """(T, d) ball output states -> (T,) the model's probability that the next frame's x
-    offset from the constant-velocity extrapolation exceeds REVERSAL_M (a racket contact)."""
-    edges = model.ball_bins.edges[0]
-    far = ((edges[:-1] + edges[1:]) / 2).abs() > REVERSAL_M
-    p = model.ball_head.dim_logits(h_ball, torch.zeros(len(h_ball), 3, dtype=torch.long), 0)
-    return p.softmax(-1)[:, far].sum(-1)
-
-
 @torch.no_grad()
 def near_serves(sim: Simulator, data) -> np.ndarray:
     """Serves in the box that came within 1 m of the receiver (first window only) -> (n, 4):
@@ -130,7 +121,7 @@ def near_serves(sim: Simulator, data) -> np.ndarray:
         if gap.min() > 1.0:
             continue
         k = fb + int(np.argmin(gap))
-        p_rev = reversal_prob(model, window_states(model, default_collate([w]))[0, :, BALL])
+        p_rev = far_probability(model, window_states(model, default_collate([w]))[0, :, BALL])
         rows.append((float(rules.at[rid, "n_shots"] >= 2), gap.min(),
                      np.hypot(*(pos[k, 1, :2] - pos[k - 1, 1, :2])) * cfg.fps,
                      float(p_rev[fb:hi].max())))
@@ -158,7 +149,7 @@ def contact_mass(sim: Simulator, data, offsets=range(-3, 2)) -> dict[int, tuple[
         contacts = rules["contact_frames"].iat[ri]
         if len(contacts) < 2 or contacts[1] + max(offsets) >= cfg.window_frames - 1:
             continue
-        p_rev = reversal_prob(model, window_states(model, default_collate([w]))[0, :, BALL])
+        p_rev = far_probability(model, window_states(model, default_collate([w]))[0, :, BALL])
         off = w["next_pos_m"][:, BALL, 0] - model.centres(
             torch.as_tensor(w["pos_m"]), torch.as_tensor(w["vel_mps"]),
             torch.as_tensor(w["prev_vel_mps"]))[:, BALL, 0].numpy()

@@ -7,7 +7,9 @@ import pytest
 import torch
 
 from sportsngen.eval.diagnostics import (
+    REVERSAL_M,
     DiagnosticsSetup,
+    far_probability,
     paired_return_gap,
     run_diagnostics,
     serve_outcomes,
@@ -21,6 +23,7 @@ from sportsngen.eval.flight import (
 )
 from sportsngen.model.centre import flight_acceleration_mps2
 from sportsngen.model.config import ModelConfig
+from sportsngen.model.decoder import SportsNGEN
 from sportsngen.sim import Simulator
 
 FPS = 25.0
@@ -168,3 +171,20 @@ def test_diagnose_command_refuses_bad_input(tmp_path, capsys):
     assert "--points must be >= 20" in capsys.readouterr().err
     assert main(["diagnose", "--model", str(tmp_path / "none.pt")]) == 2
     assert "no model file" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("ball_frame", ["court", "acceleration"])
+def test_contact_probability_is_the_heads_mass_beyond_the_reversal(ball_frame):
+    # Exact sums over the factorised head against 20,000 draws from it.
+    torch.manual_seed(0)
+    model = SportsNGEN(ModelConfig(d_model=32, n_layers=1, n_heads=2, bin_spacing="nonuniform",
+                                   ball_frame=ball_frame)).eval()
+    h = torch.randn(4, 32)
+    with torch.no_grad():
+        p = far_probability(model, h)
+        draws = torch.stack([model.ball_head.sample(h, generator=torch.Generator()
+                                                    .manual_seed(k)) for k in range(20_000)])
+    far = model.ball_bins.value(draws).abs() > REVERSAL_M
+    seen = (far.any(-1) if ball_frame == "acceleration" else far[..., 0]).float().mean(0)
+    assert torch.allclose(p, seen, atol=0.015)
+    assert ((p > 0.05) & (p < 0.99)).all()

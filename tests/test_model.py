@@ -348,7 +348,7 @@ def test_physics_centred_ball_in_the_centre_bin_stays_on_the_step(ball_centre, m
     model = make_model(bin_centre="cv", ball_centre=ball_centre)
     n = model.cfg.n_bins
     monkeypatch.setattr(model.ball_head, "sample",
-                        lambda h, top_p, gen: torch.full((*h.shape[:-1], 3), n // 2))
+                        lambda h, top_p, gen, regions=None: torch.full((*h.shape[:-1], 3), n // 2))
     pos = torch.tensor([[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [-5.0, 1.0, 2.0]]])
     vel = torch.tensor([[[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [20.0, 0.0, 3.0]]])
     h = torch.zeros(1, 3, model.cfg.d_model)
@@ -360,3 +360,50 @@ def test_physics_centred_ball_in_the_centre_bin_stays_on_the_step(ball_centre, m
         assert torch.equal(off, torch.zeros(3))
     else:
         assert (off != 0).all() and (off.abs() <= half).all()
+
+
+@pytest.mark.parametrize("ball_frame", ["court", "acceleration"])
+def test_ball_binned_on_its_axes_comes_back_inside_its_bin(ball_frame, monkeypatch):
+    # The target bins of a next position, sampled back, land in the same bins on the model's
+    # axes; on acceleration axes a struck ball's next offset falls on e1 only.
+    model = make_model(bin_centre="cv", n_bins=61, bin_spacing="nonuniform",
+                       ball_frame=ball_frame)
+    pos = torch.tensor([[[0.0, -11.0, 0.0], [1.0, 11.0, 0.0], [10.0, 0.5, 2.6]]])
+    vel = torch.tensor([[[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [-30.0, -6.0, -4.0]]])
+    prev = torch.tensor([[[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, -1.5]]])
+    nxt = pos + vel / 25.0 + 0.8 * (vel - prev) / 25.0   # the contact's offset again, scaled
+    _, b_idx = model.target_bins(pos, vel, nxt, prev)
+    centre = model.cfg.n_bins // 2
+    if ball_frame == "acceleration":
+        assert b_idx[0, 1:].tolist() == [centre, centre] and b_idx[0, 0] != centre
+    else:
+        assert (b_idx[0] != centre).all()
+    monkeypatch.setattr(model.ball_head, "sample", lambda h, top_p, gen, regions=None: b_idx)
+    h = torch.zeros(1, 3, model.cfg.d_model)
+    again = model.sample_next(h, pos, vel, generator=torch.Generator().manual_seed(0),
+                              prev_vel_mps=prev)
+    _, b_again = model.target_bins(pos, vel, again, prev)
+    assert torch.equal(b_again, b_idx)
+    assert (again[0, 2] - nxt[0, 2]).norm() < 0.05
+
+
+def test_nucleus_in_regions_keeps_the_regions_odds():
+    from sportsngen.model.sampling import sample_top_p_in_regions
+
+    # Two contact bins hold 0.30 between them, the no-contact bin 0.70: a plain nucleus of
+    # 0.6 never draws a contact; inside regions it does at the model's 0.30, and inside each
+    # region the nucleus still trims (bin 3's 0.01 inside the contact side's 0.30 never).
+    probs = torch.tensor([0.70, 0.20, 0.09, 0.01])
+    logits = probs.log().expand(200_000, 4)
+    regions = torch.tensor([False, True, True, True])
+    gen = torch.Generator().manual_seed(0)
+    plain = sample_top_p(logits, 0.6, gen)
+    split = sample_top_p_in_regions(logits, regions, 0.6, gen)
+    assert (plain == 0).all()
+    share = torch.bincount(split, minlength=4).double() / len(split)
+    assert abs(share[0].item() - 0.70) < 0.005
+    assert abs(share[1:].sum().item() - 0.30) < 0.005
+    assert share[3].item() == 0.0
+    assert torch.equal(sample_top_p_in_regions(logits[:50], regions, 1.0,
+                                               torch.Generator().manual_seed(1)),
+                       sample_top_p(logits[:50], 1.0, torch.Generator().manual_seed(1)))

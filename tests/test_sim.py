@@ -297,3 +297,39 @@ def test_cpu_threads_lowers_then_restores_the_thread_count():
     assert torch.get_num_threads() == before
     with cpu_threads(before + 4):          # never raises the count
         assert torch.get_num_threads() == before
+
+
+def test_physical_limits_reject_a_ball_struck_back_out_of_everyones_reach():
+    from sportsngen.sim.constraints import PhysicalLimits
+
+    lim = PhysicalLimits(fps=25.0)
+    pos = torch.zeros(5, 3, 3)
+    pos[:, 0, :2] = torch.tensor([11.0, 0.0])             # server at his baseline
+    pos[:, 1, :2] = torch.tensor([-11.0, 0.0])            # receiver at his
+    pos[:, 2] = torch.tensor([[-8.0, 0.0, 1.0],           # 3 m in front of the receiver
+                              [-9.0, 1.0, 1.0],           # 2.2 m from him
+                              [-8.0, 0.0, 1.0],
+                              [-0.5, 0.0, 0.8],           # at the net
+                              [-9.0, 1.0, 3.8]])          # near him but over any racket
+    vel = torch.zeros(5, 3, 3)
+    vel[:, 2] = torch.tensor([-20.0, 0.0, -2.0])          # flying toward the receiver
+    nxt = pos.clone()
+    nxt[:, 2, 0] += torch.tensor([0.8, 0.8, -0.8, 0.1, 0.8])  # back 20 m/s, or on (row 2)
+    ok = lim.accept(np.arange(5), 10, pos, nxt, vel)
+    assert ok.tolist() == [False, True, True, True, False]
+    # Without velocities (or with reach_m None) only the ground and the net are judged.
+    assert lim.accept(np.arange(5), 10, pos, nxt).all()
+    assert PhysicalLimits(reach_m=None).accept(np.arange(5), 10, pos, nxt, vel).all()
+
+
+def test_contact_odds_rollouts_are_reproducible_and_change_only_the_ball(tiny_model_file):
+    kw = dict(max_duration_s=1.2, top_p_ball=0.6)
+    a = _sim(tiny_model_file, contact_odds=True, **kw).simulate_points(
+        "Toy Alpha", "Toy Beta", "hard", 4, seed=0, serve_number=1)
+    b = _sim(tiny_model_file, contact_odds=True, **kw).simulate_points(
+        "Toy Alpha", "Toy Beta", "hard", 4, seed=0, serve_number=1)
+    c = _sim(tiny_model_file, **kw).simulate_points("Toy Alpha", "Toy Beta", "hard", 4, seed=0,
+                                                    serve_number=1)
+    pd.testing.assert_frame_equal(a.frames, b.frames)
+    ball = [c for c in a.frames.columns if c.startswith("ball")]
+    assert not a.frames[ball].equals(c.frames[ball])

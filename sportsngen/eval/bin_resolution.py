@@ -40,8 +40,7 @@ def ball_bins(n_bins: int = 61, spacing: str = "nonuniform", fps: float = 25.0) 
     """The ball's bins of a model with these settings (the default range otherwise), as the
     decoder builds them."""
     cfg = ModelConfig(n_bins=n_bins, bin_spacing=spacing, fps=fps)
-    dt = 1.0 / cfg.fps
-    return Bins(tuple(v * dt for v in cfg.ball_max_speed_mps), cfg.n_bins, cfg.bin_spacing)
+    return Bins(cfg.ball_bin_half_ranges_m, cfg.n_bins, cfg.bin_spacing)
 
 
 def centre_noise_drift(n_flights: int = 2000, frames: tuple[int, ...] = (10, 25, 50),

@@ -50,6 +50,7 @@ from sportsngen.data.tracking import RallyData
 from sportsngen.eval.flight import flight_residuals, rally_tracks
 from sportsngen.eval.leaks import check_leaks
 from sportsngen.eval.rules import analyse_rally_data
+from sportsngen.model.decoder import CONTACT_OFFSET_M
 from sportsngen.sim.assemble import PLAN_COLUMNS
 from sportsngen.tennis.court import is_in_service_box
 from sportsngen.train.metrics import window_states
@@ -59,7 +60,7 @@ HORIZON_S = 3.0           # a branch is rolled out this long: the serve, the ret
 OWN_SERVE_S = 4.5         # own serves: past the rules' 4 s "no serve struck" and the return
 STILL_M = 0.05
 REACH_M = 1.5
-REVERSAL_M = 0.5
+REVERSAL_M = CONTACT_OFFSET_M
 SERVE_PAIRS = ("fault_vs_in", "ace_vs_returned")
 RECEIVER_SLOT = OBJECTS.index("receiver")
 # A leak cell resting on fewer comparable pairs is left blank (NaN): with 3 pairs an AUC is 0,
@@ -185,20 +186,48 @@ def _first_windows(sim, truth: RallyData):
     return arr, {ri: windows[i] for i, (ri, s) in enumerate(windows.items) if s == 0}
 
 
+def _far_bins(model) -> list[torch.Tensor]:
+    """Per ball axis, the bins whose centre lies more than `REVERSAL_M` from 0 (the first
+    axis's are the decoder's `contact_bins`)."""
+    e = model.ball_bins.edges
+    return [model.contact_bins()] + [((e[k, :-1] + e[k, 1:]) / 2).abs() > REVERSAL_M
+                                     for k in (1, 2)]
+
+
+def far_probability(model, h: torch.Tensor) -> torch.Tensor:
+    """P(contact) of ball output states h (N, d): the next ball frame more than `REVERSAL_M`
+    from its bin centre, along x for a model binning on the court's axes; on any axis for one
+    binning on the ball's acceleration (a contact can send the offset along any of them), by
+    the factorised head's exact sum over the near bins of all three axes."""
+    far = _far_bins(model)
+    head = model.ball_head
+    p0 = head.dim_logits(h, torch.zeros(len(h), 3, dtype=torch.long), 0).softmax(-1)
+    if model.cfg.ball_frame == "court":
+        return p0[:, far[0]].sum(-1)
+    near = [torch.nonzero(~f).squeeze(1) for f in far]
+    nx, ny = len(near[0]), len(near[1])
+    prev = torch.zeros(len(h), nx, 3, dtype=torch.long)
+    prev[..., 0] = near[0]
+    hx = h[:, None].expand(-1, nx, -1)
+    p1 = head.dim_logits(hx, prev, 1).softmax(-1)[..., near[1]]              # (N, nx, ny)
+    prev = torch.zeros(len(h), nx, ny, 3, dtype=torch.long)
+    prev[..., 0] = near[0][:, None]
+    prev[..., 1] = near[1][None, :]
+    p2 = head.dim_logits(h[:, None, None].expand(-1, nx, ny, -1), prev, 2).softmax(-1)
+    p_near = (p0[:, near[0]] * (p1 * p2[..., near[2]].sum(-1)).sum(-1)).sum(-1)
+    return 1.0 - p_near
+
+
 @torch.no_grad()
 def _max_contact_probability(model, picked: list, batch_size: int) -> list[float]:
-    """For (window, frames) pairs: the model's largest teacher-forced P(contact) over those
-    frames, a contact being a next ball frame more than `REVERSAL_M` from its bin centre
-    along x (windows scored in batches)."""
-    edges = model.ball_bins.edges[0]
-    far = ((edges[:-1] + edges[1:]) / 2).abs() > REVERSAL_M
+    """For (window, frames) pairs: the model's largest teacher-forced P(contact)
+    (`far_probability`) over those frames (windows scored in batches)."""
     best = []
     for b0 in range(0, len(picked), batch_size):
         chunk = picked[b0:b0 + batch_size]
         h = window_states(model, default_collate([w for w, _ in chunk]))[:, :, BALL]
-        p = model.ball_head.dim_logits(h, torch.zeros(*h.shape[:2], 3, dtype=torch.long), 0)
-        p_contact = p.softmax(-1)[..., far].sum(-1)
-        best += [float(p_contact[i, frames].max()) for i, (_, frames) in enumerate(chunk)]
+        for i, (_, frames) in enumerate(chunk):
+            best.append(float(far_probability(model, h[i, frames]).max()))
     return best
 
 

@@ -26,7 +26,12 @@ from torch import nn
 
 from sportsngen.data.tokens import BALL, GENERIC_ID, N_OBJECTS, N_SPECIAL_IDS
 from sportsngen.model.bins import Bins
-from sportsngen.model.centre import object_centres_m
+from sportsngen.model.centre import (
+    ball_frame_axes,
+    from_ball_frame,
+    object_centres_m,
+    to_ball_frame,
+)
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.embedding import ContextEmbedding, ObjectEmbedding, run_mlp
 from sportsngen.model.heads import make_head
@@ -152,6 +157,11 @@ def _empty_ring(ctx_kv: torch.Tensor, max_frames: int) -> torch.Tensor:
     return ring
 
 
+# A next ball frame this far from its bin centre along the first axis is a racket contact (or a
+# bounce): free flight stays within centimetres of the velocity step.
+CONTACT_OFFSET_M = 0.5
+
+
 class SportsNGEN(nn.Module):
     """Decoder f with its output bins and heads (players 2-D, ball 3-D)."""
 
@@ -168,8 +178,7 @@ class SportsNGEN(nn.Module):
         dt = 1.0 / cfg.fps
         self.player_bins = Bins((cfg.player_max_speed_mps * dt,) * 2, cfg.n_bins,
                                 cfg.bin_spacing)
-        self.ball_bins = Bins(tuple(s * dt for s in cfg.ball_max_speed_mps), cfg.n_bins,
-                              cfg.bin_spacing)
+        self.ball_bins = Bins(cfg.ball_bin_half_ranges_m, cfg.n_bins, cfg.bin_spacing)
         self.player_head = make_head(cfg.head, cfg.d_model, cfg.n_bins, 2, cfg.head_hidden)
         self.ball_head = make_head(cfg.head, cfg.d_model, cfg.n_bins, 3, cfg.head_hidden)
 
@@ -270,9 +279,23 @@ class SportsNGEN(nn.Module):
         return object_centres_m(pos_m, vel_mps, prev_vel_mps, self.cfg.fps, self.cfg.bin_centre,
                                 self.cfg.ball_centre, BALL)
 
+    def ball_axes(self, vel_mps: torch.Tensor,
+                  prev_vel_mps: torch.Tensor | None) -> torch.Tensor | None:
+        """The axes the ball's offset is binned on (..., 3, 3), None for the court's
+        (`sportsngen.model.centre.ball_frame_axes`); velocities of all objects (..., 3, 3)."""
+        prev = None if prev_vel_mps is None else prev_vel_mps[..., BALL, :]
+        return ball_frame_axes(vel_mps[..., BALL, :], prev, self.cfg.ball_frame)
+
+    def offsets(self, pos_m, vel_mps, next_pos_m, prev_vel_mps=None) -> torch.Tensor:
+        """Next positions as the offsets the bins hold (..., 3, 3): from each object's centre,
+        the ball's on its axes (`ball_axes`)."""
+        off = next_pos_m - self.centres(pos_m, vel_mps, prev_vel_mps)
+        ball = to_ball_frame(off[..., BALL, :], self.ball_axes(vel_mps, prev_vel_mps))
+        return torch.cat([off[..., :BALL, :], ball[..., None, :]], dim=-2)
+
     def target_bins(self, pos_m, vel_mps, next_pos_m, prev_vel_mps=None):
         """Bin indices of the next positions: (players (..., 2, 2), ball (..., 3))."""
-        off = next_pos_m - self.centres(pos_m, vel_mps, prev_vel_mps)
+        off = self.offsets(pos_m, vel_mps, next_pos_m, prev_vel_mps)
         return (self.player_bins.index(off[..., :BALL, :2]),
                 self.ball_bins.index(off[..., BALL, :]))
 
@@ -281,11 +304,18 @@ class SportsNGEN(nn.Module):
         return (self.player_head.nll(h[..., :BALL, :], player_idx),
                 self.ball_head.nll(h[..., BALL, :], ball_idx))
 
+    def contact_bins(self) -> torch.Tensor:
+        """(n_bins,) bool: the bins of the ball's first axis whose centre lies more than
+        `CONTACT_OFFSET_M` from 0, a racket contact's (or a bounce's) change of course."""
+        e = self.ball_bins.edges[0]
+        return ((e[:-1] + e[1:]) / 2).abs() > CONTACT_OFFSET_M
+
     @torch.no_grad()
     def sample_next(self, h: torch.Tensor, pos_m: torch.Tensor, vel_mps: torch.Tensor,
                     top_p_player: float = 1.0, top_p_ball: float = 1.0,
                     generator: torch.Generator | None = None,
-                    prev_vel_mps: torch.Tensor | None = None) -> torch.Tensor:
+                    prev_vel_mps: torch.Tensor | None = None,
+                    contact_odds: bool = False) -> torch.Tensor:
         """Next positions (..., 3, 3) from output states h (..., 3, d): nucleus per object
         kind, then uniform inside the chosen bin. Players stay on the ground (z = 0).
 
@@ -294,16 +324,22 @@ class SportsNGEN(nn.Module):
         noise put into a frame is integrated three times over the frames after it. Uniform
         inside the centre bin (+-0.4-0.9 mm), a free flight drifted 0.5 m (90th percentile)
         after 1 s and 1.6 m after 2 s although no frame missed by a millimetre, and the
-        model's own tosses fell past the racket (docs/evaluation.md)."""
+        model's own tosses fell past the racket (docs/evaluation.md).
+
+        `contact_odds`: the ball's nucleus is taken inside the contact bins (`contact_bins`)
+        or inside the rest, chosen at the model's own odds, so a nucleus under 1 cannot cut a
+        racket contact the model gives a few tens of per cent on a frame."""
         centre = self.centres(pos_m, vel_mps, prev_vel_mps)
         pi = self.player_head.sample(h[..., :BALL, :], top_p_player, generator)
-        bi = self.ball_head.sample(h[..., BALL, :], top_p_ball, generator)
+        bi = self.ball_head.sample(h[..., BALL, :], top_p_ball, generator,
+                                   self.contact_bins() if contact_odds else None)
         p_off = self.player_bins.value(pi, uniform_in_bin(pi.shape, h.device, generator))
         u_ball = uniform_in_bin(bi.shape, h.device, generator)
         if self.cfg.ball_centre == "physics":
             u_ball = torch.where(bi == self.cfg.n_bins // 2, torch.full_like(u_ball, 0.5),
                                  u_ball)
-        b_off = self.ball_bins.value(bi, u_ball)
+        b_off = from_ball_frame(self.ball_bins.value(bi, u_ball),
+                                self.ball_axes(vel_mps, prev_vel_mps))
         nxt = centre.clone()
         nxt[..., :BALL, :2] += p_off
         nxt[..., :BALL, 2] = 0.0

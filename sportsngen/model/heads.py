@@ -5,7 +5,10 @@ Factorised: p(x) p(y | x) p(z | x, y); each conditional is a small MLP over the 
 learned embeddings of the bins already chosen. It is exact (any joint distribution can be
 written so) and needs O(n) outputs instead of O(n^dims).
 
-Every head offers the same calls: `nll(h, idx)`, `top1(h)` and `sample(h, top_p, generator)`.
+Every head offers the same calls: `nll(h, idx)`, `top1(h)` and `sample(h, top_p, generator,
+regions)`. With `regions` (a bool mask over the first dimension's bins) and a nucleus, `sample`
+first chooses between the masked bins and the rest at the model's own probability, then takes
+the nucleus inside the chosen side (`sportsngen.model.sampling.sample_top_p_in_regions`).
 """
 
 from __future__ import annotations
@@ -16,7 +19,7 @@ from torch import nn
 
 from sportsngen.model.bins import flat_index, unflat_index
 from sportsngen.model.embedding import run_mlp
-from sportsngen.model.sampling import sample_top_p
+from sportsngen.model.sampling import sample_top_p, sample_top_p_in_regions
 
 
 class JointHead(nn.Module):
@@ -42,8 +45,13 @@ class JointHead(nn.Module):
         return self._unflat(self.proj(h).argmax(dim=-1))
 
     def sample(self, h: torch.Tensor, top_p: float = 1.0,
-               generator: torch.Generator | None = None) -> torch.Tensor:
-        return self._unflat(sample_top_p(self.proj(h), top_p, generator))
+               generator: torch.Generator | None = None,
+               regions: torch.Tensor | None = None) -> torch.Tensor:
+        logits = self.proj(h)
+        if regions is None:
+            return self._unflat(sample_top_p(logits, top_p, generator))
+        joint = regions.repeat_interleave(self.n_bins ** (self.dims - 1))
+        return self._unflat(sample_top_p_in_regions(logits, joint, top_p, generator))
 
 
 class FactorisedHead(nn.Module):
@@ -86,9 +94,17 @@ class FactorisedHead(nn.Module):
         return self._decode(h, lambda lg: lg.argmax(dim=-1))
 
     def sample(self, h: torch.Tensor, top_p: float = 1.0,
-               generator: torch.Generator | None = None) -> torch.Tensor:
-        """Dimension by dimension, each with its own nucleus."""
-        return self._decode(h, lambda lg: sample_top_p(lg, top_p, generator))
+               generator: torch.Generator | None = None,
+               regions: torch.Tensor | None = None) -> torch.Tensor:
+        """Dimension by dimension, each with its own nucleus (the first inside `regions`)."""
+        if regions is None:
+            return self._decode(h, lambda lg: sample_top_p(lg, top_p, generator))
+        chosen = torch.zeros(*h.shape[:-1], self.dims, dtype=torch.long, device=h.device)
+        chosen[..., 0] = sample_top_p_in_regions(self.dim_logits(h, chosen, 0), regions, top_p,
+                                                 generator)
+        for k in range(1, self.dims):
+            chosen[..., k] = sample_top_p(self.dim_logits(h, chosen, k), top_p, generator)
+        return chosen
 
 
 def make_head(kind: str, d_model: int, n_bins: int, dims: int, hidden: int) -> nn.Module:

@@ -49,6 +49,25 @@ def sample_top_p(logits: torch.Tensor, top_p: float,
     return order.gather(-1, pick).reshape(logits.shape[:-1])
 
 
+def sample_top_p_in_regions(logits: torch.Tensor, regions: torch.Tensor, top_p: float,
+                            generator: torch.Generator | None = None) -> torch.Tensor:
+    """Like `sample_top_p`, but first chooses between the classes in `regions` (a (n,) bool
+    mask) and the others at their full probability, then samples the nucleus of the chosen
+    side. The two sides keep the model's odds whatever `top_p`; inside each, the nucleus
+    trims the tails as usual. For the ball's first axis, split into racket contacts and the
+    rest: a plain nucleus drops a contact whose frame holds less than 1 - top-p of the mass, and
+    a model that spreads a return over several frames then returns none of them."""
+    if not 0.0 < top_p <= 1.0:
+        raise ValueError(f"top_p must be in (0, 1], got {top_p}")
+    if top_p >= 1.0:
+        return sample_top_p(logits, top_p, generator)
+    regions = regions.to(device=logits.device, dtype=torch.bool)
+    p_in = torch.softmax(logits.float(), dim=-1)[..., regions].sum(-1)
+    inside = torch.rand(p_in.shape, generator=generator, device=logits.device) < p_in
+    keep = torch.where(inside[..., None], regions, ~regions)
+    return sample_top_p(logits.masked_fill(~keep, float("-inf")), top_p, generator)
+
+
 def uniform_in_bin(shape: torch.Size | tuple, device: torch.device | str = "cpu",
                    generator: torch.Generator | None = None) -> torch.Tensor:
     """Fractions in [0, 1) for placing a sample uniformly inside its chosen bin."""

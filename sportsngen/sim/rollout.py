@@ -98,24 +98,25 @@ class Rollout:
 
 
 class Constraint(Protocol):
-    """`accept(rows, frame, pos_m, next_pos_m) -> (B,) bool` for the live rallies `rows`
-    (indices into the batch as first given), the frame index being sampled, the current and the
-    sampled positions (B, 3, 3) tensors. `max_tries` bounds the resampling of a frame; rows
-    still rejected then keep their last sample (`give_up(rows)` is told which)."""
+    """`accept(rows, frame, pos_m, next_pos_m, vel_mps) -> (B,) bool` for the live rallies
+    `rows` (indices into the batch as first given), the frame index being sampled, the current
+    and the sampled positions and the current velocities (B, 3, 3) tensors. `max_tries`
+    bounds the resampling of a frame; rows still rejected then keep their last sample
+    (`give_up(rows)` is told which)."""
 
     max_tries: int
 
     def accept(self, rows: np.ndarray, frame: int, pos_m: torch.Tensor,
-               next_pos_m: torch.Tensor) -> torch.Tensor: ...
+               next_pos_m: torch.Tensor, vel_mps: torch.Tensor) -> torch.Tensor: ...
 
     def give_up(self, rows: np.ndarray) -> None: ...
 
 
 def _constrain(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top_p_player,
-               top_p_ball, generator):
+               top_p_ball, generator, contact_odds=False):
     """Resample the rows `constraint` rejects: up to its max_tries from the nucleus, then as
     many from the whole distribution. -> (frames, redraws per live row)."""
-    bad = ~constraint.accept(alive, n, pos, nxt)
+    bad = ~constraint.accept(alive, n, pos, nxt, vel)
     tries = 0
     drawn = np.zeros(len(alive), dtype=np.int64)
     while bool(bad.any()) and tries < 2 * constraint.max_tries:
@@ -124,10 +125,10 @@ def _constrain(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top_p_pl
         wide = tries >= constraint.max_tries
         again = model.sample_next(h[idx], pos[idx], vel[idx],
                                   1.0 if wide else top_p_player, 1.0 if wide else top_p_ball,
-                                  generator, prev_vel[idx])
+                                  generator, prev_vel[idx], contact_odds)
         nxt[idx] = again
         drawn[idx.cpu().numpy()] += 1
-        ok = constraint.accept(alive[idx.cpu().numpy()], n, pos[idx], again)
+        ok = constraint.accept(alive[idx.cpu().numpy()], n, pos[idx], again, vel[idx])
         bad[idx] = ~ok
         tries += 1
     if bool(bad.any()):
@@ -167,7 +168,8 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             tracker: Tracker | None = None, top_p_player: float = 1.0,
             top_p_ball: float = 1.0, seed: int | None = 0,
             generator: torch.Generator | None = None, mode: str = "cache",
-            progress: bool = False, constraint: Constraint | None = None) -> Rollout:
+            progress: bool = False, constraint: Constraint | None = None,
+            contact_odds: bool = False) -> Rollout:
     """Roll `inputs` forward until the tracker ends each rally or it has `max_frames` frames.
 
     The tracker sees every frame of every rally in order, the initial ones included, and
@@ -175,8 +177,9 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
     sampled frames (counterfactuals): rows whose sample it rejects are sampled again from the
     same distribution, which samples the distribution restricted to the accepted set.
     `generator` (or `seed`) makes the rollout reproducible: the same inputs, seed and batch
-    give the same tracks. Cached rollouts of up to `SINGLE_THREAD_ROWS` rallies run on one CPU
-    thread.
+    give the same tracks. `contact_odds`: the ball's nucleus keeps the model's odds of a racket
+    contact (`SportsNGEN.sample_next`). Cached rollouts of up to `SINGLE_THREAD_ROWS` rallies
+    run on one CPU thread.
     """
     small = (mode == "cache" and len(inputs.init_pos_m) <= SINGLE_THREAD_ROWS
              and next(model.parameters()).device.type == "cpu")
@@ -244,10 +247,11 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             prev = hist[:, n - 2] if n >= 2 else pos
             vel = (pos - prev) * fps
             prev_vel = (prev - hist[:, n - 3]) * fps if n >= 3 else torch.zeros_like(vel)
-            nxt = model.sample_next(h, pos, vel, top_p_player, top_p_ball, generator, prev_vel)
+            nxt = model.sample_next(h, pos, vel, top_p_player, top_p_ball, generator, prev_vel,
+                                    contact_odds)
             if constraint is not None:
                 nxt, drawn = _constrain(model, constraint, alive, n, h, pos, vel, prev_vel, nxt,
-                                        top_p_player, top_p_ball, generator)
+                                        top_p_player, top_p_ball, generator, contact_odds)
                 resampled[alive] += drawn
             hist[:, n] = nxt
             nxt_np = nxt.cpu().numpy()

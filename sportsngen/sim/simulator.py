@@ -85,7 +85,8 @@ class Simulator:
                  initial: InitialConditions, top_p_player: float = 1.0,
                  top_p_ball: float = 1.0, max_duration_s: float = 30.0,
                  batch_size: int = 256, max_retries: int = 10, unknown: str | None = None,
-                 physical_limits: bool = True, device: str | torch.device = "cpu"):
+                 physical_limits: bool = True, device: str | torch.device = "cpu",
+                 contact_odds: bool = False):
         if abs(initial.fps - model.cfg.fps) > 1e-6:
             raise ValueError(f"initial conditions at {initial.fps} Hz, model at {model.cfg.fps}")
         for name, p in (("top_p_player", top_p_player), ("top_p_ball", top_p_ball)):
@@ -102,6 +103,8 @@ class Simulator:
         self.max_retries = int(max_retries)
         self.unknown = unknown or model.cfg.unknown
         self.physical_limits = bool(physical_limits)
+        # The ball's nucleus keeps the model's odds of a racket contact (`rollout`).
+        self.contact_odds = bool(contact_odds)
         self._warned: set[str] = set()    # unknown players already warned about
         # Raw rollout win probabilities -> observed frequencies, when the model file has one
         # (`scripts/rally_outcome_study.py --save-calibrator`).
@@ -182,7 +185,7 @@ class Simulator:
             part = plan.iloc[lo:lo + self.batch_size].reset_index(drop=True)
             inputs = self._inputs(part, rng, None if init_pos_m is None else
                                   init_pos_m[lo:lo + self.batch_size])
-            limits = PhysicalLimits() if self.physical_limits else None
+            limits = PhysicalLimits(fps=self.fps) if self.physical_limits else None
             con = AllOf(limits, constraint) if (limits or constraint) else None
             if con is not None:
                 con.offset = lo
@@ -193,7 +196,7 @@ class Simulator:
             t0 = inputs.init_pos_m.shape[1]
             roll = rollout(self.model, inputs, max(max_frames, t0 + 2), tracker,
                            self.top_p_player, self.top_p_ball, generator=gen,
-                           progress=progress, constraint=con)
+                           progress=progress, constraint=con, contact_odds=self.contact_odds)
             labels = None if self.event_model is None else frame_labels(
                 self.event_model, roll.pos_m, roll.length, self.fps, self.model.cfg.window_frames)
             data = assemble(part, roll.pos_m, roll.length, tracker.results(), labels, self.fps)

@@ -163,7 +163,7 @@ class ShotConstraint:
     failed: set = field(default_factory=set)
 
     def accept(self, rows: np.ndarray, frame: int, pos_m: torch.Tensor,
-               next_pos_m: torch.Tensor) -> torch.Tensor:
+               next_pos_m: torch.Tensor, vel_mps: torch.Tensor | None = None) -> torch.Tensor:
         rows = np.asarray(rows) + self.offset
         p = next_pos_m[:, 2].double().cpu().numpy()
         v = (p - pos_m[:, 2].double().cpu().numpy()) * self.fps
