@@ -13,6 +13,7 @@ from sportsngen.eval.diagnostics import (
     paired_return_gap,
     run_diagnostics,
     serve_outcomes,
+    strike_branches,
     truth_points,
 )
 from sportsngen.eval.flight import (
@@ -164,6 +165,24 @@ def test_run_diagnostics_on_the_tiny_model(tiny_model_file):
     assert ((ok["lo"] <= ok["model"]) & (ok["model"] <= ok["hi"])).all()
 
 
+def test_strike_branches_count_every_serve_at_every_branch_point(tiny_model_file):
+    sim = Simulator.from_pretrained(tiny_model_file, max_retries=0)
+    truth = truth_points(DiagnosticsSetup(n_points=24, seed=1))
+    with pytest.warns(UserWarning, match="unknown player"):
+        table = strike_branches(sim, truth, after_frames=(-1, 3))
+    assert list(table["after"].unique()) == ["-1", "3", "recorded"]
+    rec = table[table["after"] == "recorded"].set_index("serve_number")
+    out = serve_outcomes(truth)
+    number = truth.rallies.set_index("rally_id")["serve_number"].reindex(out.index)
+    for serve, g in out.groupby(number.to_numpy()):
+        assert rec.at[serve, "n"] == len(g)
+        assert rec.at[serve, "in_box"] == pytest.approx(g["in_box"].mean())
+    # Every recorded serve is branched at each point (none is too short for 3 frames more).
+    per_point = table.groupby("after")["n"].sum()
+    assert (per_point == per_point["recorded"]).all()
+    assert table["in_box"].between(0, 1).all()
+
+
 def test_diagnose_command_refuses_bad_input(tmp_path, capsys):
     from sportsngen.eval.__main__ import main
 
@@ -171,6 +190,8 @@ def test_diagnose_command_refuses_bad_input(tmp_path, capsys):
     assert "--points must be >= 20" in capsys.readouterr().err
     assert main(["diagnose", "--model", str(tmp_path / "none.pt")]) == 2
     assert "no model file" in capsys.readouterr().err
+    assert main(["diagnose", "--top-p-ball", "0"]) == 2
+    assert "--top-p-ball must be in (0, 1]" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("ball_frame", ["court", "acceleration"])

@@ -6,6 +6,7 @@
     python -m sportsngen.eval leaks FOLDER [--k 6 12] [--boot N] [--seed S] [--csv PATH] \\
         [--band 0.4 0.6] [--paths]
     python -m sportsngen.eval diagnose [--model PATH] [--points 400] [--seed 0] [--csv PATH]
+        [--top-p-ball P] [--contact-odds]
 
 Folders are `RallyData.save` folders, read without physics validation (simulated rallies may
 break physics and are flagged, not refused). `--ref-synthetic` generates the reference with
@@ -150,8 +151,13 @@ def run_diagnose(args: argparse.Namespace) -> int:
     if args.points < 20 or args.seed < 0 or args.boot < 0:
         raise UsageError(f"--points must be >= 20, --seed and --boot >= 0, got {args.points}, "
                          f"{args.seed}, {args.boot}")
+    if args.top_p_ball is not None and not 0.0 < args.top_p_ball <= 1.0:
+        raise UsageError(f"--top-p-ball must be in (0, 1], got {args.top_p_ball}")
+    kw = {} if args.top_p_ball is None else {"top_p_ball": args.top_p_ball}
+    if args.contact_odds:
+        kw["contact_odds"] = True
     try:
-        sim = Simulator.from_pretrained(args.model)
+        sim = Simulator.from_pretrained(args.model, **kw)
     except FileNotFoundError as exc:
         raise UsageError(f"--model: {exc}") from exc
     t0 = time.perf_counter()
@@ -222,6 +228,10 @@ def build_parser() -> argparse.ArgumentParser:
     diag.add_argument("--surface", default="hard", choices=["hard", "clay", "grass"])
     diag.add_argument("--boot", type=int, default=200, help="bootstrap resamples of the leaks")
     diag.add_argument("--csv", type=Path, default=None, help="write the table as CSV here")
+    diag.add_argument("--top-p-ball", type=float, default=None,
+                      help="the ball's nucleus (default: the model file's, else 1)")
+    diag.add_argument("--contact-odds", action="store_true",
+                      help="the ball's nucleus keeps the model's odds of a racket contact")
     return ap
 
 

@@ -129,10 +129,11 @@ def serve_strike_frames(data: RallyData) -> pd.Series:
     return (strike - first.reindex(strike.index)).astype(int)
 
 
-def serve_branches(sim, truth: RallyData, seed: int = 0,
-                   horizon_s: float = HORIZON_S) -> tuple[RallyData, pd.Series]:
-    """Each recorded serve rolled out once from `BRANCH_AFTER_FRAMES` frames after its contact
-    -> (the branches, a Series: branch rally id -> the recorded rally id it branched from)."""
+def serve_branches(sim, truth: RallyData, seed: int = 0, horizon_s: float = HORIZON_S,
+                   after_frames: int = BRANCH_AFTER_FRAMES) -> tuple[RallyData, pd.Series]:
+    """Each recorded serve rolled out once from `after_frames` frames after its contact (the
+    serve's strike frame, the first past the racket, kept at 0; -1: the model strikes) ->
+    (the branches, a Series: branch rally id -> the recorded rally id it branched from)."""
     arr = rally_arrays(truth, _generic_vocab(truth))
     strike = serve_strike_frames(truth)
     rallies = truth.rallies.set_index("rally_id")
@@ -140,7 +141,7 @@ def serve_branches(sim, truth: RallyData, seed: int = 0,
     for ri, rid in enumerate(arr.rally_id):
         if rid not in strike.index:
             continue
-        k = int(strike[rid]) + BRANCH_AFTER_FRAMES + 1
+        k = int(strike[rid]) + after_frames + 1
         if k < arr.length[ri]:
             groups.setdefault(k, []).append(ri)
     parts, order = [], []
@@ -154,6 +155,31 @@ def serve_branches(sim, truth: RallyData, seed: int = 0,
                                           max_duration_s=k / sim.fps + horizon_s))
         order.append(pd.Series(rids, index=plan["rally_id"].to_numpy()))
     return RallyData.concat(parts), pd.concat(order)
+
+
+def strike_branches(sim, truth: RallyData, after_frames: tuple[int, ...] = (-1, 0, 1, 3),
+                    seed: int = 0) -> pd.DataFrame:
+    """Where a serve's fate is decided: the recorded serves branched at each of `after_frames`
+    (`serve_branches`) -> per branch point and serve number, the share landing in the box and
+    the share of those returned, beside the recorded serves' (`after` = "recorded"). From -1
+    the model strikes from the recorded toss; from 0 it has the strike's first frame and
+    decides the next; from 3 the flight is set."""
+    number = truth.rallies.set_index("rally_id")["serve_number"]
+    parts = []
+    for after in [*after_frames, None]:
+        if after is None:
+            out, label = serve_outcomes(truth), "recorded"
+            out["serve_number"] = number.reindex(out.index).to_numpy()
+        else:
+            branches, order = serve_branches(sim, truth, seed=seed, after_frames=after)
+            out, label = serve_outcomes(branches), str(after)
+            out["serve_number"] = number.reindex(order.reindex(out.index)).to_numpy()
+        for serve, g in out.groupby("serve_number"):
+            box = g[g["in_box"]]
+            parts.append({"after": label, "serve_number": int(serve), "n": len(g),
+                          "in_box": float(g["in_box"].mean()),
+                          "returned": float(box["returned"].mean()) if len(box) else np.nan})
+    return pd.DataFrame(parts)
 
 
 def paired_return_gap(branch_out: pd.DataFrame, truth_out: pd.DataFrame, order: pd.Series,

@@ -50,7 +50,7 @@ BOUNCE_RESTITUTION = 0.77
 # the last frame: a racket contact or a bounce. Free flight changes it by at most ~4 m/s a
 # frame (drag at 70 m/s plus gravity). Binned on axes that follow every frame's change, the
 # sampled noise of a rollout's own last frames turned its axes, the next frame followed them,
-# and a fine-tune's tosses flew off: 93 of 212 rallies struck no serve (docs/evaluation.md).
+# and a fine-tune's tosses flew off: 98 of 212 rallies struck no serve (docs/evaluation.md).
 MIN_FRAME_DV_MPS = 6.0
 
 

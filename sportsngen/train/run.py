@@ -159,6 +159,13 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
     trainer = _trainer(cfg, out_dir, "decoder", int(cfg.trainer.max_steps),
                        ema_decay=cfg.get("ema_decay"))
     trainer.fit(module, dm, ckpt_path=resume or None)
+    # The checkpoint callback writes last.ckpt only at a validation, and a run whose last step
+    # is not one left last.ckpt at an earlier step (a stage resumed from it repeated steps).
+    # Written again here, the state the run ended in, for `resume=`. Not with an average of
+    # the weights: by now it has replaced the live weights a resume needs (the callback's own
+    # last.ckpt holds both).
+    if cfg.get("ema_decay") is None:
+        trainer.save_checkpoint(str(out_dir / "checkpoints_decoder" / "last.ckpt"))
     summary = {"decoder": {k: float(v) for k, v in trainer.callback_metrics.items()},
                "throughput": module.throughput(), "n_rallies": len(data),
                "n_params": sum(p.numel() for p in module.model.parameters()),
