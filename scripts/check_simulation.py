@@ -1,10 +1,12 @@
 """The simulation issue's acceptance figures: simulated service points against the generator.
 
     .venv/bin/python scripts/check_simulation.py [--model PATH] [--points 500] [--seed 0]
-        [--top-p-player P] [--top-p-ball P] [--json out.json]
+        [--top-p-player P] [--top-p-ball P] [--contact-odds] [--json out.json]
+        [--players "Roger Federer,Rafael Nadal"] [--surface hard]
 
-For Roger Federer v Rafael Nadal on hard: `--points` simulated service points for each server
-(`Simulator.simulate_points`, first serves then second serves after faults) against the
+For two players (default Roger Federer v Rafael Nadal) on a surface (default hard): `--points`
+simulated service points for each server (`Simulator.simulate_points`, first serves then second
+serves after faults) against the
 synthetic ground truth of the same matchup (`generate_matches`, 3000 points). Prints the share
 of non-realistic rallies (and which checks failed), then per server first serve in %, aces %,
 double faults %, serve points won % (over the realistic points), median first-serve speed and
@@ -35,6 +37,7 @@ from sportsngen.sim.events import classifier_winner, frame_labels, shot_labels
 from sportsngen.synth.generate import generate_matches
 
 PLAYERS = ("Roger Federer", "Rafael Nadal")
+SURFACES = ("hard", "clay", "grass")
 COLUMNS = (("first_serve_in", "1st in %", 100), ("ace", "ace %", 100),
            ("double_fault", "DF %", 100), ("serve_points_won", "srv won %", 100),
            ("first_serve_kmh_median", "1st km/h", 1), ("rally_mean", "rally", 1))
@@ -79,9 +82,15 @@ def main() -> None:
     ap.add_argument("--contact-odds", action="store_true",
                     help="the ball's nucleus keeps the model's odds of a racket contact")
     ap.add_argument("--json", default=None)
+    ap.add_argument("--players", default=",".join(PLAYERS),
+                    help="the two players, comma-separated")
+    ap.add_argument("--surface", default="hard", choices=SURFACES)
     ap.add_argument("--no-physical-limits", action="store_true",
                     help="free rollouts, as the paper (no redraws, no net/ground correction)")
     args = ap.parse_args()
+    players = tuple(p.strip() for p in args.players.split(","))
+    if len(players) != 2 or not all(players):
+        ap.error(f"--players needs two names separated by a comma, got {args.players!r}")
     if args.threads:
         torch.set_num_threads(args.threads)
     kw = {k: v for k, v in (("top_p_player", args.top_p_player),
@@ -93,7 +102,7 @@ def main() -> None:
     print(f"top-p player {sim.top_p_player}, ball {sim.top_p_ball}, "
           f"contact odds {sim.contact_odds}")
     t0 = time.perf_counter()
-    simd = sim.simulate_both_serving(*PLAYERS, "hard", args.points, seed=args.seed)
+    simd = sim.simulate_both_serving(*players, args.surface, args.points, seed=args.seed)
     sim_s = time.perf_counter() - t0
     r = simd.rallies
     failed = collections.Counter(c for f in r["failed_checks"] for c in f.split(";") if c)
@@ -101,11 +110,12 @@ def main() -> None:
     print(f"simulated {len(r)} rallies ({2 * args.points} points) in {sim_s:.0f} s; "
           f"non-realistic {100 * unreal:.1f} %: {dict(failed.most_common())}")
     t0 = time.perf_counter()
-    truth = generate_matches([PLAYERS], "hard", args.truth_points, seed=args.seed, workers=2)
+    truth = generate_matches([players], args.surface, args.truth_points, seed=args.seed,
+                             workers=2)
     print(f"ground truth: {len(truth.rallies)} rallies in {time.perf_counter() - t0:.0f} s")
     real = realistic_points(simd)
-    s_sim = serve_stats(real.points()).reindex(list(PLAYERS))
-    s_true = serve_stats(truth.points()).reindex(list(PLAYERS))
+    s_sim = serve_stats(real.points()).reindex(list(players))
+    s_true = serve_stats(truth.points()).reindex(list(players))
     # Serve speeds measured the same way on both (the ball track's first frame after contact:
     # the generator's table holds launch speeds, the simulator's track speeds).
     for st, d in ((s_sim, simd), (s_true, truth)):
@@ -114,7 +124,7 @@ def main() -> None:
         st["first_serve_kmh_median"] = first.reindex(st.index).to_numpy()
     rows = []
     print(f"\n{'server':<15} {'':>6} " + " ".join(f"{h:>10}" for _, h, _ in COLUMNS))
-    for p in PLAYERS:
+    for p in players:
         for name, st in (("sim", s_sim), ("truth", s_true)):
             vals = [st.loc[p, c] * f for c, _, f in COLUMNS]
             print(f"{p:<15} {name:>6} " + " ".join(f"{v:>10.1f}" for v in vals))
@@ -122,7 +132,7 @@ def main() -> None:
             rows.append({"server": p, "source": name, "n_points": n_pts,
                          **{c: float(st.loc[p, c]) for c, _, _ in COLUMNS}})
     misses = []
-    for p in PLAYERS:
+    for p in players:
         for c, h, f in COLUMNS:
             gap = abs(s_sim.loc[p, c] - s_true.loc[p, c]) * f
             if not gap <= TOLERANCE[c]:
