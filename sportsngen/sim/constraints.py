@@ -3,7 +3,7 @@
 `PhysicalLimits` keeps rollouts on the physically possible side of the checks a learned model
 breaks most: the ball going below the ground, the ball passing through the net and (with
 `reach_m`) the ball struck back with no player near it. A
-sampled frame that does either is drawn again from the same distribution (so the frame comes
+sampled frame that does any of these is drawn again from the same distribution (so the frame comes
 from the model's distribution restricted to the possible set, renormalised), up to `max_tries`
 times; the count of redraws is reported per rally, and a rally whose frame could not be fixed
 is then corrected by the court's solid objects (`PhysicalLimits.project`: the net stops the
@@ -37,11 +37,11 @@ class PhysicalLimits:
     left alone: the net sends balls back. Tolerances in metres.
 
     Why the reach: a model unsure on which frame a player strikes the ball spreads the
-    contact over frames; a nucleus (top-p under 1) cuts a contact whose frame holds less than
-    1 - top-p of the probability, and receivers let serves they reach fly past, while without
-    one a fifth of the rallies had a ball struck back from 2.5 m or more away
-    (docs/evaluation.md). Rejecting only the impossible contacts lets the possible ones
-    happen at the model's own rate."""
+    contact over frames. A nucleus (top-p under 1) cuts a contact whose frame holds less than
+    1 - top-p of the probability, and receivers let serves they reach fly past; drawn at the
+    model's own odds instead (`contact_odds`), 22.5 % of a fine-tune's rallies had a ball
+    struck back from 2.5 m or more away (docs/evaluation.md). Rejecting only the impossible
+    contacts lets the possible ones happen at the model's rate."""
 
     def __init__(self, ground_tol_m: float = 0.02, net_tol_m: float = 0.02,
                  max_tries: int = 20, reach_m: float | None = CONTACT_REACH_M,
