@@ -11,14 +11,10 @@ from sportsngen.model.centre import (
     GRAVITY_MPS2,
     MAX_LIFT_MPS2,
     MAX_LIFT_PER_M,
-    MIN_FRAME_DV_MPS,
     ball_acceleration_mps2,
     ball_centre_m,
-    ball_frame_axes,
     flight_acceleration_mps2,
-    from_ball_frame,
     object_centres_m,
-    to_ball_frame,
 )
 from sportsngen.model.config import ModelConfig
 from sportsngen.synth.physics import DEFAULT_AERO, fly
@@ -133,72 +129,7 @@ def test_model_files_saved_before_ball_centre_keep_their_centre():
         ModelConfig(ball_centre="spin")
 
 
-def _contact_track(tau: float, v_in, v_out, g: float = 0.0) -> torch.Tensor:
-    """Ball at frames f-2 .. f+1 (4, 3): flying at v_in, struck at tau (0..1) of the frame
-    from f-1 to f, then at v_out; gravity g on the outgoing flight."""
-    v_in, v_out = torch.tensor(v_in), torch.tensor(v_out)
-    dt = 1.0 / FPS
-    p1 = torch.tensor([11.0, 0.5, 2.9])
-    contact = p1 + v_in * tau * dt
 
-    def after(s):
-        return contact + v_out * s + torch.tensor([0.0, 0.0, -0.5 * g * s * s])
-    return torch.stack([p1 - v_in * dt, p1, after((1 - tau) * dt), after((2 - tau) * dt)])
-
-
-@pytest.mark.parametrize("tau", [0.1, 0.5, 0.8])
-def test_the_frame_after_a_contact_lies_along_the_acceleration_axis(tau):
-    # Module doc of ball_frame_axes: past the partial frame of a contact the next offset from
-    # the velocity centre is the contact's own offset scaled, so only e1 carries it.
-    p = _contact_track(tau, [0.0, 0.0, -1.7], [-45.0, -9.0, -5.0])
-    vel = (p[1:] - p[:-1]) * FPS
-    off = p[3] - ball_centre_m(p[2], vel[1], vel[0], FPS, "velocity")
-    axes = ball_frame_axes(vel[1], vel[0], "acceleration")
-    coords = to_ball_frame(off, axes)
-    assert off[1:].abs().min() > 0.01                 # the court's y and z both carry it
-    assert coords[1:].abs().max() < 1e-5
-    assert torch.allclose(coords[0].abs(), off.norm(), atol=1e-5)
-
-
-def test_acceleration_axes_are_orthonormal_and_invert():
-    gen = torch.Generator().manual_seed(0)
-    vel = torch.randn(200, 3, generator=gen) * 20
-    prev = vel + 4 * torch.randn(200, 3, generator=gen)
-    prev[:5, 1] = vel[:5, 1] + 8.0                   # along y: x is the reference
-    prev[:5, [0, 2]] = vel[:5, [0, 2]]
-    axes = ball_frame_axes(vel, prev, "acceleration")
-    eye = torch.eye(3).expand(200, 3, 3)
-    assert torch.allclose(axes @ axes.transpose(-1, -2), eye, atol=1e-5)
-    assert torch.allclose(torch.linalg.det(axes), torch.ones(200), atol=1e-5)
-    dv = vel - prev
-    big = dv.norm(dim=-1) >= MIN_FRAME_DV_MPS
-    assert 100 < int(big.sum()) < 200
-    assert torch.allclose(axes[big, 0], dv[big] / dv[big].norm(dim=-1, keepdim=True), atol=1e-5)
-    assert torch.equal(axes[~big], eye[~big])
-    off = torch.randn(200, 3, generator=gen)
-    assert torch.allclose(from_ball_frame(to_ball_frame(off, axes), axes), off, atol=1e-5)
-
-
-def test_acceleration_axes_fall_back_to_the_courts():
-    vel = torch.tensor([[3.0, 1.0, 2.0], [3.0, 1.0, 2.0]])
-    prev = vel.clone()
-    prev[0, 2] += MIN_FRAME_DV_MPS * 0.99              # free flight: the court's axes
-    prev[1, 2] += MIN_FRAME_DV_MPS * 1.01              # a bounce
-    axes = ball_frame_axes(vel, prev, "acceleration")
-    assert torch.equal(axes[0], torch.eye(3))
-    assert torch.allclose(axes[1, 0], torch.tensor([0.0, 0.0, -1.0]))
-    assert ball_frame_axes(vel, prev, "court") is None
-    assert ball_frame_axes(vel, None, "acceleration") is None
-    off = torch.ones(2, 3)
-    assert to_ball_frame(off, None) is off and from_ball_frame(off, None) is off
-    with pytest.raises(ValueError, match="ball frame"):
-        ball_frame_axes(vel, prev, "spin")
-    with pytest.raises(ValueError, match="ball_frame"):
-        ModelConfig(ball_frame="spin")
-
-
-def test_acceleration_frame_keeps_the_courts_ranges():
+def test_ball_bins_have_one_source_of_ranges():
     assert ModelConfig().ball_bin_half_ranges_m == pytest.approx((3.2, 1.6, 1.6))
-    assert ModelConfig(ball_frame="acceleration").ball_bin_half_ranges_m == \
-        pytest.approx((3.2, 1.6, 1.6))
-    assert ModelConfig.from_dict({}).ball_frame == "court"   # older model files
+    assert ModelConfig(fps=50.0).ball_bin_half_ranges_m == pytest.approx((1.6, 0.8, 0.8))

@@ -212,36 +212,11 @@ def _first_windows(sim, truth: RallyData):
     return arr, {ri: windows[i] for i, (ri, s) in enumerate(windows.items) if s == 0}
 
 
-def _far_bins(model) -> list[torch.Tensor]:
-    """Per ball axis, the bins whose centre lies more than `REVERSAL_M` from 0 (the first
-    axis's are the decoder's `contact_bins`)."""
-    e = model.ball_bins.edges
-    return [model.contact_bins()] + [((e[k, :-1] + e[k, 1:]) / 2).abs() > REVERSAL_M
-                                     for k in (1, 2)]
-
-
 def far_probability(model, h: torch.Tensor) -> torch.Tensor:
     """P(contact) of ball output states h (N, d): the next ball frame more than `REVERSAL_M`
-    from its bin centre, along x for a model binning on the court's axes; on any axis for one
-    binning on the ball's acceleration (a contact can send the offset along any of them), by
-    the factorised head's exact sum over the near bins of all three axes."""
-    far = _far_bins(model)
-    head = model.ball_head
-    p0 = head.dim_logits(h, torch.zeros(len(h), 3, dtype=torch.long), 0).softmax(-1)
-    if model.cfg.ball_frame == "court":
-        return p0[:, far[0]].sum(-1)
-    near = [torch.nonzero(~f).squeeze(1) for f in far]
-    nx, ny = len(near[0]), len(near[1])
-    prev = torch.zeros(len(h), nx, 3, dtype=torch.long)
-    prev[..., 0] = near[0]
-    hx = h[:, None].expand(-1, nx, -1)
-    p1 = head.dim_logits(hx, prev, 1).softmax(-1)[..., near[1]]              # (N, nx, ny)
-    prev = torch.zeros(len(h), nx, ny, 3, dtype=torch.long)
-    prev[..., 0] = near[0][:, None]
-    prev[..., 1] = near[1][None, :]
-    p2 = head.dim_logits(h[:, None, None].expand(-1, nx, ny, -1), prev, 2).softmax(-1)
-    p_near = (p0[:, near[0]] * (p1 * p2[..., near[2]].sum(-1)).sum(-1)).sum(-1)
-    return 1.0 - p_near
+    from its bin centre along x (the decoder's `contact_bins`)."""
+    p0 = model.ball_head.dim_logits(h, torch.zeros(len(h), 3, dtype=torch.long), 0)
+    return p0.softmax(-1)[:, model.contact_bins()].sum(-1)
 
 
 @torch.no_grad()

@@ -21,7 +21,7 @@ import torch
 
 from sportsngen.data.tokens import BALL
 from sportsngen.model.bins import Bins
-from sportsngen.model.centre import ball_centre_m, ball_frame_axes, to_ball_frame
+from sportsngen.model.centre import ball_centre_m
 from sportsngen.model.config import ModelConfig
 
 MIN_HEIGHT_M = 0.3
@@ -36,10 +36,6 @@ class FlightResiduals:
 
     residual_m: np.ndarray
     mode: str
-    # The ball's velocity at each frame and a frame earlier (n, 3), for the axes of a model
-    # that bins the ball on its acceleration (`centre_bin_share`).
-    vel_mps: np.ndarray | None = None
-    prev_vel_mps: np.ndarray | None = None
 
     def summary(self, cfg: ModelConfig | None = None) -> dict[str, float]:
         """Median and p90 of |residual| per dimension (mm) and, given a model config, the share
@@ -50,26 +46,14 @@ class FlightResiduals:
             out[f"median_{name}_mm"] = float(np.median(a[:, d])) if len(a) else float("nan")
             out[f"p90_{name}_mm"] = float(np.quantile(a[:, d], 0.9)) if len(a) else float("nan")
         if cfg is not None and len(a):
-            out["centre_bin_share"] = centre_bin_share(self.residual_m, cfg, self.vel_mps,
-                                                       self.prev_vel_mps)
+            out["centre_bin_share"] = centre_bin_share(self.residual_m, cfg)
         return out
 
 
-def centre_bin_share(residual_m: np.ndarray, cfg: ModelConfig,
-                     vel_mps: np.ndarray | None = None,
-                     prev_vel_mps: np.ndarray | None = None) -> float:
-    """Share of residuals (n, 3) inside the centre bin of the model's ball bins on all three
-    axes (the ball's acceleration axes where the model bins on them: needs the velocities)."""
+def centre_bin_share(residual_m: np.ndarray, cfg: ModelConfig) -> float:
+    """Share of residuals (n, 3) inside the centre bin of the model's ball bins in x, y and z."""
     bins = Bins(cfg.ball_bin_half_ranges_m, cfg.n_bins, cfg.bin_spacing)
-    res = torch.as_tensor(residual_m, dtype=torch.float64)
-    if cfg.ball_frame != "court":
-        if vel_mps is None or prev_vel_mps is None:
-            raise ValueError(f"ball frame {cfg.ball_frame!r} needs the velocities")
-        axes = ball_frame_axes(torch.as_tensor(vel_mps, dtype=torch.float64),
-                               torch.as_tensor(prev_vel_mps, dtype=torch.float64),
-                               cfg.ball_frame)
-        res = to_ball_frame(res, axes)
-    idx = bins.index(res.float())
+    idx = bins.index(torch.as_tensor(residual_m, dtype=torch.float32))
     return float((idx == cfg.n_bins // 2).all(dim=-1).float().mean())
 
 
@@ -95,7 +79,7 @@ def flight_residuals(tracks: list[np.ndarray], fps: float,
                      mode: str = "physics") -> FlightResiduals:
     """Residuals of the next frame from the ball centre `mode` over the free-flight frames of
     `tracks` (each (T, 3, 3), any length)."""
-    parts, vels, prevs = [], [], []
+    parts = []
     for pos in tracks:
         pos = np.asarray(pos, dtype=np.float64)
         frames = np.flatnonzero(free_flight_frames(pos, fps))
@@ -106,12 +90,8 @@ def flight_residuals(tracks: list[np.ndarray], fps: float,
         prev = (ball[frames - 1] - ball[frames - 2]) * fps
         centre = ball_centre_m(ball[frames], vel, prev, fps, mode)
         parts.append((ball[frames + 1] - centre).numpy())
-        vels.append(vel.numpy())
-        prevs.append(prev.numpy())
-    if not parts:
-        return FlightResiduals(np.zeros((0, 3)), mode, np.zeros((0, 3)), np.zeros((0, 3)))
-    return FlightResiduals(np.concatenate(parts), mode, np.concatenate(vels),
-                           np.concatenate(prevs))
+    res = np.concatenate(parts) if parts else np.zeros((0, 3))
+    return FlightResiduals(res, mode)
 
 
 def rally_tracks(pos_m: np.ndarray, start: np.ndarray, length: np.ndarray) -> list[np.ndarray]:

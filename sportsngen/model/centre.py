@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import torch
 
-from sportsngen.model.config import BALL_CENTRES, BALL_FRAMES
+from sportsngen.model.config import BALL_CENTRES
 from sportsngen.tennis.court import BALL_RADIUS_M
 
 PLAYER_CENTRES = ("current", "cv")
@@ -46,12 +46,6 @@ MAX_LIFT_PER_M = DRAG_PER_M / 0.55 / 2.0
 # Vertical speed kept by a bounce inside the step (the surfaces' 0.73-0.80; the exact bounce
 # is the model's to learn, the centre only has to be near it).
 BOUNCE_RESTITUTION = 0.77
-# The acceleration axes replace the court's only after a change of velocity this large over
-# the last frame: a racket contact or a bounce. Free flight changes it by at most ~4 m/s a
-# frame (drag at 70 m/s plus gravity). Binned on axes that follow every frame's change, the
-# sampled noise of a rollout's own last frames turned its axes, the next frame followed them,
-# and a fine-tune's tosses flew off: 98 of 212 rallies struck no serve (docs/evaluation.md).
-MIN_FRAME_DV_MPS = 6.0
 
 
 def flight_acceleration_mps2(vel_mps: torch.Tensor) -> torch.Tensor:
@@ -125,49 +119,3 @@ def object_centres_m(pos_m: torch.Tensor, vel_mps: torch.Tensor,
     out[..., ball, :] = ball_centre_m(pos_m[..., ball, :], vel_mps[..., ball, :], prev, fps,
                                       ball_mode)
     return out
-
-
-def ball_frame_axes(vel_mps: torch.Tensor, prev_vel_mps: torch.Tensor | None,
-                    mode: str) -> torch.Tensor | None:
-    """Axes (..., 3, 3) (rows e1, e2, e3, orthonormal) the ball's offsets are binned in, or
-    None for the court's own axes.
-
-    ``"acceleration"``: after a racket contact or a bounce (the last frame's change of
-    velocity at least `MIN_FRAME_DV_MPS`), e1 along that change, e2 the court's y made
-    perpendicular to it (x where e1 lies within 25 degrees of y), e3 = e1 x e2; the court's
-    axes otherwise. After a contact the next offset (velocity centre) is the contact's own
-    offset again, scaled by the unknown time of the contact inside its frame, plus gravity: on
-    the court's axes the head must keep y and z in proportion to x to fly the ball where the
-    contact aimed it, and models that did not landed 50 % of their serves in the box against
-    the data's 69 % (docs/evaluation.md); along e1 that is one number and the other two stay
-    near zero."""
-    if mode == "court" or prev_vel_mps is None:
-        if mode not in BALL_FRAMES:
-            raise ValueError(f"ball frame must be one of {BALL_FRAMES}, got {mode!r}")
-        return None
-    if mode != "acceleration":
-        raise ValueError(f"ball frame must be one of {BALL_FRAMES}, got {mode!r}")
-    dv = vel_mps - prev_vel_mps
-    norm = torch.linalg.vector_norm(dv, dim=-1, keepdim=True)
-    court = torch.eye(3, dtype=vel_mps.dtype, device=vel_mps.device).expand(
-        *vel_mps.shape[:-1], 3, 3)
-    e1 = dv / norm.clamp_min(1e-9)
-    y_axis = torch.zeros_like(e1)
-    y_axis[..., 1] = 1.0
-    x_axis = torch.zeros_like(e1)
-    x_axis[..., 0] = 1.0
-    ref = torch.where(e1[..., 1:2].abs() < 0.9, y_axis, x_axis)
-    e2 = ref - (ref * e1).sum(dim=-1, keepdim=True) * e1
-    e2 = e2 / torch.linalg.vector_norm(e2, dim=-1, keepdim=True).clamp_min(1e-9)
-    axes = torch.stack([e1, e2, torch.linalg.cross(e1, e2)], dim=-2)
-    return torch.where((norm >= MIN_FRAME_DV_MPS)[..., None], axes, court)
-
-
-def to_ball_frame(offset_m: torch.Tensor, axes: torch.Tensor | None) -> torch.Tensor:
-    """Court-frame offsets (..., 3) -> their coordinates on `axes` (None: unchanged)."""
-    return offset_m if axes is None else (axes @ offset_m[..., None])[..., 0]
-
-
-def from_ball_frame(coords_m: torch.Tensor, axes: torch.Tensor | None) -> torch.Tensor:
-    """Inverse of `to_ball_frame`."""
-    return coords_m if axes is None else (axes.transpose(-1, -2) @ coords_m[..., None])[..., 0]

@@ -8,7 +8,6 @@ HEAD_KINDS = ("joint", "factorised")
 BIN_SPACINGS = ("uniform", "nonuniform")
 BIN_CENTRES = ("current", "cv")
 BALL_CENTRES = ("physics", "velocity", "current")
-BALL_FRAMES = ("court", "acceleration")
 # Model files saved before `ball_centre` existed centred the ball like the players.
 LEGACY_BALL_CENTRE = {"current": "current", "cv": "velocity"}
 # The object-feature groups as `sportsngen.data.tokens.object_features` lays them out: name ->
@@ -46,10 +45,6 @@ class ModelConfig:
     # the model's own serves and simulated points (docs/evaluation.md): physics makes a flight
     # exact but carries the bin error of every decision frame through it.
     ball_centre: str = "velocity"
-    # The axes the ball's offsets are binned on: "court" (x, y, z) or "acceleration" (after a
-    # contact or a bounce, the first along that change of velocity, whose scaled repeat the
-    # next offset is; `sportsngen.model.centre.ball_frame_axes`).
-    ball_frame: str = "court"
     player_max_speed_mps: float = 10.0   # bin range: offsets up to this speed over one frame
     ball_max_speed_mps: tuple[float, float, float] = (80.0, 40.0, 40.0)
     window_s: float = 6.0
@@ -92,9 +87,6 @@ class ModelConfig:
         if self.ball_centre not in BALL_CENTRES:
             raise ValueError(f"model.ball_centre must be one of {BALL_CENTRES}, "
                              f"got {self.ball_centre!r}")
-        if self.ball_frame not in BALL_FRAMES:
-            raise ValueError(f"model.ball_frame must be one of {BALL_FRAMES}, "
-                             f"got {self.ball_frame!r}")
         for name in ("dropout", "attn_dropout"):
             if not 0.0 <= getattr(self, name) < 1.0:
                 raise ValueError(f"model.{name} must be in [0, 1), got {getattr(self, name)}")
@@ -110,8 +102,8 @@ class ModelConfig:
 
     @property
     def ball_bin_half_ranges_m(self) -> tuple[float, float, float]:
-        """Half ranges of the ball's bins (m a frame) on its three axes. The acceleration axes
-        keep the court's: past a contact the offset lies on e1, which has x's wide range."""
+        """Half ranges of the ball's bins (m a frame), x, y and z (the decoder's, the
+        diagnostics' and the bin studies' one source)."""
         return tuple(v / self.fps for v in self.ball_max_speed_mps)
 
     @property

@@ -26,12 +26,7 @@ from torch import nn
 
 from sportsngen.data.tokens import BALL, GENERIC_ID, N_OBJECTS, N_SPECIAL_IDS
 from sportsngen.model.bins import Bins
-from sportsngen.model.centre import (
-    ball_frame_axes,
-    from_ball_frame,
-    object_centres_m,
-    to_ball_frame,
-)
+from sportsngen.model.centre import object_centres_m
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.embedding import ContextEmbedding, ObjectEmbedding, run_mlp
 from sportsngen.model.heads import make_head
@@ -179,6 +174,8 @@ class SportsNGEN(nn.Module):
         self.player_bins = Bins((cfg.player_max_speed_mps * dt,) * 2, cfg.n_bins,
                                 cfg.bin_spacing)
         self.ball_bins = Bins(cfg.ball_bin_half_ranges_m, cfg.n_bins, cfg.bin_spacing)
+        mid = (self.ball_bins.edges[0, :-1] + self.ball_bins.edges[0, 1:]) / 2
+        self.register_buffer("_contact_bins", mid.abs() > CONTACT_OFFSET_M, persistent=False)
         self.player_head = make_head(cfg.head, cfg.d_model, cfg.n_bins, 2, cfg.head_hidden)
         self.ball_head = make_head(cfg.head, cfg.d_model, cfg.n_bins, 3, cfg.head_hidden)
 
@@ -279,23 +276,9 @@ class SportsNGEN(nn.Module):
         return object_centres_m(pos_m, vel_mps, prev_vel_mps, self.cfg.fps, self.cfg.bin_centre,
                                 self.cfg.ball_centre, BALL)
 
-    def ball_axes(self, vel_mps: torch.Tensor,
-                  prev_vel_mps: torch.Tensor | None) -> torch.Tensor | None:
-        """The axes the ball's offset is binned on (..., 3, 3), None for the court's
-        (`sportsngen.model.centre.ball_frame_axes`); velocities of all objects (..., 3, 3)."""
-        prev = None if prev_vel_mps is None else prev_vel_mps[..., BALL, :]
-        return ball_frame_axes(vel_mps[..., BALL, :], prev, self.cfg.ball_frame)
-
-    def offsets(self, pos_m, vel_mps, next_pos_m, prev_vel_mps=None) -> torch.Tensor:
-        """Next positions as the offsets the bins hold (..., 3, 3): from each object's centre,
-        the ball's on its axes (`ball_axes`)."""
-        off = next_pos_m - self.centres(pos_m, vel_mps, prev_vel_mps)
-        ball = to_ball_frame(off[..., BALL, :], self.ball_axes(vel_mps, prev_vel_mps))
-        return torch.cat([off[..., :BALL, :], ball[..., None, :]], dim=-2)
-
     def target_bins(self, pos_m, vel_mps, next_pos_m, prev_vel_mps=None):
         """Bin indices of the next positions: (players (..., 2, 2), ball (..., 3))."""
-        off = self.offsets(pos_m, vel_mps, next_pos_m, prev_vel_mps)
+        off = next_pos_m - self.centres(pos_m, vel_mps, prev_vel_mps)
         return (self.player_bins.index(off[..., :BALL, :2]),
                 self.ball_bins.index(off[..., BALL, :]))
 
@@ -307,8 +290,7 @@ class SportsNGEN(nn.Module):
     def contact_bins(self) -> torch.Tensor:
         """(n_bins,) bool: the bins of the ball's first axis whose centre lies more than
         `CONTACT_OFFSET_M` from 0, a racket contact's (or a bounce's) change of course."""
-        e = self.ball_bins.edges[0]
-        return ((e[:-1] + e[1:]) / 2).abs() > CONTACT_OFFSET_M
+        return self._contact_bins
 
     @torch.no_grad()
     def sample_next(self, h: torch.Tensor, pos_m: torch.Tensor, vel_mps: torch.Tensor,
@@ -338,8 +320,7 @@ class SportsNGEN(nn.Module):
         if self.cfg.ball_centre == "physics":
             u_ball = torch.where(bi == self.cfg.n_bins // 2, torch.full_like(u_ball, 0.5),
                                  u_ball)
-        b_off = from_ball_frame(self.ball_bins.value(bi, u_ball),
-                                self.ball_axes(vel_mps, prev_vel_mps))
+        b_off = self.ball_bins.value(bi, u_ball)
         nxt = centre.clone()
         nxt[..., :BALL, :2] += p_off
         nxt[..., :BALL, 2] = 0.0

@@ -75,10 +75,9 @@ class NextFrameMetrics:
         p_nll, b_nll = model.nll(h, p_idx, b_idx)
         p_top = model.player_head.top1(h[..., :BALL, :])
         b_top = model.ball_head.top1(h[..., BALL, :])
-        # Offsets as the bins hold them (the ball's on its axes), of the record and of the
-        # constant-velocity reference predictor.
-        off = model.offsets(pos, vel, nxt, prev)
-        cv_mean = model.offsets(pos, vel, pos + vel / cfg.fps, prev)
+        centre = model.centres(pos, vel, prev)
+        off = nxt - centre
+        cv_mean = pos + vel / cfg.fps - centre
         m = batch["has_next"].bool()
         near = batch["near_contact"].bool()
         pb, bb = model.player_bins, model.ball_bins

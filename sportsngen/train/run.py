@@ -124,11 +124,10 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
             model, vocab, row = add_player(model, vocab, cfg.player)
             model_cfg = model.cfg
             trainable_rows = [row] if ft.get("freeze", True) else None
-        # Fine-tuning to a new ball bin centre or axes: same weights and shapes, new targets.
-        rebin = {k: cfg.get(f"init_{k}") for k in ("ball_centre", "ball_frame")
-                 if cfg.get(f"init_{k}")}
-        if rebin:
-            model_cfg = ModelConfig.from_dict({**model_cfg.to_dict(), **rebin})
+        if cfg.get("init_ball_centre"):
+            # Fine-tuning to a new ball bin centre: same weights and shapes, new targets.
+            model_cfg = ModelConfig.from_dict({**model_cfg.to_dict(),
+                                               "ball_centre": cfg.init_ball_centre})
         check_data_matches(model_cfg, vocab, data)
         init_state = model.state_dict()
     else:
