@@ -1,7 +1,7 @@
 """The simulation issue's acceptance figures: simulated service points against the generator.
 
     .venv/bin/python scripts/check_simulation.py [--model PATH] [--points 500] [--seed 0]
-        [--top-p-player P] [--top-p-ball P] [--contact-odds] [--json out.json]
+        [--top-p-player P] [--top-p-ball P] [--[no-]contact-odds] [--json out.json]
         [--players "Roger Federer,Rafael Nadal"] [--surface hard]
 
 For two players (default Roger Federer v Rafael Nadal) on a surface (default hard): `--points`
@@ -79,8 +79,9 @@ def main() -> None:
     ap.add_argument("--top-p-player", type=float, default=None)
     ap.add_argument("--top-p-ball", type=float, default=None)
     ap.add_argument("--threads", type=int, default=None)
-    ap.add_argument("--contact-odds", action="store_true",
-                    help="the ball's nucleus keeps the model's odds of a racket contact")
+    ap.add_argument("--contact-odds", action=argparse.BooleanOptionalAction, default=None,
+                    help="the ball's nucleus keeps the model's odds of a racket contact "
+                         "(default: the model file's)")
     ap.add_argument("--json", default=None)
     ap.add_argument("--players", default=",".join(PLAYERS),
                     help="the two players, comma-separated")
@@ -95,8 +96,8 @@ def main() -> None:
         torch.set_num_threads(args.threads)
     kw = {k: v for k, v in (("top_p_player", args.top_p_player),
                             ("top_p_ball", args.top_p_ball)) if v is not None}
-    if args.contact_odds:
-        kw["contact_odds"] = True
+    if args.contact_odds is not None:
+        kw["contact_odds"] = args.contact_odds
     sim = Simulator.from_pretrained(args.model, physical_limits=not args.no_physical_limits,
                                     **kw)
     print(f"top-p player {sim.top_p_player}, ball {sim.top_p_ball}, "

@@ -94,16 +94,15 @@ def data_args(overrides: dict[str, object]) -> list[str]:
 
 
 def evaluate(model_path: Path, player: str, opponent: str, truth, initial, n_points: int,
-             seed: int) -> dict:
+             seed: int, defaults: dict) -> dict:
     from sportsngen.eval.physical import shot_quantities
     from sportsngen.eval.stats import serve_stats
-    from sportsngen.model.export import load_model, read_extra
+    from sportsngen.model.export import load_model
     from sportsngen.sim import Simulator
     from sportsngen.sim.assemble import realistic_points
 
     model, ec, vocab, _ = load_model(model_path)
-    defaults = read_extra(model_path).get("sim_defaults") or {}
-    sim = Simulator(model, ec, vocab, initial, **{k: float(v) for k, v in defaults.items()})
+    sim = Simulator(model, ec, vocab, initial, **defaults)
     d = sim.simulate_points(player, opponent, "hard", n_points, seed=seed)
     out = {"non_realistic": float((~d.rallies["realistic"]).mean())}
     for name, data in (("sim", realistic_points(d)), ("truth", truth)):
@@ -207,11 +206,15 @@ def main() -> None:
     truth = generate_matches([(profiles[args.player], profiles[opponent])], "hard", 3000,
                              seed=args.seed + 100, workers=2)
     truth = truth.subset(truth.rallies.loc[truth.rallies["server"] == args.player, "rally_id"])
+    from sportsngen.model.export import read_extra
+
+    # Every k samples as the base does, so the rows differ only in the player's identity.
+    defaults = read_extra(base).get("sim_defaults") or {}
     rows = []
     for k in sorted(models):
         t0 = time.perf_counter()
         res = evaluate(models[k], args.player, opponent, truth, initial, args.points,
-                       args.seed)
+                       args.seed, defaults)
         rows.append({"k": k, **res})
         print(f"k={k}: " + ", ".join(f"{key} {res[key + '_sim']:.3f} (truth "
                                      f"{res[key + '_truth']:.3f})" for key, _, _ in METRICS)

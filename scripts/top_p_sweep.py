@@ -26,7 +26,7 @@ import pandas as pd
 import torch
 
 from sportsngen.eval.physical import compare_data
-from sportsngen.model.export import update_extra
+from sportsngen.model.export import read_extra, update_extra
 from sportsngen.sim import Simulator
 from sportsngen.sim.simulator import model_path
 from sportsngen.synth.generate import generate_matches
@@ -135,7 +135,9 @@ def main() -> None:
     print("\n".join(lines))
     if args.write_default:
         path = model_path(args.model)
-        update_extra(path, sim_defaults=chosen)
+        # The other stored defaults (contact odds) stay.
+        kept = read_extra(path).get("sim_defaults") or {}
+        update_extra(path, sim_defaults={**kept, **chosen})
         print(f"stored top-p {chosen} as the default of {path}")
 
 

@@ -131,6 +131,21 @@ def test_simulator_bad_input(tiny_model_file, tmp_path):
     torch.manual_seed(0)
 
 
+def test_stored_sim_defaults_are_defaults_and_arguments_win(tiny_model_file, tmp_path):
+    import shutil
+
+    from sportsngen.model.export import update_extra
+
+    path = shutil.copy(tiny_model_file, tmp_path / "with_defaults.pt")
+    update_extra(path, sim_defaults={"top_p_player": 1.0, "top_p_ball": 0.45,
+                                     "contact_odds": True})
+    sim = Simulator.from_pretrained(path)
+    assert sim.top_p_ball == 0.45 and sim.contact_odds is True
+    sim = Simulator.from_pretrained(path, contact_odds=False, top_p_ball=0.9)
+    assert sim.top_p_ball == 0.9 and sim.contact_odds is False
+    assert Simulator.from_pretrained(tiny_model_file).contact_odds is False
+
+
 def test_simulate_py_learned_engine_writes_outputs(tiny_model_file, tmp_path, capsys):
     from sportsngen.sim.cli import run_simulation
 

@@ -126,6 +126,30 @@ def test_ball_noise_bounded_and_scaled_to_frame_rate(arrays):
     np.testing.assert_array_equal(s["next_pos_m"], plain["next_pos_m"])  # targets stay clean
 
 
+def test_player_shift_moves_each_players_window_and_keeps_his_moves(arrays):
+    plain = WindowDataset(arrays, 30)[0]
+    shifts = []
+    for seed in range(40):
+        s = WindowDataset(arrays, 30, Augment(flip=False, random_crop=False,
+                                              player_shift_m=0.4), seed)[0]
+        d = s["pos_m"] - plain["pos_m"]
+        m = plain["valid"]
+        # One constant horizontal offset a player for the window; ball and heights untouched.
+        assert np.allclose(d[m, :BALL, :2], d[:1, :BALL, :2], atol=1e-5)
+        assert (d[:, BALL] == 0).all() and (d[:, :BALL, 2] == 0).all()
+        assert (d[~m] == 0).all()
+        n = plain["has_next"]
+        np.testing.assert_allclose((s["next_pos_m"] - s["pos_m"])[n],
+                                   (plain["next_pos_m"] - plain["pos_m"])[n], atol=1e-5)
+        np.testing.assert_array_equal(s["vel_mps"], plain["vel_mps"])
+        shifts.append(d[0, :BALL, :2])
+    r = np.linalg.norm(np.concatenate(shifts), axis=-1)
+    assert r.max() <= 0.4 + 1e-6 and r.max() > 0.3
+    # Uniform in the disc: a quarter of them inside half the radius.
+    assert 0.1 < (r < 0.2).mean() < 0.45
+    assert not np.allclose(shifts[0][0], shifts[0][1])   # each player his own
+
+
 def test_random_crops_vary_and_stay_consistent(arrays):
     ds = WindowDataset(arrays, 20, Augment(flip=False, ball_noise=False, random_crop=True), 0)
     i = next(k for k, (r, _) in enumerate(ds.items) if arrays.length[r] > 60)

@@ -17,7 +17,7 @@ from sportsngen.data.toy import make_toy_rallies
 from sportsngen.model import load_model
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.decoder import SportsNGEN
-from sportsngen.model.export import read_extra
+from sportsngen.model.export import read_extra, update_extra
 from sportsngen.train.datamodule import load_rally_data
 from sportsngen.train.evaluate import data_config, evaluate_held_out, metrics_table
 from sportsngen.train.finetune import (
@@ -190,7 +190,10 @@ def test_train_py_through_hydra_resume_mismatch_and_finetune(tmp_path, monkeypat
         train_from_config(_compose([*fast, "model.d_model=16", f"resume={last}"]),
                           tmp_path / "bad")
 
-    # Fine-tune a player's identity on the generic model (everything else frozen).
+    # Fine-tune a player's identity on the generic model (everything else frozen). It samples
+    # as its base: the base's simulation defaults are carried over.
+    defaults = {"top_p_player": 1.0, "top_p_ball": 0.45, "contact_odds": True}
+    update_extra(out / "model.pt", sim_defaults=defaults)
     ft = train_from_config(_compose([
         "experiment=finetune_player", "player=Toy Alpha", f"init={out / 'model.pt'}",
         "data=toy", "data.n_rallies=16", "finetune.n_sequences=4", "trainer.max_steps=3",
@@ -223,6 +226,8 @@ def test_train_py_through_hydra_resume_mismatch_and_finetune(tmp_path, monkeypat
     pool = {name: len(read_extra(run["model_file"])["initial_conditions"]["server"])
             for name, run in (("base", summary), ("player", ft), ("data", g))}
     assert pool["data"] == pool["base"] and pool["player"] > pool["base"]
+    assert read_extra(ft["model_file"])["sim_defaults"] == defaults
+    assert "sim_defaults" not in read_extra(g["model_file"])   # a new model: its own choice
     for k, v in model.state_dict().items():
         assert torch.equal(v, m4.state_dict()[k]), k
     assert not all(torch.equal(v, ec4.state_dict()[k]) for k, v in ec.state_dict().items())

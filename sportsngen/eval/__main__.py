@@ -6,7 +6,7 @@
     python -m sportsngen.eval leaks FOLDER [--k 6 12] [--boot N] [--seed S] [--csv PATH] \\
         [--band 0.4 0.6] [--paths]
     python -m sportsngen.eval diagnose [--model PATH] [--points 400] [--seed 0] [--csv PATH]
-        [--top-p-ball P] [--contact-odds]
+        [--top-p-ball P] [--[no-]contact-odds]
 
 Folders are `RallyData.save` folders, read without physics validation (simulated rallies may
 break physics and are flagged, not refused). `--ref-synthetic` generates the reference with
@@ -154,8 +154,8 @@ def run_diagnose(args: argparse.Namespace) -> int:
     if args.top_p_ball is not None and not 0.0 < args.top_p_ball <= 1.0:
         raise UsageError(f"--top-p-ball must be in (0, 1], got {args.top_p_ball}")
     kw = {} if args.top_p_ball is None else {"top_p_ball": args.top_p_ball}
-    if args.contact_odds:
-        kw["contact_odds"] = True
+    if args.contact_odds is not None:
+        kw["contact_odds"] = args.contact_odds
     try:
         sim = Simulator.from_pretrained(args.model, **kw)
     except FileNotFoundError as exc:
@@ -230,8 +230,9 @@ def build_parser() -> argparse.ArgumentParser:
     diag.add_argument("--csv", type=Path, default=None, help="write the table as CSV here")
     diag.add_argument("--top-p-ball", type=float, default=None,
                       help="the ball's nucleus (default: the model file's, else 1)")
-    diag.add_argument("--contact-odds", action="store_true",
-                      help="the ball's nucleus keeps the model's odds of a racket contact")
+    diag.add_argument("--contact-odds", action=argparse.BooleanOptionalAction, default=None,
+                      help="the ball's nucleus keeps the model's odds of a racket contact "
+                           "(default: the model file's, else off)")
     return ap
 
 

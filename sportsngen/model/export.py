@@ -6,6 +6,7 @@ types (dicts, lists, tensors), so `load_model` reads it with `weights_only=True`
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import torch
@@ -87,7 +88,10 @@ def update_extra(path: str | Path, **items) -> Path:
     path = Path(path)
     blob = read_blob(path)
     blob["extra"] = {**dict(blob.get("extra") or {}), **_plain(items)}
-    torch.save(blob, path)
+    # Written beside it and renamed: a reader (a study on the other core) never sees half a file.
+    tmp = path.with_name(path.name + ".tmp")
+    torch.save(blob, tmp)
+    os.replace(tmp, path)
     return path
 
 

@@ -127,6 +127,8 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
     kw = {k: float(cfg[k]) for k in ("top_p_player", "top_p_ball") if cfg.get(k) is not None}
     if cfg.get("top_p") is not None:
         kw = {"top_p_player": float(cfg.top_p), "top_p_ball": float(cfg.top_p)}
+    if cfg.get("contact_odds") is not None:
+        kw["contact_odds"] = bool(cfg.contact_odds)
     sim = Simulator.from_pretrained(cfg.get("model_file"), **kw)
     names = (str(cfg.player1), str(cfg.player2))
     results = sim.simulate_matches([names] * int(cfg.n_matches), str(cfg.surface), fmt=fmt,

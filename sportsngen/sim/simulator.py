@@ -113,8 +113,9 @@ class Simulator:
     @classmethod
     def from_pretrained(cls, path_or_name: str | Path | None = None, **kwargs) -> Simulator:
         """Load a model file (or a bundled model by name; None: the default bundled model).
-        Keyword arguments go to `Simulator` (top_p_player, top_p_ball, max_duration_s, ...);
-        top-p defaults to the values stored with the model, if any."""
+        Keyword arguments go to `Simulator` (top_p_player, top_p_ball, contact_odds,
+        max_duration_s, ...); those stored with the model (`sim_defaults`: its top-p and
+        contact odds) are the defaults."""
         path = model_path(path_or_name)
         model, ec, vocab, _ = load_model(path)
         extra = read_extra(path)
@@ -122,7 +123,7 @@ class Simulator:
             raise ValueError(f"{path} carries no initial conditions for simulation; add them "
                              "with scripts/add_initial_conditions.py --model ... --data ...")
         for key, value in (extra.get("sim_defaults") or {}).items():
-            kwargs.setdefault(key, float(value))
+            kwargs.setdefault(key, value if isinstance(value, bool) else float(value))
         sim = cls(model, ec, vocab, InitialConditions.from_dict(extra["initial_conditions"]),
                   **kwargs)
         if extra.get("outcome_calibrator") is not None:

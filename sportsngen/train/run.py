@@ -192,20 +192,25 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
         # fine-tune's service points without a serve struck, 12 % with its own starts
         # (docs/evaluation.md).
         init = InitialConditions.from_rally_data(data)
-        base = None
+        base_extra: dict = {}
         if cfg.get("init") and cfg.get("player"):
             try:
-                base = read_extra(cfg.init).get("initial_conditions")
-            except ValueError:   # a Lightning checkpoint carries no initial conditions
-                base = None
-        if base is not None:
-            init = InitialConditions.from_dict(base).merged(init)
+                base_extra = read_extra(cfg.init)
+            except ValueError:   # a Lightning checkpoint carries no extras
+                base_extra = {}
+        if base_extra.get("initial_conditions") is not None:
+            init = InitialConditions.from_dict(base_extra["initial_conditions"]).merged(init)
         init = init.to_dict()
+        extra = {"summary": summary, "split": split, "initial_conditions": init}
+        # A player's fine-tune is the base model with one more identity: it samples as the
+        # base does (without its defaults it fell back to top-p 1, and the fine-tuning study
+        # compared identities at different nuclei).
+        if base_extra.get("sim_defaults"):
+            extra["sim_defaults"] = base_extra["sim_defaults"]
         if not cfg.get("init"):   # from `init`, the generic row is the base model's
             average_generic_identity(module.model, vocab)   # unknown players: the average
         path = save_model(out_dir / "model.pt", module.model.cpu(), vocab, event_model,
-                          extra={"summary": summary, "split": split,
-                                 "initial_conditions": init})
+                          extra=extra)
         summary["model_file"] = str(path)
         (out_dir / "summary.json").write_text(json.dumps(summary, indent=2))
         log.info("summary: %s", json.dumps(summary, indent=2))
