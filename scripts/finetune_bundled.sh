@@ -49,5 +49,9 @@ if [[ " $STAGES " == *" $LAST "* ]]; then
     "$PY" -c "from sportsngen.model.export import update_extra; update_extra('$DEST',
         sim_defaults={'top_p_player': 1.0, 'top_p_ball': 0.45, 'contact_odds': True})"
     "$PY" scripts/rally_outcome_study.py --rallies 400 --n 16 --save-calibrator
+    # The stages never train the generic identity row (unknown players): the mean again.
+    cp "$DEST" "$RUN/before_generic.pt"
+    "$PY" scripts/export_checkpoint.py "$RUN/before_generic.pt" "$DEST" \
+        --from "$RUN/before_generic.pt" --average-generic-identity
     echo "exported $DEST ($(stat -c %s "$DEST") bytes)"
 fi
