@@ -307,6 +307,8 @@ class Augment:
     # this radius (m); his moves (the targets) are kept. Rollouts leave a player a few tenths of
     # a metre from where the record had him, where a model that saw only exact geometry gives a
     # ball passing him little chance of a contact (exposure bias): this shows it those states.
+    # Measured at 0.4 m on the version-6 fine-tune: held-out loss 0.722 against 0.732, but aces
+    # 18-24 % against 9-17 % on two seeds (docs/evaluation.md), so 0 by default.
     player_shift_m: float = 0.0
 
 
