@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Reproduce the bundled model from its base: the stages of teacher-forced fine-tuning on
 # generator version 6 (causal) data that made sportsngen-small.pt, then its event classifier
-# retrained on the same data, its serve starts, sampling defaults and rally-outcome calibrator.
-# About 1 hour a stage on 2 cores (one thread, about 1 step/s); each stage resumes the last one's
-# optimiser, so a stage can be stopped and run again alone (STAGES="4 5").
+# retrained on the same data, its sampling defaults, rally-outcome calibrator and generic
+# identity row. 14-20 minutes a stage at one thread (about 0.85 steps/s; 700 steps, stage 3
+# 1,050), about 40 more for the calibrator; each stage resumes the last one's optimiser, so a
+# stage can be stopped and run again alone (STAGES="4 5").
 #
 #   scripts/finetune_bundled.sh                 # every stage, then export into the package
 #   STAGES="5" scripts/finetune_bundled.sh      # one stage (needs the earlier ones' folders)
