@@ -204,3 +204,16 @@ def test_tracks_are_identical_with_and_without_rendering_the_outcomes():
     assert (a.end_reason, a.rally_length, a.winner_role) == \
         (b.end_reason, b.rally_length, b.winner_role)
     assert pd.Series([s.t_s for s in a.shots]).equals(pd.Series([s.t_s for s in b.shots]))
+
+
+def test_intercept_search_stops_where_the_flight_ends():
+    """A state handed over late in a flight asked for contacts past its end (the expert on a
+    model's rollouts, sportsngen.train.expert): the search keeps to the flight."""
+    from sportsngen.synth import physics
+    from sportsngen.synth.shot import Body, find_intercept
+
+    flight = physics.fly([4.0, 0.0, 1.0], [20.0, 0.0, 2.0], 0.0, "hard", 2.0, max_bounces=1)
+    body = Body(max_speed_mps=7.0, max_accel_mps2=8.0, reach_m=1.5)
+    hit = find_intercept(flight, 0.0, np.array([12.0, 0.0]), (0.0, 0.0), body, 1, False,
+                         t_bounce=0.1, t_stop=flight.t_s[-1] + 1.0)
+    assert hit is None or hit.t_s <= flight.t_s[-1]

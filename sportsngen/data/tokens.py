@@ -159,9 +159,18 @@ class RallyArrays:
     score: np.ndarray        # (n_rallies, 7) float32
     fps: float
     meta: dict = field(default_factory=dict)
+    # (n_rallies,) int64 or None: a rally's frames before this one are inputs only, never
+    # targets (an expert's answer to a model's own rollout, `sportsngen.train.expert`).
+    learn_from: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.rally_id)
+
+    def learn_from_frames(self) -> np.ndarray:
+        """(n_rallies,) the first frame whose next frame is a target (0 for recorded rallies)."""
+        if self.learn_from is None:
+            return np.zeros(len(self.rally_id), dtype=np.int64)
+        return self.learn_from
 
     def select(self, idx: np.ndarray) -> RallyArrays:
         """The rallies at positions `idx`, re-packed."""
@@ -175,7 +184,28 @@ class RallyArrays:
                            length,
                            self.rally_id[idx], self.ident[idx], self.surface[idx],
                            self.tournament[idx], self.serve[idx], self.score[idx], self.fps,
-                           dict(self.meta))
+                           dict(self.meta),
+                           None if self.learn_from is None else self.learn_from[idx])
+
+    @staticmethod
+    def concat(parts: list[RallyArrays]) -> RallyArrays:
+        """The rallies of every part, in order, re-packed (one frame rate)."""
+        if not parts:
+            raise ValueError("nothing to concatenate")
+        fps = {float(p.fps) for p in parts}
+        if len(fps) > 1:
+            raise ValueError(f"rally arrays at different frame rates {sorted(fps)}")
+        length = np.concatenate([p.length for p in parts])
+        start = np.concatenate([[0], np.cumsum(length)[:-1]]).astype(np.int64)
+
+        def cat(name: str) -> np.ndarray:
+            return np.concatenate([getattr(p, name) for p in parts])
+        learn = None
+        if any(p.learn_from is not None for p in parts):
+            learn = np.concatenate([p.learn_from_frames() for p in parts])
+        return RallyArrays(cat("pos_m"), cat("labels"), cat("near_contact"), start, length,
+                           cat("rally_id"), cat("ident"), cat("surface"), cat("tournament"),
+                           cat("serve"), cat("score"), parts[0].fps, dict(parts[0].meta), learn)
 
 
 def rally_arrays(data: RallyData, vocab: Vocab, unknown: str = "warn") -> RallyArrays:
@@ -343,8 +373,11 @@ class WindowDataset(Dataset):
         ri, s = self.items[idx]
         a, w, aug = self.a, self.window, self.augment
         n = int(a.length[ri])
+        learn = 0 if a.learn_from is None else int(a.learn_from[ri])
         if aug is not None and aug.random_crop:
-            s = int(self.rng.integers(0, max(n - w, 0) + 1))
+            # A rally learnt from frame `learn` on: windows that hold frames from there.
+            lo = max(learn - w + 2, 0) if learn > 0 else 0
+            s = int(self.rng.integers(min(lo, max(n - w, 0)), max(n - w, 0) + 1))
         rows = a.pos_m[a.start[ri]:a.start[ri] + n]
         m = min(w, n - s)
         pos = np.zeros((w, N_OBJECTS, 3), dtype=np.float32)
@@ -357,7 +390,7 @@ class WindowDataset(Dataset):
         nxt[:n_next] = rows[s + 1:s + 1 + n_next]
         vel = (pos - prev) * a.fps  # backward difference: 0 at the rally's first frame
         valid = np.arange(w) < m
-        has_next = np.arange(w) < n_next
+        has_next = (np.arange(w) < n_next) & (s + np.arange(w) >= learn)
         vel[~valid] = 0.0
         # The velocity a frame earlier (the ball's physics centre reads its acceleration):
         # 0 for the rally's first two frames.

@@ -187,6 +187,9 @@ def find_intercept(flight: physics.Flight, t_react: float, pos: np.ndarray,
     `depth_m`. When none is reachable, the contact he is least late for (`reachable` False).
     None when the flight offers no contact at a playable height on his side at all."""
     t0 = max(t_react, 0.05)
+    # A flight that ends first (the net, the second bounce) has nothing later to meet: a state
+    # handed to the kernel late in a flight (continue_rally) reached here with t_stop past it.
+    t_stop = min(t_stop, float(flight.t_s[-1]))
     if t_stop <= t0:
         return None
     tau = np.arange(t0, t_stop, SEARCH_STEP_S)

@@ -60,17 +60,22 @@ def data_fingerprint(data: RallyData) -> str:
     return h.hexdigest()[:16]
 
 
-def split_rallies(arrays: RallyArrays, val_fraction: float, seed: int):
-    """Random train/validation split by rally (seeded); at least one rally in each when
-    there are two or more."""
+def split_positions(n: int, val_fraction: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Random train/validation split of `n` rallies by position (seeded) -> (train, val),
+    each sorted; at least one rally in each when there are two or more."""
     if not 0.0 <= val_fraction < 1.0:
         raise ValueError(f"val_fraction must be in [0, 1), got {val_fraction}")
-    n = len(arrays)
     order = np.random.default_rng(seed).permutation(n)
     n_val = int(round(n * val_fraction))
     if val_fraction > 0 and n >= 2:
         n_val = min(max(n_val, 1), n - 1)
-    return arrays.select(np.sort(order[n_val:])), arrays.select(np.sort(order[:n_val]))
+    return np.sort(order[n_val:]), np.sort(order[:n_val])
+
+
+def split_rallies(arrays: RallyArrays, val_fraction: float, seed: int):
+    """`arrays` split as `split_positions` says -> (train, val)."""
+    train, val = split_positions(len(arrays), val_fraction, seed)
+    return arrays.select(train), arrays.select(val)
 
 
 class TrackingDataModule(L.LightningDataModule):
@@ -78,7 +83,8 @@ class TrackingDataModule(L.LightningDataModule):
 
     def __init__(self, data: RallyData, vocab: Vocab, window_frames: int, batch_size: int = 16,
                  val_fraction: float = 0.1, seed: int = 0, augment: Augment | None = None,
-                 num_workers: int = 0, unknown: str = "warn"):
+                 num_workers: int = 0, unknown: str = "warn",
+                 extra_train: RallyArrays | None = None):
         super().__init__()
         self.data, self.vocab = data, vocab
         self.window_frames, self.batch_size = window_frames, batch_size
@@ -87,12 +93,20 @@ class TrackingDataModule(L.LightningDataModule):
         self.num_workers, self.unknown = num_workers, unknown
         self.train_arrays: RallyArrays | None = None
         self.val_arrays: RallyArrays | None = None
+        # Rallies trained on beside the data's training split, never validated on (an expert's
+        # answers to the model's own rollouts, `sportsngen.train.expert`).
+        self.extra_train = extra_train
 
     def setup(self, stage: str | None = None) -> None:
         if self.train_arrays is not None:
             return
         arrays = rally_arrays(self.data, self.vocab, self.unknown)
         self.train_arrays, self.val_arrays = split_rallies(arrays, self.val_fraction, self.seed)
+        if self.extra_train is not None:
+            if abs(self.extra_train.fps - arrays.fps) > 1e-9:
+                raise ValueError(f"extra training rallies at {self.extra_train.fps:g} Hz, the "
+                                 f"data at {arrays.fps:g} Hz")
+            self.train_arrays = RallyArrays.concat([self.train_arrays, self.extra_train])
 
     def train_dataloader(self) -> DataLoader:
         rank = self.trainer.global_rank if self.trainer is not None else 0

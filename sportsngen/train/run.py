@@ -17,12 +17,13 @@ from lightning.pytorch.callbacks import EMAWeightAveraging, ModelCheckpoint
 from lightning.pytorch.loggers import CSVLogger
 from omegaconf import DictConfig, OmegaConf
 
-from sportsngen.data.tokens import Augment, Vocab
+from sportsngen.data.tokens import Augment, RallyArrays, Vocab
 from sportsngen.errors import ModelFileError
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.export import is_model_file, read_extra, save_model
 from sportsngen.sim.initial import InitialConditions
 from sportsngen.train.datamodule import TrackingDataModule, data_fingerprint, load_rally_data
+from sportsngen.train.expert import load_expert
 from sportsngen.train.finetune import (
     add_player,
     average_generic_identity,
@@ -106,6 +107,20 @@ def build_model_config(model: dict, data_fps: float, vocab: Vocab) -> ModelConfi
     return ModelConfig.from_dict(d)
 
 
+def _expert_arrays(cfg: DictConfig, vocab: Vocab) -> RallyArrays | None:
+    """The expert rallies of `expert.path` (scripts/expert_data.py), checked against the
+    vocabulary they must have been made with."""
+    path = (cfg.get("expert") or {}).get("path")
+    if not path:
+        return None
+    arrays = load_expert(path)
+    if int(arrays.ident.max()) >= vocab.n_ids:
+        raise ValueError(f"expert rallies {path} name identity {int(arrays.ident.max())}, "
+                         f"beyond this model's {vocab.n_ids}: make them with the model "
+                         "trained on (scripts/expert_data.py --model = init)")
+    return arrays
+
+
 def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
     """Train (or fine-tune) as `cfg` says; write checkpoints, logs and `model.pt` in out_dir.
     Returns a summary dict (also written as summary.json)."""
@@ -143,7 +158,8 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
         data, vocab, model_cfg.window_frames, batch_size=int(w.batch_size),
         val_fraction=float(w.val_fraction), seed=int(cfg.seed),
         augment=Augment(**OmegaConf.to_container(w.augment, resolve=True)),
-        num_workers=int(w.num_workers), unknown=model_cfg.unknown)
+        num_workers=int(w.num_workers), unknown=model_cfg.unknown,
+        extra_train=_expert_arrays(cfg, vocab))
     opt = cfg.optim
     module = DecoderModule(model_cfg.to_dict(), vocab.to_dict(), lr=float(opt.lr),
                            weight_decay=float(opt.weight_decay),

@@ -1,0 +1,69 @@
+"""The generator as expert on a model's own rollouts: write the rallies to train on.
+
+    .venv/bin/python scripts/expert_data.py --model sportsngen/model/bundled/sportsngen-small.pt
+        --out outputs/expert/bundled.npz [--branches 3000] [--data synthetic_small] [--seed 0]
+
+Branches of the data's training split (the split `train.py` makes with the same `--val-fraction`
+and `--split-seed`) are rolled out by the model at its stored sampling, and the generator's
+players play each rally on from the model's state (`sportsngen.train.expert`). Train on them
+with `python train.py init=<the same model> expert.path=<out> ...`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import torch
+from omegaconf import OmegaConf
+
+from sportsngen.data.tokens import rally_arrays
+from sportsngen.sim import Simulator
+from sportsngen.synth.dataset import matchups
+from sportsngen.train.datamodule import load_rally_data, split_positions
+from sportsngen.train.expert import ExpertConfig, expert_arrays, save_expert
+
+CONF = Path(__file__).resolve().parents[1] / "conf" / "data"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--model", default=None, help="model file (default: the bundled model)")
+    ap.add_argument("--out", required=True, help=".npz file to write")
+    ap.add_argument("--data", default="synthetic_small", help="a conf/data config (synthetic)")
+    ap.add_argument("--branches", type=int, default=ExpertConfig.n_branches)
+    ap.add_argument("--min-model-frames", type=int, default=ExpertConfig.min_model_frames)
+    ap.add_argument("--max-model-frames", type=int, default=ExpertConfig.max_model_frames)
+    ap.add_argument("--keep-frames", type=int, default=ExpertConfig.keep_frames)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--val-fraction", type=float, default=0.1)
+    ap.add_argument("--split-seed", type=int, default=0)
+    ap.add_argument("--threads", type=int, default=None)
+    args = ap.parse_args()
+    if args.threads:
+        torch.set_num_threads(args.threads)
+    cfg = OmegaConf.to_container(OmegaConf.load(CONF / f"{args.data}.yaml"), resolve=True)
+    if cfg.get("source") != "synthetic":
+        raise SystemExit(f"--data {args.data} is not generated: the expert is the generator, "
+                         "whose players must be the data's")
+    t0 = time.perf_counter()
+    data = load_rally_data(cfg)
+    profiles = {p.name: p for pair in matchups(cfg) for p in pair}
+    sim = Simulator.from_pretrained(args.model)
+    arrays = rally_arrays(data, sim.vocab, unknown="generic")
+    train, _ = split_positions(len(arrays), args.val_fraction, args.split_seed)
+    ecfg = ExpertConfig(n_branches=args.branches, min_model_frames=args.min_model_frames,
+                        max_model_frames=args.max_model_frames, keep_frames=args.keep_frames,
+                        seed=args.seed)
+    out, counts = expert_arrays(sim, data, arrays, train, profiles, ecfg, progress=True)
+    path = save_expert(out, args.out)
+    counts["frames"] = int(out.length.sum())
+    counts["seconds"] = round(time.perf_counter() - t0, 1)
+    print(json.dumps(counts))
+    print(f"wrote {path}")
+
+
+if __name__ == "__main__":
+    main()
