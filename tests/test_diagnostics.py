@@ -2,6 +2,8 @@
 (`sportsngen.eval.flight`): hand-made tracks with known answers, generated truth, and a run on
 the tiny test model."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 import torch
@@ -15,6 +17,7 @@ from sportsngen.eval.diagnostics import (
     serve_outcomes,
     strike_branches,
     truth_points,
+    with_rules_serve_outcomes,
 )
 from sportsngen.eval.flight import (
     MIN_PLAYER_DISTANCE_M,
@@ -98,6 +101,25 @@ def test_serve_outcomes_agree_with_the_shots_table():
         assert row["returned"] == (rid in returned)
         if rid in faults:
             assert not row["in_box"]
+
+
+def test_rules_serve_outcomes_replace_a_classifier_that_mislabels_serves():
+    # A rollout's shot outcomes are its event classifier's; the leak check needs the rules'.
+    truth = truth_points(DiagnosticsSetup(n_points=40, seed=4))
+    out = serve_outcomes(truth)
+    shots = truth.shots.copy()
+    serve = shots["shot_index"] == 0
+    shots.loc[serve, "outcome"] = "error"         # every serve mislabelled a fault
+    wrong = dataclasses.replace(truth, shots=shots)
+    fixed = with_rules_serve_outcomes(wrong, out).shots
+    fixed_serves = fixed.loc[fixed["shot_index"] == 0].set_index("rally_id")["outcome"]
+    expected = out["in_box"].map({True: "in_play", False: "error"})
+    assert (fixed_serves.loc[expected.index] == expected).all()
+    assert (fixed_serves == "in_play").sum() == int(out["in_box"].sum()) > 10
+    # Shots after the serve keep their outcomes.
+    later = fixed["shot_index"] > 0
+    assert (fixed.loc[later, "outcome"].to_numpy()
+            == truth.shots.loc[later, "outcome"].to_numpy()).all()
 
 
 def test_serve_outcomes_of_a_bounce_just_past_the_last_frame(monkeypatch):

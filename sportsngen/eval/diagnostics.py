@@ -38,7 +38,7 @@ Federer serving to Rafael Nadal on hard) and compare the model with that truth:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -115,6 +115,20 @@ def serve_outcomes(data: RallyData) -> pd.DataFrame:
                      "moved_m": moved, "bounce_frame": bounce,
                      "return_frame": int(contacts[1]) if returned else -1})
     return pd.DataFrame(rows).set_index("rally_id")
+
+
+def with_rules_serve_outcomes(data: RallyData, out: pd.DataFrame) -> RallyData:
+    """`data` with each serve's outcome from the rules (`serve_outcomes`: in the box ->
+    "in_play", else "error"). A simulated rally's shot outcomes are its event classifier's,
+    and the one retrained on version 6 labelled 5 of the 6 aces of 35 serve branches errors,
+    which left the leak check on rollouts no ace to compare."""
+    shots = data.shots.copy()
+    serve = shots["shot_index"].to_numpy() == 0
+    in_box = shots.loc[serve, "rally_id"].map(out["in_box"]).fillna(False).to_numpy(bool)
+    outcome = np.array(shots["outcome"], dtype=object)
+    outcome[np.flatnonzero(serve)] = np.where(in_box, "in_play", "error")
+    shots["outcome"] = outcome
+    return replace(data, shots=shots)
 
 
 def _generic_vocab(data: RallyData) -> Vocab:
@@ -343,7 +357,8 @@ def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.Dat
     gap_row = pd.DataFrame([{"signal": "branch return share minus recorded (paired)",
                              "model": gap, "data": np.nan, "n": len(order), "lo": lo, "hi": hi}])
     table = pd.concat([table.iloc[:1], gap_row, table.iloc[1:]], ignore_index=True)
-    leaks = check_leaks(branches, n_boot=setup.leak_boot, seed=setup.seed)
+    leaks = check_leaks(with_rules_serve_outcomes(branches, branch_out), n_boot=setup.leak_boot,
+                        seed=setup.seed)
     leaks = leaks[leaks["pair"].isin(SERVE_PAIRS)]
     few = leaks["n_pairs"] < MIN_LEAK_PAIRS
     leak_rows = pd.DataFrame({
