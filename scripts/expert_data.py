@@ -23,7 +23,12 @@ from sportsngen.data.tokens import rally_arrays
 from sportsngen.sim import Simulator
 from sportsngen.synth.dataset import matchups
 from sportsngen.train.datamodule import load_rally_data, split_positions
-from sportsngen.train.expert import ExpertConfig, expert_arrays, save_expert
+from sportsngen.train.expert import (
+    ExpertConfig,
+    expert_arrays,
+    save_expert,
+    serve_return_fidelity,
+)
 
 CONF = Path(__file__).resolve().parents[1] / "conf" / "data"
 
@@ -31,7 +36,7 @@ CONF = Path(__file__).resolve().parents[1] / "conf" / "data"
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--model", default=None, help="model file (default: the bundled model)")
-    ap.add_argument("--out", required=True, help=".npz file to write")
+    ap.add_argument("--out", help=".npz file to write")
     ap.add_argument("--data", default="synthetic_small", help="a conf/data config (synthetic)")
     ap.add_argument("--branches", type=int, default=ExpertConfig.n_branches)
     ap.add_argument("--min-model-frames", type=int, default=ExpertConfig.min_model_frames)
@@ -41,6 +46,10 @@ def main() -> None:
     ap.add_argument("--val-fraction", type=float, default=0.1)
     ap.add_argument("--split-seed", type=int, default=0)
     ap.add_argument("--threads", type=int, default=None)
+    ap.add_argument("--fidelity", type=int, nargs="*", default=None, metavar="FRAMES",
+                    help="only measure the expert on recorded serves: hand the record's own "
+                         "state to the kernel these frames after the branch frame and print "
+                         "the share it returns against the record's (writes nothing)")
     args = ap.parse_args()
     if args.threads:
         torch.set_num_threads(args.threads)
@@ -54,6 +63,13 @@ def main() -> None:
     sim = Simulator.from_pretrained(args.model)
     arrays = rally_arrays(data, sim.vocab, unknown="generic")
     train, _ = split_positions(len(arrays), args.val_fraction, args.split_seed)
+    if args.fidelity is not None:
+        for k in args.fidelity or [2, 6]:
+            print(json.dumps(serve_return_fidelity(data, arrays, train, profiles, k,
+                                                   n_branches=args.branches, seed=args.seed)))
+        return
+    if not args.out:
+        raise SystemExit("--out is required (the .npz file to write)")
     ecfg = ExpertConfig(n_branches=args.branches, min_model_frames=args.min_model_frames,
                         max_model_frames=args.max_model_frames, keep_frames=args.keep_frames,
                         seed=args.seed)

@@ -239,3 +239,30 @@ def test_datamodule_mixes_expert_rallies_into_training_only(tmp_path):
     with pytest.raises(ValueError, match="beyond this model"):
         _expert_arrays(cfg, vocab)
     assert _expert_arrays(OmegaConf.create({"expert": {"path": None}}), vocab) is None
+
+
+def test_serve_return_fidelity_counts_the_recorded_returns(generated):
+    from sportsngen.train.expert import serve_return_fidelity
+
+    data, vocab, arrays = generated
+    profiles = {n: get_profile(n) for n in ("Roger Federer", "Rafael Nadal")}
+    pos = np.arange(len(arrays))
+    out = serve_return_fidelity(data, arrays, pos, profiles, frames_after=2, n_branches=400)
+    shots = data.shots
+    serves = shots[shots["shot_index"] == 0]
+    in_play = set(serves.loc[serves["outcome"] != "error", "rally_id"])
+    returned = set(shots.loc[shots["shot_index"] == 1, "rally_id"])
+    # Every serve in play is a branch here (400 > the rallies): the record's share is exact.
+    branches = expert_branch_ids(data, arrays, pos)
+    ids = [r for r in branches if r in in_play]
+    assert out["n"] == len(ids) > 5
+    assert out["recorded_returned"] == pytest.approx(np.mean([r in returned for r in ids]))
+    assert 0.0 <= out["expert_returned"] <= 1.0
+    assert out == serve_return_fidelity(data, arrays, pos, profiles, 2, n_branches=400)
+
+
+def expert_branch_ids(data, arrays, pos):
+    from sportsngen.train.expert import ExpertConfig, branch_points
+
+    br = branch_points(data, arrays, pos, ExpertConfig(n_branches=400))
+    return br.loc[br["n_shots"] == 1, "rally_id"].tolist()

@@ -290,6 +290,43 @@ def expert_arrays(sim, data: RallyData, arrays: RallyArrays, rally_pos: np.ndarr
     return out, counts
 
 
+def serve_return_fidelity(data: RallyData, arrays: RallyArrays, rally_pos: np.ndarray,
+                          profiles: dict[str, PlayerProfile], frames_after: int,
+                          n_branches: int = 1000, seed: int = 0) -> dict:
+    """What the expert gets wrong before any model is involved: recorded serves that landed
+    in play, handed to the kernel `frames_after` frames after their branch frame (the serve's
+    contact + 2) with the record's own state. -> n, the share the record returned and the
+    share the kernel returned from the same states (they should agree)."""
+    cfg = ExpertConfig(n_branches=n_branches, seed=seed)
+    br = branch_points(data, arrays, rally_pos, cfg)
+    shots = data.shots
+    returned = set(shots.loc[shots["shot_index"] == 1, "rally_id"])
+    faults = set(shots.loc[(shots["shot_index"] == 0) & (shots["outcome"] == "error"),
+                           "rally_id"])
+    rallies = data.rallies.set_index("rally_id")
+    rng = np.random.default_rng(seed + 1)
+    rec, exp = [], []
+    for b in br[br["n_shots"] == 1].itertuples():
+        h = int(b.start) + int(frames_after)
+        if int(b.rally_id) in faults or h > int(b.last):
+            continue
+        ri = int(b.ri)
+        track = arrays.pos_m[arrays.start[ri]:arrays.start[ri] + arrays.length[ri]]
+        state = rally_state(track, h, int(b.contact), 0, 1, float(arrays.fps), cfg.fit_frames)
+        if state is None:
+            continue
+        r = rallies.loc[int(b.rally_id)]
+        res = continue_rally(profiles[r["server"]], profiles[r["receiver"]], state,
+                             int(r["server_end"]), str(r["side"]), int(r["serve_number"]),
+                             str(r["surface"]), rng, fps=float(arrays.fps), render=False)
+        rec.append(int(b.rally_id) in returned)
+        exp.append(len(res.shots) > 1)
+    n = len(rec)
+    return {"frames_after": int(frames_after), "n": n,
+            "recorded_returned": float(np.mean(rec)) if n else float("nan"),
+            "expert_returned": float(np.mean(exp)) if n else float("nan")}
+
+
 _FIELDS = ("pos_m", "labels", "near_contact", "start", "length", "rally_id", "ident", "surface",
            "tournament", "serve", "score", "learn_from")
 

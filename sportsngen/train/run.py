@@ -118,6 +118,8 @@ def _expert_arrays(cfg: DictConfig, vocab: Vocab) -> RallyArrays | None:
         raise ValueError(f"expert rallies {path} name identity {int(arrays.ident.max())}, "
                          f"beyond this model's {vocab.n_ids}: make them with the model "
                          "trained on (scripts/expert_data.py --model = init)")
+    targets = int((arrays.length - arrays.learn_from_frames() - 1).clip(0).sum())
+    log.info("expert: %d rallies from %s, %d frames to learn", len(arrays.length), path, targets)
     return arrays
 
 
