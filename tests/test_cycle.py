@@ -217,3 +217,35 @@ def test_intercept_search_stops_where_the_flight_ends():
     hit = find_intercept(flight, 0.0, np.array([12.0, 0.0]), (0.0, 0.0), body, 1, False,
                          t_bounce=0.1, t_stop=flight.t_s[-1] + 1.0)
     assert hit is None or hit.t_s <= flight.t_s[-1]
+
+
+def test_a_serve_continued_mid_flight_is_returned_as_often_as_played():
+    # Handed a played rally's own state after the receiver reacted, the kernel must not lose
+    # the run he had begun: before the fix 17 % of the returned serves became aces.
+    from sportsngen.synth import cycle
+    from sportsngen.train.expert import rally_state
+
+    fps = 25.0
+    server, receiver = get_profile("Roger Federer"), get_profile("Rafael Nadal")
+    played, continued = [], []
+    for i in range(240):
+        side = "deuce" if i % 2 else "ad"
+        res = cycle.play(ProfilePolicy(server, receiver, -1, side, 1, "hard"),
+                         np.random.default_rng(i), fps=fps)
+        if res.end_reason in ("fault", "double_fault"):
+            continue
+        kc = int(round(res.shots[0].t_s * fps))
+        pos = np.zeros((res.n_frames, 3, 3))
+        pos[:, :2, :2] = np.transpose(res.players_m, (1, 0, 2))
+        pos[:, 2] = res.ball_m
+        state = rally_state(pos, kc + 8, kc, 0, 1, fps)
+        if state is None:     # a serve into the net before the hand-over: no flight to play on
+            continue
+        again = cycle.continue_rally(ProfilePolicy(server, receiver, -1, side, 1, "hard"), state,
+                                     np.random.default_rng(10_000 + i), fps=fps)
+        played.append(len(res.shots) > 1)
+        continued.append(len(again.shots) > 1)
+    played, continued = np.array(played), np.array(continued)
+    assert len(played) > 150 and played.mean() > 0.7
+    assert np.mean(played & ~continued) <= 0.06
+    assert np.mean(continued & ~played) <= 0.03
