@@ -184,6 +184,15 @@ def branch_points(data: RallyData, arrays: RallyArrays, rally_pos: np.ndarray,
     return s.iloc[np.sort(pick)][cols].reset_index(drop=True)
 
 
+def _play_on(profiles: dict[str, PlayerProfile], rally: pd.Series, state: RallyState,
+             rng: np.random.Generator, fps: float, render: bool = True):
+    """The kernel playing on from `state` with the recorded rally's players and setting."""
+    return continue_rally(profiles[rally["server"]], profiles[rally["receiver"]], state,
+                          int(rally["server_end"]), str(rally["side"]),
+                          int(rally["serve_number"]), str(rally["surface"]), rng, fps=fps,
+                          render=render)
+
+
 # -- the expert rallies ---------------------------------------------------------------------------
 
 def _rollouts(sim, data: RallyData, arrays: RallyArrays, branches: pd.DataFrame,
@@ -251,9 +260,7 @@ def expert_arrays(sim, data: RallyData, arrays: RallyArrays, rally_pos: np.ndarr
             continue
         r = rallies.loc[int(b.rally_id)]
         try:
-            res = continue_rally(profiles[r["server"]], profiles[r["receiver"]], state,
-                                 int(r["server_end"]), str(r["side"]), int(r["serve_number"]),
-                                 str(r["surface"]), rng, fps=fps)
+            res = _play_on(profiles, r, state, rng, fps)
         except ValueError as exc:   # a state the kernel cannot play on: counted, not fatal
             counts["kernel_refused"] += 1
             counts.setdefault("first_refusal", str(exc))
@@ -316,9 +323,7 @@ def serve_return_fidelity(data: RallyData, arrays: RallyArrays, rally_pos: np.nd
         if state is None:
             continue
         r = rallies.loc[int(b.rally_id)]
-        res = continue_rally(profiles[r["server"]], profiles[r["receiver"]], state,
-                             int(r["server_end"]), str(r["side"]), int(r["serve_number"]),
-                             str(r["surface"]), rng, fps=float(arrays.fps), render=False)
+        res = _play_on(profiles, r, state, rng, float(arrays.fps), render=False)
         rec.append(int(b.rally_id) in returned)
         exp.append(len(res.shots) > 1)
     n = len(rec)
