@@ -46,10 +46,16 @@ def main() -> None:
     ap.add_argument("--points", type=int, default=300)
     ap.add_argument("--seed", type=int, default=4)
     ap.add_argument("--threads", type=int, default=None)
+    ap.add_argument("--top-p-ball", type=float, default=None,
+                    help="the ball's nucleus (default: the model file's)")
+    ap.add_argument("--contact-odds", action=argparse.BooleanOptionalAction, default=None,
+                    help="keep the model's odds of a racket contact (default: the file's)")
     args = ap.parse_args()
     if args.threads:
         torch.set_num_threads(args.threads)
-    sim = Simulator.from_pretrained(args.model)
+    kw = {k: v for k, v in (("top_p_ball", args.top_p_ball),
+                            ("contact_odds", args.contact_odds)) if v is not None}
+    sim = Simulator.from_pretrained(args.model, **kw)
     simulated, truth = first_serves(sim, args.server, args.receiver, args.points, args.seed)
     simulated = realistic_points(simulated)
     for name, data in (("simulated", simulated), ("ground truth", truth)):

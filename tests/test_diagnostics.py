@@ -8,9 +8,12 @@ import numpy as np
 import pytest
 import torch
 
+from sportsngen.eval import diagnostics
 from sportsngen.eval.diagnostics import (
     REVERSAL_M,
     DiagnosticsSetup,
+    approach_frames,
+    contact_calibration,
     far_probability,
     paired_return_gap,
     run_diagnostics,
@@ -163,6 +166,7 @@ def test_run_diagnostics_on_the_tiny_model(tiny_model_file):
     assert signals[0] == "branch return share (serves in the box)"
     assert signals[1] == "branch return share minus recorded (paired)"
     assert "contact probability within reach (returned serves)" in signals
+    assert "expected / recorded contacts (ball tokens)" in signals
     assert any(s.startswith("leak AUC ace_vs_returned") for s in signals)
     data_side = table.set_index("signal")["data"]
     assert data_side["free-flight residual p90 z (mm)"] < 0.5
@@ -224,8 +228,41 @@ def test_contact_probability_is_the_heads_mass_beyond_the_reversal():
     h = torch.randn(4, 32)
     with torch.no_grad():
         p = far_probability(model, h)
-        draws = torch.stack([model.ball_head.sample(h, generator=torch.Generator()
-                                                    .manual_seed(k)) for k in range(20_000)])
-    seen = (model.ball_bins.value(draws)[..., 0].abs() > REVERSAL_M).float().mean(0)
+        # 20,000 draws of each state in one batch (row r is state r % 4).
+        draws = model.ball_head.sample(h.repeat(20_000, 1),
+                                       generator=torch.Generator().manual_seed(0))
+    seen = (model.ball_bins.value(draws)[..., 0].abs() > REVERSAL_M).float()
+    seen = seen.reshape(20_000, 4).mean(0)
     assert torch.allclose(p, seen, atol=0.015)
     assert ((p > 0.05) & (p < 0.99)).all()
+
+
+def test_approach_frames_of_ground_strokes_and_a_volley():
+    # serve 10, bounce 30, return 40, bounce 60, shot 70, volley 80 (no bounce between)
+    assert approach_frames([10, 40, 70, 80], [30, 60, 95]) == [(1, 31, 40), (2, 61, 70),
+                                                               (3, 73, 80)]
+    assert approach_frames([10], [30]) == []
+
+
+def test_contact_calibration_sums_the_odds_it_is_given(tiny_model_file, monkeypatch):
+    """With P(contact) 0.5 on every token the answers are known: over a return's approach of
+    n tokens (after the bounce, up to the recorded contact) 1 - 0.5^n, before it
+    1 - 0.5^(n-1); expected contacts are half the scored tokens."""
+    sim = Simulator.from_pretrained(tiny_model_file, max_retries=0)
+    truth = truth_points(DiagnosticsSetup(n_points=30, seed=2))
+    out = serve_outcomes(truth)
+    monkeypatch.setattr(diagnostics, "window_contact_probabilities",
+                        lambda model, windows, batch_size=32:
+                        np.full((len(windows), model.cfg.window_frames), 0.5, np.float32))
+    cal = contact_calibration(sim, truth)
+    ret = out[out["returned"] & (out["return_frame"] < sim.model.cfg.window_frames - 1)]
+    n = (ret["return_frame"] - ret["bounce_frame"]).to_numpy(float)
+    assert cal["returns"] == len(ret) > 3
+    assert cal["return_approach"] == pytest.approx(np.mean(1 - 0.5 ** n), abs=1e-9)
+    assert cal["return_before"] == pytest.approx(np.mean(1 - 0.5 ** (n - 1)), abs=1e-9)
+    # Every rally's serve is struck inside its first window; no shot reverses the ball twice.
+    assert len(truth.rallies) <= cal["contacts"] <= 2 * len(truth.shots)
+    windows = diagnostics._first_windows(sim, truth)[1].values()
+    tokens = sum(int(w["has_next"].sum()) for w in windows)
+    assert cal["ratio"] == pytest.approx(0.5 * tokens / cal["contacts"], rel=1e-6)
+    assert cal["early_contacts"] < cal["contacts"]

@@ -22,6 +22,15 @@ Federer serving to Rafael Nadal on hard) and compare the model with that truth:
   the receiver. Low means the model lets balls fly past players who could hit them;
 - **contact probability at the serve's strike**: the same, on the tokens that predict the
   frames around each recorded serve's strike;
+- **contact odds, calibrated?** (`contact_calibration`), teacher-forced on every ball token
+  of the recorded rallies: the model's expected contacts (its summed P(contact)) over the
+  recorded ones, on all tokens and where the ball is `EARLY_CONTACT_M` or more from both
+  players (1 when calibrated; above it, rollouts strike balls before they reach the
+  player); and, for the returns of serves and for the later shots, the chance of a contact
+  over a recorded shot's approach (from the bounce to the recorded contact: 1 for a model
+  that strikes what the record struck) and before it (up to the frame before the recorded
+  contact: low for a model that knows when the ball gets there). Free of sampling noise:
+  these move with the weights, not with a rollout's draws;
 - **own serves**: the same serves played by the model from its own serve starts (the pool in
   the model file, as `simulate_points` plays them): the share struck at all (the rules stop a
   rally with no serve after 4 s), struck from the server's place, landing in the box and
@@ -60,7 +69,11 @@ HORIZON_S = 3.0           # a branch is rolled out this long: the serve, the ret
 OWN_SERVE_S = 4.5         # own serves: past the rules' 4 s "no serve struck" and the return
 STILL_M = 0.05
 REACH_M = 1.5
+# Recorded racket contacts are struck within 1.43 m of the hitter (99th percentile, Federer v
+# Nadal, 400 points); a contact drawn with the ball further from both players is early.
+EARLY_CONTACT_M = 1.5
 REVERSAL_M = CONTACT_OFFSET_M
+VOLLEY_GAP_FRAMES = 3     # a volley's approach starts this long after the previous contact
 SERVE_PAIRS = ("fault_vs_in", "ace_vs_returned")
 RECEIVER_SLOT = OBJECTS.index("receiver")
 # A leak cell resting on fewer comparable pairs is left blank (NaN): with 3 pairs an AUC is 0,
@@ -234,16 +247,83 @@ def far_probability(model, h: torch.Tensor) -> torch.Tensor:
 
 
 @torch.no_grad()
+def window_contact_probabilities(model, windows: list, batch_size: int = 32) -> np.ndarray:
+    """Teacher-forced P(contact) (`far_probability`) of every ball token of `windows`
+    (`WindowDataset` items of one length T) -> (len(windows), T); token t predicts frame t+1."""
+    out = []
+    for b0 in range(0, len(windows), batch_size):
+        h = window_states(model, default_collate(windows[b0:b0 + batch_size]))[:, :, BALL]
+        out.append(far_probability(model, h.reshape(-1, h.shape[-1])).reshape(h.shape[:2]))
+    t = model.cfg.window_frames
+    return torch.cat(out).numpy() if out else np.zeros((0, t), dtype=np.float32)
+
+
 def _max_contact_probability(model, picked: list, batch_size: int) -> list[float]:
-    """For (window, frames) pairs: the model's largest teacher-forced P(contact)
-    (`far_probability`) over those frames (windows scored in batches)."""
-    best = []
-    for b0 in range(0, len(picked), batch_size):
-        chunk = picked[b0:b0 + batch_size]
-        h = window_states(model, default_collate([w for w, _ in chunk]))[:, :, BALL]
-        for i, (_, frames) in enumerate(chunk):
-            best.append(float(far_probability(model, h[i, frames]).max()))
-    return best
+    """For (window, frames) pairs: the model's largest teacher-forced P(contact) over those
+    frames."""
+    p = window_contact_probabilities(model, [w for w, _ in picked], batch_size)
+    return [float(p[i, frames].max()) for i, (_, frames) in enumerate(picked)]
+
+
+def approach_frames(contacts: list[int], bounces: list[int]) -> list[tuple[int, int, int]]:
+    """A rally's recorded shots after the serve -> (shot index, first, last token) of each
+    shot's approach: from the bounce before the contact (for a volley, `VOLLEY_GAP_FRAMES`
+    after the previous contact) to the token that predicts the contact (token t predicts
+    frame t + 1; the rules put a contact on the nearer frame of its step, whose token carries
+    the reversal)."""
+    out = []
+    for j in range(1, len(contacts)):
+        before = [b for b in bounces if contacts[j - 1] < b < contacts[j]]
+        lo = before[-1] + 1 if before else contacts[j - 1] + VOLLEY_GAP_FRAMES
+        if lo < contacts[j]:
+            out.append((j, lo, contacts[j]))
+    return out
+
+
+def contact_calibration(sim, truth: RallyData, batch_size: int = 32) -> dict:
+    """How well the model's teacher-forced P(contact) matches the recorded contacts (module
+    doc), on the first window of every recorded rally -> {"ratio" (the model's expected
+    contacts, the sum of its P(contact), over the recorded ones), "early_ratio" (the same
+    where the ball is `EARLY_CONTACT_M` or more from both players), "return_approach",
+    "return_before", "rally_approach", "rally_before" (means over the returns of serves and
+    over the later shots, `approach_frames`), "contacts", "early_contacts", "returns",
+    "rally_shots"}."""
+    arr, first = _first_windows(sim, truth)
+    rows = sorted(first)
+    windows = [first[ri] for ri in rows]
+    if not windows:
+        raise ValueError("contact_calibration: no recorded rally to score")
+    p = window_contact_probabilities(sim.model, windows, batch_size)
+    batch = default_collate(windows)
+    _, ball_bin = sim.model.target_bins(batch["pos_m"], batch["vel_mps"], batch["next_pos_m"],
+                                        batch.get("prev_vel_mps"))
+    happened = sim.model.contact_bins()[ball_bin[..., 0]].numpy()
+    scored = batch["has_next"].numpy().astype(bool)
+    pos = batch["pos_m"].numpy()
+    gap = np.min([np.hypot(*(pos[..., BALL, :2] - pos[..., k, :2]).transpose(2, 0, 1))
+                  for k in range(BALL)], axis=0)
+    far = scored & (gap >= EARLY_CONTACT_M)
+    rules = analyse_rally_data(truth)
+    odds: dict[str, tuple[list, list]] = {"return": ([], []), "rally": ([], [])}
+    for i, ri in enumerate(rows):
+        rule = rules.loc[arr.rally_id[ri]]
+        for shot, lo, hi in approach_frames(list(rule["contact_frames"]),
+                                            list(rule["bounce_frames"])):
+            if hi >= sim.model.cfg.window_frames - 1:
+                break
+            miss = np.cumprod(1.0 - p[i, lo:hi + 1].astype(float))
+            kind = odds["return" if shot == 1 else "rally"]
+            kind[0].append(1.0 - miss[-1])
+            kind[1].append(1.0 - (miss[-2] if len(miss) > 1 else 1.0))
+    n_far = int(happened[far].sum())
+    out = {"ratio": float(p[scored].sum() / max(int(happened[scored].sum()), 1)),
+           "early_ratio": float(p[far].sum() / n_far) if n_far else float("nan"),
+           "contacts": int(happened[scored].sum()), "early_contacts": n_far,
+           "returns": len(odds["return"][0]), "rally_shots": len(odds["rally"][0])}
+    for kind, (approach, before) in odds.items():
+        out[f"{kind}_approach"] = float(np.mean(approach)) if approach else float("nan")
+        out[f"{kind}_before"] = float(np.mean(before)) if before else float("nan")
+    return out
 
 
 def contact_probability(sim, truth: RallyData, outcomes: pd.DataFrame,
@@ -352,6 +432,16 @@ def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.Dat
                  float("nan"), n_contact))
     p_serve, n_serve = serve_contact_probability(sim, truth)
     rows.append(("contact probability at the serve's strike", p_serve, float("nan"), n_serve))
+    cal = contact_calibration(sim, truth)
+    for kind, label, n in (("return", "returns of serves", "returns"),
+                           ("rally", "later shots", "rally_shots")):
+        rows += [(f"contact probability over the approach ({label})", cal[f"{kind}_approach"],
+                  1.0, cal[n]),
+                 (f"contact probability before the recorded contact ({label})",
+                  cal[f"{kind}_before"], float("nan"), cal[n])]
+    rows += [("expected / recorded contacts (ball tokens)", cal["ratio"], 1.0, cal["contacts"]),
+             (f"expected / recorded contacts, ball {EARLY_CONTACT_M:g} m or more from both "
+              "players", cal["early_ratio"], 1.0, cal["early_contacts"])]
     rows += own_serve_rows(own_serves(sim, truth, seed=setup.seed), truth_out)
     table = pd.DataFrame(rows, columns=["signal", "model", "data", "n"])
     gap_row = pd.DataFrame([{"signal": "branch return share minus recorded (paired)",
