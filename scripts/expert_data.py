@@ -26,6 +26,7 @@ from sportsngen.train.datamodule import load_rally_data, split_positions
 from sportsngen.train.expert import (
     ExpertConfig,
     expert_arrays,
+    late_contact_arrays,
     save_expert,
     serve_return_fidelity,
 )
@@ -50,6 +51,10 @@ def main() -> None:
                     help="only measure the expert on recorded serves: hand the record's own "
                          "state to the kernel these frames after the branch frame and print "
                          "the share it returns against the record's (writes nothing)")
+    ap.add_argument("--late-contacts", type=int, nargs="+", default=None, metavar="FRAMES",
+                    help="instead of the model's rollouts: recorded shots after the serve whose "
+                         "ball flies on unstruck for one of these delays, answered by the "
+                         "kernel (late_contact_arrays)")
     args = ap.parse_args()
     if args.threads:
         torch.set_num_threads(args.threads)
@@ -70,6 +75,16 @@ def main() -> None:
         return
     if not args.out:
         raise SystemExit("--out is required (the .npz file to write)")
+    if args.late_contacts:
+        out, counts = late_contact_arrays(data, arrays, train, profiles,
+                                          tuple(args.late_contacts), args.branches,
+                                          args.keep_frames, args.seed, progress=True)
+        path = save_expert(out, args.out)
+        counts["frames"] = int(out.length.sum())
+        counts["seconds"] = round(time.perf_counter() - t0, 1)
+        print(json.dumps(counts))
+        print(f"wrote {path}")
+        return
     ecfg = ExpertConfig(n_branches=args.branches, min_model_frames=args.min_model_frames,
                         max_model_frames=args.max_model_frames, keep_frames=args.keep_frames,
                         seed=args.seed)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import torch
 
 from sportsngen.data.tokens import BALL, Augment, RallyArrays, WindowDataset
 from sportsngen.synth import physics
@@ -266,3 +267,42 @@ def expert_branch_ids(data, arrays, pos):
 
     br = branch_points(data, arrays, pos, ExpertConfig(n_branches=400))
     return br.loc[br["n_shots"] == 1, "rally_id"].tolist()
+
+
+def test_late_contacts_fly_the_ball_on_then_the_kernel_strikes_it(generated):
+    from sportsngen.model.centre import physics_step_m
+    from sportsngen.train.expert import late_contact_arrays
+
+    data, vocab, arrays = generated
+    profiles = {n: get_profile(n) for n in ("Roger Federer", "Rafael Nadal")}
+    pos = np.arange(len(arrays))
+    out, counts = late_contact_arrays(data, arrays, pos, profiles, delays=(2,), n_branches=400,
+                                      keep_frames=30)
+    assert counts["kept"] + counts["no_flight"] + counts["kernel_refused"] == counts["branches"]
+    # Every shot after the serve is a branch here; a ball half a frame to a frame and a half
+    # late is mostly still in reach (22 of 28 here), not always.
+    assert counts["kept"] == len(out) >= 10
+    assert 0.6 * counts["kept"] <= counts["struck"] < counts["kept"]
+    first = data.frames.groupby("rally_id")["frame"].min()
+    contacts = data.shots[data.shots["shot_index"] >= 1].copy()
+    contacts["c"] = contacts["frame"] - first.reindex(contacts["rally_id"]).to_numpy()
+    fps = arrays.fps
+    for i in range(len(out)):
+        h = int(out.learn_from[i])
+        track = out.pos_m[out.start[i]:out.start[i] + out.length[i]]
+        # The record up to the frame before a recorded contact c = h - 1, then two frames of
+        # the ball flown on unstruck, the players' recorded frames kept.
+        src = [ri for ri in range(len(arrays)) if arrays.length[ri] > h and np.array_equal(
+            arrays.pos_m[arrays.start[ri]:arrays.start[ri] + h - 1], track[:h - 1])]
+        assert src
+        rec = arrays.pos_m[arrays.start[src[0]]:arrays.start[src[0]] + arrays.length[src[0]]]
+        assert h - 1 in set(contacts.loc[contacts["rally_id"] == arrays.rally_id[src[0]], "c"])
+        for t in (h - 1, h):
+            v = (track[t - 1, BALL] - track[t - 2, BALL]) * fps
+            pv = (track[t - 2, BALL] - track[t - 3, BALL]) * fps
+            flown = physics_step_m(*(torch.as_tensor(a) for a in (track[t - 1, BALL], v, pv)),
+                                   fps).numpy()
+            assert np.allclose(track[t, BALL], flown, atol=1e-5)
+            assert np.array_equal(track[t, :BALL], rec[t, :BALL])
+        # The record had struck it by then (its contact is within half a frame of c).
+        assert not np.allclose(track[h, BALL], rec[h, BALL], atol=1e-2)

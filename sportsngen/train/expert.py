@@ -237,7 +237,7 @@ def expert_arrays(sim, data: RallyData, arrays: RallyArrays, rally_pos: np.ndarr
     fps = float(arrays.fps)
     counts = {"branches": len(branches), "ended": 0, "no_flight": 0, "kernel_refused": 0,
               "kept": 0}
-    parts, learn, near, src = [], [], [], []
+    kept: list[tuple] = []
     rows = branches.itertuples()
     if progress:
         from tqdm import tqdm
@@ -265,24 +265,40 @@ def expert_arrays(sim, data: RallyData, arrays: RallyArrays, rally_pos: np.ndarr
             counts["kernel_refused"] += 1
             counts.setdefault("first_refusal", str(exc))
             continue
-        n_exp = min(res.n_frames, cfg.keep_frames + 1)
-        exp = np.zeros((n_exp - 1, 3, 3), dtype=np.float32)
-        exp[:, BALL] = res.ball_m[1:n_exp]
-        exp[:, :BALL, :2] = np.transpose(res.players_m[:, 1:n_exp], (1, 0, 2))
-        track = np.concatenate([roll[:h + 1], exp]).astype(np.float32)
-        flags = np.zeros(len(track), dtype=bool)
         ri = int(b.ri)
-        flags[:b.start] = arrays.near_contact[arrays.start[ri]:arrays.start[ri] + b.start]
-        for shot in res.shots[1:]:
-            f = h + int(round(shot.t_s * fps))
-            flags[max(f - CONTACT_TOL_FRAMES, 0):f + CONTACT_TOL_FRAMES + 1] = True
-        parts.append(track)
-        learn.append(h)
-        near.append(flags[:len(track)])
-        src.append(ri)
+        kept.append((*_answered(roll[:h + 1], res, cfg.keep_frames, fps,
+                                arrays.near_contact[arrays.start[ri]:arrays.start[ri] + b.start]),
+                     h, ri))
         counts["kept"] += 1
-    if not parts:
+    return _expert_rallies(arrays, kept, counts), counts
+
+
+def _answered(head: np.ndarray, res, keep_frames: int, fps: float,
+              near_head: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A training rally: the frames `head` up to the hand-over (its last frame), then the
+    kernel's answer `res` (at most `keep_frames` frames) -> (track, near-contact flags: the
+    record's `near_head` before, the kernel's contacts after)."""
+    n_exp = min(res.n_frames, keep_frames + 1)
+    exp = np.zeros((n_exp - 1, 3, 3), dtype=np.float32)
+    exp[:, BALL] = res.ball_m[1:n_exp]
+    exp[:, :BALL, :2] = np.transpose(res.players_m[:, 1:n_exp], (1, 0, 2))
+    track = np.concatenate([head, exp]).astype(np.float32)
+    flags = np.zeros(len(track), dtype=bool)
+    flags[:len(near_head)] = near_head[:len(track)]
+    h = len(head) - 1
+    for shot in res.shots[1:]:
+        f = h + int(round(shot.t_s * fps))
+        flags[max(f - CONTACT_TOL_FRAMES, 0):f + CONTACT_TOL_FRAMES + 1] = True
+    return track, flags
+
+
+def _expert_rallies(arrays: RallyArrays, kept: list[tuple], counts: dict) -> RallyArrays:
+    """The expert's (track, near-contact flags, hand-over frame, source rally position) as
+    `RallyArrays` with the context of the rallies they came from."""
+    if not kept:
         raise ValueError(f"no expert rally could be made ({counts})")
+    parts, near, learn, src = (list(x) for x in zip(*kept))
+    fps = float(arrays.fps)
     src_idx = np.asarray(src, dtype=np.int64)
     length = np.array([len(p) for p in parts], dtype=np.int64)
     base = arrays.select(src_idx)
@@ -294,7 +310,80 @@ def expert_arrays(sim, data: RallyData, arrays: RallyArrays, rally_pos: np.ndarr
         rally_id=-1 - np.arange(len(parts), dtype=np.int64), ident=base.ident,
         surface=base.surface, tournament=base.tournament, serve=base.serve, score=base.score,
         fps=fps, meta={"expert": counts}, learn_from=np.asarray(learn, dtype=np.int64))
-    return out, counts
+    return out
+
+
+def late_contact_arrays(data: RallyData, arrays: RallyArrays, rally_pos: np.ndarray,
+                        profiles: dict[str, PlayerProfile], delays: tuple[int, ...] = (1, 2),
+                        n_branches: int = 3000, keep_frames: int = 75, seed: int = 0,
+                        progress: bool = False) -> tuple[RallyArrays, dict]:
+    """The kernel's answer to a contact made late. The generator strikes every ball on the
+    frame it planned, so the data never shows a ball its player has not struck on time still
+    being struck, and a model that misses that frame in a rollout reads the ball as gone (a
+    return a frame late got 0.66 of the odds on time, three frames late 0.50;
+    docs/evaluation.md). For recorded shots after the serve (rallies at `rally_pos`): the
+    record up to the frame before the contact's frame c (the frame nearest the contact), the
+    ball flown on unstruck by the physics step for d frames, d drawn from `delays` (the
+    players' recorded frames kept), then the kernel plays on from that state. The contact
+    lies within half a frame of c, so d = 1 is up to half a frame late (no later than the
+    record half the time) and d = 2 half a frame to a frame and a half. Only the kernel's
+    frames are targets (`learn_from`).
+    -> (arrays, counts: branches, kept, no_flight, kernel_refused, struck (the kernel struck
+    the late ball))."""
+    import torch
+
+    from sportsngen.model.centre import physics_step_m
+
+    shots = data.shots.sort_values(["rally_id", "shot_index"])
+    first = data.frames.groupby("rally_id")["frame"].min()
+    rallies = data.rallies.set_index("rally_id")
+    pos_of = pd.Series(np.arange(len(arrays)), index=arrays.rally_id)
+    s = shots[shots["rally_id"].isin(arrays.rally_id[rally_pos])].copy()
+    s["contact"] = (s["frame"] - first.reindex(s["rally_id"]).to_numpy()).astype(np.int64)
+    s["prev"] = s.groupby("rally_id")["contact"].shift(1)
+    s["prev_hitter"] = s.groupby("rally_id")["hitter"].shift(1)
+    s = s[s["prev"].notna() & (s["contact"] - s["prev"] > 8)]
+    rng = np.random.default_rng(seed)
+    s = s.iloc[np.sort(rng.choice(len(s), size=min(n_branches, len(s)), replace=False))]
+    fps = float(arrays.fps)
+    counts = {"branches": len(s), "no_flight": 0, "kernel_refused": 0, "kept": 0, "struck": 0}
+    kept: list[tuple] = []
+    rows = s.itertuples()
+    if progress:
+        from tqdm import tqdm
+        rows = tqdm(list(rows), desc="late contacts", unit="branch")
+    for b in rows:
+        ri = int(pos_of[b.rally_id])
+        rec = arrays.pos_m[arrays.start[ri]:arrays.start[ri] + arrays.length[ri]]
+        c, d = int(b.contact), int(rng.choice(delays))
+        if c < 3 or c + d > len(rec):
+            counts["no_flight"] += 1
+            continue
+        track = rec[:c + d].copy()
+        for t in range(c, c + d):      # the ball flies on unstruck
+            v = (track[t - 1, BALL] - track[t - 2, BALL]) * fps
+            pv = (track[t - 2, BALL] - track[t - 3, BALL]) * fps
+            track[t, BALL] = physics_step_m(torch.as_tensor(track[t - 1, BALL]),
+                                            torch.as_tensor(v), torch.as_tensor(pv),
+                                            fps).numpy()
+        r = rallies.loc[int(b.rally_id)]
+        hitter = 0 if b.prev_hitter == r["server"] else 1
+        h = c + d - 1
+        state = rally_state(track, h, int(b.prev), hitter, int(b.shot_index), fps)
+        if state is None:
+            counts["no_flight"] += 1
+            continue
+        try:
+            res = _play_on(profiles, r, state, rng, fps)
+        except ValueError:
+            counts["kernel_refused"] += 1
+            continue
+        counts["struck"] += int(len(res.shots) > 1)
+        kept.append((*_answered(track, res, keep_frames, fps,
+                                arrays.near_contact[arrays.start[ri]:arrays.start[ri] + c - 1]),
+                     h, ri))
+        counts["kept"] += 1
+    return _expert_rallies(arrays, kept, counts), counts
 
 
 def serve_return_fidelity(data: RallyData, arrays: RallyArrays, rally_pos: np.ndarray,
