@@ -288,7 +288,7 @@ def test_late_contacts_fly_the_ball_on_then_the_kernel_strikes_it(generated):
     contacts["c"] = contacts["frame"] - first.reindex(contacts["rally_id"]).to_numpy()
     fps = arrays.fps
     for i in range(len(out)):
-        h = int(out.learn_from[i])
+        h = int(out.learn_from[i]) - 1     # the hand-over: the kernel's lead frame is no target
         track = out.pos_m[out.start[i]:out.start[i] + out.length[i]]
         # The record up to the frame before a recorded contact c = h - 1, then two frames of
         # the ball flown on unstruck, the players' recorded frames kept.

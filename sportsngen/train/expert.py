@@ -47,6 +47,10 @@ from sportsngen.synth.cycle import RallyState
 from sportsngen.synth.profiles import PlayerProfile
 from sportsngen.synth.rally import continue_rally
 
+# The kernel strikes no earlier than 0.05 s after a hand-over (`find_intercept`'s first
+# search time), so a late ball handed to it flies on one more frame before its strike; taught
+# as a target, that frame said "not yet" on exactly the late states (docs/evaluation.md).
+KERNEL_LEAD_FRAMES = 1
 REVERSAL_MPS = 3.0      # an x-velocity this large the other way: someone struck the ball
 BOUNCE_Z_M = 0.25       # a fall turning into a rise below this height is a bounce
 KINK_M = 0.1            # a second difference of the height this large holds a bounce
@@ -329,7 +333,7 @@ def late_contact_arrays(data: RallyData, arrays: RallyArrays, rally_pos: np.ndar
     players' recorded frames kept), then the kernel plays on from that state. The contact
     lies within half a frame of c, so d = 1 is up to half a frame late (no later than the
     record half the time) and d = 2 half a frame to a frame and a half. Only the kernel's
-    frames are targets (`learn_from`).
+    frames after its first are targets (`learn_from`, `KERNEL_LEAD_FRAMES`).
     -> (arrays, counts: branches, kept, no_flight, kernel_refused, struck (the kernel struck
     the late ball))."""
     shots = data.shots.sort_values(["rally_id", "shot_index"])
@@ -379,7 +383,7 @@ def late_contact_arrays(data: RallyData, arrays: RallyArrays, rally_pos: np.ndar
         counts["struck"] += int(len(res.shots) > 1)
         kept.append((*_answered(track, res, keep_frames, fps,
                                 arrays.near_contact[arrays.start[ri]:arrays.start[ri] + c - 1]),
-                     h, ri))
+                     h + KERNEL_LEAD_FRAMES, ri))
         counts["kept"] += 1
     return _expert_rallies(arrays, kept, counts), counts
 
