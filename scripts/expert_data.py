@@ -79,22 +79,16 @@ def main() -> None:
         out, counts = late_contact_arrays(data, arrays, train, profiles,
                                           tuple(args.late_contacts), args.branches,
                                           args.keep_frames, args.seed, progress=True)
-        path = save_expert(out, args.out)
-        counts["frames"] = int(out.length.sum())
-        counts["seconds"] = round(time.perf_counter() - t0, 1)
-        print(json.dumps(counts))
-        print(f"wrote {path}")
-        return
-    ecfg = ExpertConfig(n_branches=args.branches, min_model_frames=args.min_model_frames,
-                        max_model_frames=args.max_model_frames, keep_frames=args.keep_frames,
-                        seed=args.seed)
-    out, counts = expert_arrays(sim, data, arrays, train, profiles, ecfg, progress=True)
+    else:
+        ecfg = ExpertConfig(n_branches=args.branches, min_model_frames=args.min_model_frames,
+                            max_model_frames=args.max_model_frames,
+                            keep_frames=args.keep_frames, seed=args.seed)
+        out, counts = expert_arrays(sim, data, arrays, train, profiles, ecfg, progress=True)
     path = save_expert(out, args.out)
     counts["frames"] = int(out.length.sum())
     counts["seconds"] = round(time.perf_counter() - t0, 1)
     print(json.dumps(counts))
     print(f"wrote {path}")
-
 
 if __name__ == "__main__":
     main()

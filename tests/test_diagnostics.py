@@ -262,7 +262,7 @@ def test_contact_calibration_sums_the_odds_it_is_given(tiny_model_file, monkeypa
     assert cal["return_before"] == pytest.approx(np.mean(1 - 0.5 ** (n - 1)), abs=1e-9)
     # Every rally's serve is struck inside its first window; no shot reverses the ball twice.
     assert len(truth.rallies) <= cal["contacts"] <= 2 * len(truth.shots)
-    windows = diagnostics._first_windows(sim, truth)[1].values()
+    windows = diagnostics.first_windows(sim, truth).windows.values()
     tokens = sum(int(w["has_next"].sum()) for w in windows)
     assert cal["ratio"] == pytest.approx(0.5 * tokens / cal["contacts"], rel=1e-6)
     assert cal["early_contacts"] < cal["contacts"]

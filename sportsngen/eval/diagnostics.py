@@ -54,7 +54,14 @@ import pandas as pd
 import torch
 from torch.utils.data import default_collate
 
-from sportsngen.data.tokens import BALL, OBJECTS, Vocab, WindowDataset, rally_arrays
+from sportsngen.data.tokens import (
+    BALL,
+    OBJECTS,
+    RallyArrays,
+    Vocab,
+    WindowDataset,
+    rally_arrays,
+)
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.flight import flight_residuals, rally_tracks
 from sportsngen.eval.leaks import check_leaks
@@ -232,11 +239,25 @@ def paired_return_gap(branch_out: pd.DataFrame, truth_out: pd.DataFrame, order: 
     return gap(np.arange(len(b))), float(lo), float(hi)
 
 
-def _first_windows(sim, truth: RallyData):
-    """The model's first window of every recorded rally -> (arrays, {rally position: window})."""
+@dataclass
+class FirstWindows:
+    """The model's first window of every recorded rally and its teacher-forced P(contact) on
+    each ball token (`far_probability`; token t predicts frame t+1): one pass of the model
+    that every contact signal reads."""
+
+    arrays: RallyArrays
+    windows: dict        # rally position -> WindowDataset item
+    odds: dict           # rally position -> (T,) P(contact)
+
+
+def first_windows(sim, truth: RallyData, batch_size: int = 32) -> FirstWindows:
+    """Score the first window of every rally of `truth` once (`FirstWindows`)."""
     arr = rally_arrays(truth, sim.vocab, unknown="generic")
-    windows = WindowDataset(arr, sim.model.cfg.window_frames)
-    return arr, {ri: windows[i] for i, (ri, s) in enumerate(windows.items) if s == 0}
+    items = WindowDataset(arr, sim.model.cfg.window_frames)
+    first = {ri: items[i] for i, (ri, s) in enumerate(items.items) if s == 0}
+    rows = sorted(first)
+    p = window_contact_probabilities(sim.model, [first[ri] for ri in rows], batch_size)
+    return FirstWindows(arr, first, dict(zip(rows, p)))
 
 
 def far_probability(model, h: torch.Tensor) -> torch.Tensor:
@@ -258,11 +279,9 @@ def window_contact_probabilities(model, windows: list, batch_size: int = 32) -> 
     return torch.cat(out).numpy() if out else np.zeros((0, t), dtype=np.float32)
 
 
-def _max_contact_probability(model, picked: list, batch_size: int) -> list[float]:
-    """For (window, frames) pairs: the model's largest teacher-forced P(contact) over those
-    frames."""
-    p = window_contact_probabilities(model, [w for w, _ in picked], batch_size)
-    return [float(p[i, frames].max()) for i, (_, frames) in enumerate(picked)]
+def _max_contact_probability(fw: FirstWindows, picked: list) -> list[float]:
+    """For (rally position, frames) pairs: the largest P(contact) over those frames."""
+    return [float(fw.odds[ri][frames].max()) for ri, frames in picked]
 
 
 def approach_frames(contacts: list[int], bounces: list[int]) -> list[tuple[int, int, int]]:
@@ -280,7 +299,7 @@ def approach_frames(contacts: list[int], bounces: list[int]) -> list[tuple[int, 
     return out
 
 
-def contact_calibration(sim, truth: RallyData, batch_size: int = 32) -> dict:
+def contact_calibration(sim, truth: RallyData, fw: FirstWindows | None = None) -> dict:
     """How well the model's teacher-forced P(contact) matches the recorded contacts (module
     doc), on the first window of every recorded rally -> {"ratio" (the model's expected
     contacts, the sum of its P(contact), over the recorded ones), "early_ratio" (the same
@@ -288,13 +307,12 @@ def contact_calibration(sim, truth: RallyData, batch_size: int = 32) -> dict:
     "return_before", "rally_approach", "rally_before" (means over the returns of serves and
     over the later shots, `approach_frames`), "contacts", "early_contacts", "returns",
     "rally_shots"}."""
-    arr, first = _first_windows(sim, truth)
-    rows = sorted(first)
-    windows = [first[ri] for ri in rows]
-    if not windows:
+    fw = fw or first_windows(sim, truth)
+    arr, rows = fw.arrays, sorted(fw.windows)
+    if not rows:
         raise ValueError("contact_calibration: no recorded rally to score")
-    p = window_contact_probabilities(sim.model, windows, batch_size)
-    batch = default_collate(windows)
+    p = np.stack([fw.odds[ri] for ri in rows])
+    batch = default_collate([fw.windows[ri] for ri in rows])
     _, ball_bin = sim.model.target_bins(batch["pos_m"], batch["vel_mps"], batch["next_pos_m"],
                                         batch.get("prev_vel_mps"))
     happened = sim.model.contact_bins()[ball_bin[..., 0]].numpy()
@@ -327,40 +345,40 @@ def contact_calibration(sim, truth: RallyData, batch_size: int = 32) -> dict:
 
 
 def contact_probability(sim, truth: RallyData, outcomes: pd.DataFrame,
-                        batch_size: int = 32) -> tuple[float, int]:
+                        fw: FirstWindows | None = None) -> tuple[float, int]:
     """Mean over returned recorded serves (`serve_outcomes`) of the model's largest
     teacher-forced P(contact) while the ball is within `REACH_M` of the receiver, from the
     bounce to the return (first window of each rally) -> (mean, serves averaged)."""
-    arr, first = _first_windows(sim, truth)
-    picked = []   # (window, frames within reach)
-    for ri, rid in enumerate(arr.rally_id):
+    fw = fw or first_windows(sim, truth)
+    picked = []   # (rally position, frames within reach)
+    for ri, rid in enumerate(fw.arrays.rally_id):
         lo, hi = outcomes.at[rid, "bounce_frame"], outcomes.at[rid, "return_frame"]
         if not outcomes.at[rid, "returned"] or hi >= sim.model.cfg.window_frames - 1:
             continue
-        w = first[ri]
-        pos = w["pos_m"][lo:hi + 1]
+        pos = fw.windows[ri]["pos_m"][lo:hi + 1]
         gap = np.hypot(*(pos[:, BALL, :2] - pos[:, RECEIVER_SLOT, :2]).T)
         if (gap <= REACH_M).any():
-            picked.append((w, lo + np.flatnonzero(gap <= REACH_M)))
-    best = _max_contact_probability(sim.model, picked, batch_size)
+            picked.append((ri, lo + np.flatnonzero(gap <= REACH_M)))
+    best = _max_contact_probability(fw, picked)
     return (float(np.mean(best)) if best else float("nan")), len(best)
 
 
-def serve_contact_probability(sim, truth: RallyData, batch_size: int = 32) -> tuple[float, int]:
+def serve_contact_probability(sim, truth: RallyData,
+                              fw: FirstWindows | None = None) -> tuple[float, int]:
     """Mean over recorded serves of the model's largest teacher-forced P(contact) on the
     tokens that predict the frames around the serve's strike (the shots table's frame, one
     frame either side) -> (mean, serves averaged). The serve is the one contact no rollout
     can branch past: a model unsure of it drops the toss ("no_serve")."""
-    arr, first = _first_windows(sim, truth)
+    fw = fw or first_windows(sim, truth)
     strike = serve_strike_frames(truth)
     picked = []
-    for ri, rid in enumerate(arr.rally_id):
+    for ri, rid in enumerate(fw.arrays.rally_id):
         if rid not in strike.index:
             continue
         f = int(strike[rid])
         if 2 <= f < sim.model.cfg.window_frames - 1:
-            picked.append((first[ri], np.arange(f - 2, f + 1)))
-    best = _max_contact_probability(sim.model, picked, batch_size)
+            picked.append((ri, np.arange(f - 2, f + 1)))
+    best = _max_contact_probability(fw, picked)
     return (float(np.mean(best)) if best else float("nan")), len(best)
 
 
@@ -427,12 +445,13 @@ def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.Dat
     rows.append(("free-flight frames in the physics step's centre bin",
                  s.get("centre_bin_share", float("nan")), ts.get("centre_bin_share", float("nan")),
                  int(s["frames"])))
-    p_contact, n_contact = contact_probability(sim, truth, truth_out)
+    fw = first_windows(sim, truth)
+    p_contact, n_contact = contact_probability(sim, truth, truth_out, fw)
     rows.append(("contact probability within reach (returned serves)", p_contact,
                  float("nan"), n_contact))
-    p_serve, n_serve = serve_contact_probability(sim, truth)
+    p_serve, n_serve = serve_contact_probability(sim, truth, fw)
     rows.append(("contact probability at the serve's strike", p_serve, float("nan"), n_serve))
-    cal = contact_calibration(sim, truth)
+    cal = contact_calibration(sim, truth, fw)
     for kind, label, n in (("return", "returns of serves", "returns"),
                            ("rally", "later shots", "rally_shots")):
         rows += [(f"contact probability over the approach ({label})", cal[f"{kind}_approach"],

@@ -162,6 +162,23 @@ def rally_state(pos_m: np.ndarray, frame: int, contact_frame: int, hitter: int, 
 
 # -- branch points --------------------------------------------------------------------------------
 
+def recorded_contacts(data: RallyData, arrays: RallyArrays, rally_pos: np.ndarray
+                      ) -> pd.DataFrame:
+    """The shots of the rallies at positions `rally_pos` of `arrays`, in order, with the
+    rally's position `ri`, the contact's frame `contact` (from the rally's first frame) and
+    the hitter's `role` (0 server, 1 receiver)."""
+    first = data.frames.groupby("rally_id")["frame"].min()
+    server = data.rallies.set_index("rally_id")["server"]
+    pos_of = pd.Series(np.arange(len(arrays)), index=arrays.rally_id)
+    shots = data.shots
+    s = shots[shots["rally_id"].isin(arrays.rally_id[rally_pos])]
+    s = s.sort_values(["rally_id", "shot_index"]).copy()
+    s["ri"] = pos_of.reindex(s["rally_id"]).to_numpy()
+    s["contact"] = (s["frame"] - first.reindex(s["rally_id"]).to_numpy()).astype(np.int64)
+    s["role"] = np.where(s["hitter"].to_numpy() == server.reindex(s["rally_id"]).to_numpy(),
+                         0, 1)
+    return s
+
 def branch_points(data: RallyData, arrays: RallyArrays, rally_pos: np.ndarray,
                   cfg: ExpertConfig) -> pd.DataFrame:
     """Up to `cfg.n_branches` random branch points among the rallies at positions `rally_pos`
@@ -169,25 +186,17 @@ def branch_points(data: RallyData, arrays: RallyArrays, rally_pos: np.ndarray,
     frame `contact` (from its first frame), the branch frame `start`, the latest hand-over
     `last` (two frames before the next recorded contact or the rally's end), the hitter's role
     and `n_shots` (contacts so far)."""
-    shots = data.shots
-    first = data.frames.groupby("rally_id")["frame"].min()
-    rallies = data.rallies.set_index("rally_id")
-    pos_of = pd.Series(np.arange(len(arrays)), index=arrays.rally_id)
-    keep = shots["rally_id"].isin(arrays.rally_id[rally_pos])
-    s = shots[keep].sort_values(["rally_id", "shot_index"]).copy()
-    s["ri"] = pos_of.reindex(s["rally_id"]).to_numpy()
-    s["contact"] = (s["frame"] - first.reindex(s["rally_id"]).to_numpy()).astype(np.int64)
+    s = recorded_contacts(data, arrays, rally_pos)
     nxt = s.groupby("rally_id")["contact"].shift(-1)
     s["last"] = np.where(nxt.notna(), nxt.fillna(0), arrays.length[s["ri"]]).astype(np.int64) - 2
     s["start"] = s["contact"] + 1 + cfg.after_contact_frames
     s = s[s["last"] - s["start"] >= cfg.min_model_frames]
-    server = rallies["server"].reindex(s["rally_id"]).to_numpy()
-    s["hitter"] = np.where(s["hitter"].to_numpy() == server, 0, 1)
-    s["n_shots"] = s["shot_index"] + 1
+    s = s.assign(n_shots=s["shot_index"] + 1)
     rng = np.random.default_rng(cfg.seed)
     pick = rng.choice(len(s), size=min(cfg.n_branches, len(s)), replace=False)
-    cols = ["rally_id", "ri", "contact", "start", "last", "hitter", "n_shots"]
-    return s.iloc[np.sort(pick)][cols].reset_index(drop=True)
+    cols = ["rally_id", "ri", "contact", "start", "last", "role", "n_shots"]
+    out = s.iloc[np.sort(pick)][cols].rename(columns={"role": "hitter"})
+    return out.reset_index(drop=True)
 
 
 def _play_on(profiles: dict[str, PlayerProfile], rally: pd.Series, state: RallyState,
@@ -336,14 +345,10 @@ def late_contact_arrays(data: RallyData, arrays: RallyArrays, rally_pos: np.ndar
     frames after its first are targets (`learn_from`, `KERNEL_LEAD_FRAMES`).
     -> (arrays, counts: branches, kept, no_flight, kernel_refused, struck (the kernel struck
     the late ball))."""
-    shots = data.shots.sort_values(["rally_id", "shot_index"])
-    first = data.frames.groupby("rally_id")["frame"].min()
     rallies = data.rallies.set_index("rally_id")
-    pos_of = pd.Series(np.arange(len(arrays)), index=arrays.rally_id)
-    s = shots[shots["rally_id"].isin(arrays.rally_id[rally_pos])].copy()
-    s["contact"] = (s["frame"] - first.reindex(s["rally_id"]).to_numpy()).astype(np.int64)
+    s = recorded_contacts(data, arrays, rally_pos)
     s["prev"] = s.groupby("rally_id")["contact"].shift(1)
-    s["prev_hitter"] = s.groupby("rally_id")["hitter"].shift(1)
+    s["prev_role"] = s.groupby("rally_id")["role"].shift(1)
     s = s[s["prev"].notna() & (s["contact"] - s["prev"] > 8)]
     rng = np.random.default_rng(seed)
     s = s.iloc[np.sort(rng.choice(len(s), size=min(n_branches, len(s)), replace=False))]
@@ -355,7 +360,7 @@ def late_contact_arrays(data: RallyData, arrays: RallyArrays, rally_pos: np.ndar
         from tqdm import tqdm
         rows = tqdm(list(rows), desc="late contacts", unit="branch")
     for b in rows:
-        ri = int(pos_of[b.rally_id])
+        ri = int(b.ri)
         rec = arrays.pos_m[arrays.start[ri]:arrays.start[ri] + arrays.length[ri]]
         c, d = int(b.contact), int(rng.choice(delays))
         if c < 3 or c + d > len(rec):
@@ -369,9 +374,8 @@ def late_contact_arrays(data: RallyData, arrays: RallyArrays, rally_pos: np.ndar
                                             torch.as_tensor(v), torch.as_tensor(pv),
                                             fps).numpy()
         r = rallies.loc[int(b.rally_id)]
-        hitter = 0 if b.prev_hitter == r["server"] else 1
         h = c + d - 1
-        state = rally_state(track, h, int(b.prev), hitter, int(b.shot_index), fps)
+        state = rally_state(track, h, int(b.prev), int(b.prev_role), int(b.shot_index), fps)
         if state is None:
             counts["no_flight"] += 1
             continue
