@@ -184,6 +184,10 @@ def test_run_diagnostics_on_the_tiny_model(tiny_model_file):
     assert (own["n"].iloc[:3] == paired).all() and own["data"].iloc[0] == 1.0
     assert own["model"].iloc[1] <= own["model"].iloc[0]    # from his place: a subset
     assert 0.0 < data_side["own serves in the box"] <= 1.0
+    third = table.set_index("signal").loc["branch third-shot share (returns in play)"]
+    assert 0.8 < third["data"] <= 1.0          # the generator's servers answer their returns
+    assert 0 < third["n"] <= table.set_index("signal").at[
+        "branch returns still in play (returns in play)", "n"]
     leak = table[table["signal"].str.startswith("leak")]
     assert {"lo", "hi"} <= set(table.columns)
     assert leak.loc[leak["n"] < 30, "model"].isna().all()

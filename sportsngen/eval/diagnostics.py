@@ -37,6 +37,12 @@ Federer serving to Rafael Nadal on hard) and compare the model with that truth:
   returned. The branches start after the recorded strike, so only these show a model that
   drops its own toss (a physics-centred fine-tune struck no serve in 12-17 % of its rallies
   while its branches returned 87 % of serves, docs/evaluation.md);
+- **branch third-shot share** (`sportsngen.eval.shot_branches`): each recorded return that
+  stayed in play rolled out from `BRANCH_AFTER_FRAMES` frames after its contact; of the
+  branches whose return stayed in play, the share the server struck back, against the
+  record's (where serve points are lost after the return); and the **landing gap**, how far
+  from the recorded first bounce the model flew those returns (median and p90, m): the free
+  flight's error integrated over a rally ball's 20-30 frames;
 - **leak check on rollouts** (`sportsngen.eval.leaks`, the serve pairs, with bootstrap
   intervals; cells on fewer than `MIN_LEAK_PAIRS` comparable pairs left blank): whether the
   model's players, after the branch point, move as if they knew the serve's outcome.
@@ -66,6 +72,14 @@ from sportsngen.data.tracking import RallyData
 from sportsngen.eval.flight import flight_residuals, rally_tracks
 from sportsngen.eval.leaks import check_leaks
 from sportsngen.eval.rules import analyse_rally_data
+from sportsngen.eval.shot_branches import (
+    RETURN_SHOT,
+    answer_share,
+    branch_rallies,
+    landing_gaps_m,
+    shot_branches,
+    shot_outcomes,
+)
 from sportsngen.model.decoder import CONTACT_OFFSET_M
 from sportsngen.sim.assemble import PLAN_COLUMNS
 from sportsngen.tennis.court import is_in_service_box
@@ -168,27 +182,8 @@ def serve_branches(sim, truth: RallyData, seed: int = 0, horizon_s: float = HORI
     """Each recorded serve rolled out once from `after_frames` frames after its contact (the
     serve's strike frame, the first past the racket, kept at 0; -1: the model strikes) ->
     (the branches, a Series: branch rally id -> the recorded rally id it branched from)."""
-    arr = rally_arrays(truth, _generic_vocab(truth))
-    strike = serve_strike_frames(truth)
-    rallies = truth.rallies.set_index("rally_id")
-    groups: dict[int, list[int]] = {}
-    for ri, rid in enumerate(arr.rally_id):
-        if rid not in strike.index:
-            continue
-        k = int(strike[rid]) + after_frames + 1
-        if k < arr.length[ri]:
-            groups.setdefault(k, []).append(ri)
-    parts, order = [], []
-    for g, (k, idx) in enumerate(sorted(groups.items())):
-        rids = arr.rally_id[idx]
-        plan = rallies.loc[rids].reset_index()[PLAN_COLUMNS].copy()
-        plan["rally_id"] = np.arange(len(plan)) + 100_000 * g
-        plan["match_id"] = "branch"
-        init = np.stack([arr.pos_m[arr.start[i]:arr.start[i] + k] for i in idx])
-        parts.append(sim.simulate_rallies(plan, seed=seed + g, init_pos_m=init,
-                                          max_duration_s=k / sim.fps + horizon_s))
-        order.append(pd.Series(rids, index=plan["rally_id"].to_numpy()))
-    return RallyData.concat(parts), pd.concat(order)
+    return branch_rallies(sim, truth, serve_strike_frames(truth) + after_frames + 1, seed,
+                          horizon_s)
 
 
 def strike_branches(sim, truth: RallyData, after_frames: tuple[int, ...] = (-1, 0, 1, 3),
@@ -462,6 +457,19 @@ def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.Dat
              (f"expected / recorded contacts, ball {EARLY_CONTACT_M:g} m or more from both "
               "players", cal["early_ratio"], 1.0, cal["early_contacts"])]
     rows += own_serve_rows(own_serves(sim, truth, seed=setup.seed), truth_out)
+    returns = shot_outcomes(truth, RETURN_SHOT)
+    ret_branches, ret_order = shot_branches(sim, truth, RETURN_SHOT, BRANCH_AFTER_FRAMES,
+                                            setup.seed, truth_out=returns)
+    ret_out = shot_outcomes(ret_branches, RETURN_SHOT)
+    ans = answer_share(ret_out, returns, ret_order)
+    gaps = landing_gaps_m(ret_out, returns, ret_order)
+    rows += [("branch returns still in play (returns in play)", ans["in_play"], 1.0,
+              len(ret_order)),
+             ("branch third-shot share (returns in play)", ans["model"], ans["data"], ans["n"])]
+    for q, label in ((0.5, "median"), (0.9, "p90")):
+        rows.append((f"branch return's landing gap {label} (m)",
+                     float(np.quantile(gaps, q)) if len(gaps) else float("nan"), 0.0,
+                     len(gaps)))
     table = pd.DataFrame(rows, columns=["signal", "model", "data", "n"])
     gap_row = pd.DataFrame([{"signal": "branch return share minus recorded (paired)",
                              "model": gap, "data": np.nan, "n": len(order), "lo": lo, "hi": hi}])

@@ -1,0 +1,127 @@
+"""Recorded rallies rolled out from a chosen frame: the branches every rollout diagnostic reads,
+and the rally-ball counterpart of the branch return share.
+
+`branch_rallies` keeps the first k frames of each chosen recorded rally (k its own) and lets the
+model play on; rallies sharing k run as one batch. `serve_branches`
+(`sportsngen.eval.diagnostics`) branches just after each serve; `shot_branches` just after any
+later recorded contact, by default the return of serve. `shot_outcomes` reads from the rules
+whether that shot stayed in play (struck again before it bounced, or its first bounce in the
+opponent's singles court), where it first bounced, and whether it was struck back: over a
+model's branches against the record, the **answer share** says how often the model's hitter
+strikes a ball in play that the record's hitter struck (after the return, shot 1, that is the
+server's third shot, which decides serve points won and rally length), and the **landing gap**
+how far from the recorded bounce the model flew a ball whose first frames it was given
+(docs/evaluation.md, issue 17, seventh part).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from sportsngen.data.tokens import rally_arrays
+from sportsngen.data.tracking import RallyData
+from sportsngen.eval.rules import analyse_rally_data
+from sportsngen.sim.assemble import PLAN_COLUMNS
+from sportsngen.tennis.court import is_in_singles
+
+RETURN_SHOT = 1            # contacts count from the serve (0)
+SHOT_HORIZON_S = 2.5       # the shot's flight, the answer and its first frames
+
+
+def branch_rallies(sim, truth: RallyData, keep_frames: pd.Series, seed: int,
+                   horizon_s: float) -> tuple[RallyData, pd.Series]:
+    """Each recorded rally of `keep_frames` (rally id -> frames kept from its start) rolled
+    out once from its own frame, `horizon_s` beyond it -> (the branches, a Series: branch
+    rally id -> the recorded rally id). Rallies whose kept frames are not shorter than their
+    track are left out."""
+    arr = rally_arrays(truth, sim.vocab, unknown="generic")
+    rallies = truth.rallies.set_index("rally_id")
+    groups: dict[int, list[int]] = {}
+    for ri, rid in enumerate(arr.rally_id):
+        if rid in keep_frames.index:
+            k = int(keep_frames[rid])
+            if 0 < k < arr.length[ri]:
+                groups.setdefault(k, []).append(ri)
+    if not groups:
+        raise ValueError("no recorded rally is longer than its branch point")
+    parts, order = [], []
+    for g, (k, idx) in enumerate(sorted(groups.items())):
+        rids = arr.rally_id[idx]
+        plan = rallies.loc[rids].reset_index()[PLAN_COLUMNS].copy()
+        plan["rally_id"] = np.arange(len(plan)) + 100_000 * g
+        plan["match_id"] = "branch"
+        init = np.stack([arr.pos_m[arr.start[i]:arr.start[i] + k] for i in idx])
+        parts.append(sim.simulate_rallies(plan, seed=seed + g, init_pos_m=init,
+                                          max_duration_s=k / sim.fps + horizon_s))
+        order.append(pd.Series(rids, index=plan["rally_id"].to_numpy()))
+    return RallyData.concat(parts), pd.concat(order)
+
+
+def shot_outcomes(data: RallyData, shot: int = RETURN_SHOT) -> pd.DataFrame:
+    """Per rally, from the rules: `struck` (the rally has contact number `shot`), `in_play`
+    (that ball was struck again before it bounced, or its first bounce lies in the opponent's
+    singles court), `answered` (struck again after it), `contact_frame` (from the rally's
+    first frame; -1 where there is none) and `bounce_x_m`, `bounce_y_m`, where it bounced
+    before anyone struck it again (NaN: not struck, volleyed or not yet bounced)."""
+    if shot < 1:
+        raise ValueError(f"shot counts contacts after the serve (>= 1), got {shot}")
+    rules = analyse_rally_data(data)
+    rows = []
+    for rid, rule in rules.iterrows():
+        contacts, bounces = list(rule["contact_frames"]), list(rule["bounce_frames"])
+        struck = len(contacts) > shot
+        answered = len(contacts) > shot + 1
+        in_play = False
+        first = None
+        if struck:
+            after = [i for i, b in enumerate(bounces) if b > contacts[shot]]
+            first = after[0] if after else None
+            if answered and (first is None or bounces[first] > contacts[shot + 1]):
+                in_play, first = True, None   # volleyed: it never bounced as this shot
+            elif first is not None:
+                # The server (hitter 0) plays at `server_end`: an odd shot is the receiver's
+                # and lands on the server's half.
+                side = int(rule["server_end"]) * (1 if shot % 2 else -1)
+                bx, by = rule["bounces_m"][first][:2]
+                in_play = bool(is_in_singles(bx, by, side))
+        bounce = rule["bounces_m"][first][:2] if first is not None else (np.nan, np.nan)
+        rows.append({"rally_id": int(rid), "struck": struck, "in_play": in_play,
+                     "answered": bool(in_play and answered),
+                     "contact_frame": int(contacts[shot]) if struck else -1,
+                     "bounce_x_m": float(bounce[0]), "bounce_y_m": float(bounce[1])})
+    return pd.DataFrame(rows).set_index("rally_id")
+
+
+def landing_gaps_m(branch_out: pd.DataFrame, truth_out: pd.DataFrame,
+                   order: pd.Series) -> np.ndarray:
+    """For each branch whose shot bounced, as its recorded rally's did, the distance (m)
+    between the two first bounces after the shot: how far the model flew a ball it was given
+    three frames of (`shot_outcomes`' bounce columns)."""
+    b = branch_out.reindex(order.index)[["bounce_x_m", "bounce_y_m"]].to_numpy(float)
+    r = truth_out.loc[order.to_numpy(), ["bounce_x_m", "bounce_y_m"]].to_numpy(float)
+    gap = np.hypot(*(b - r).T)
+    return gap[np.isfinite(gap)]
+
+
+def shot_branches(sim, truth: RallyData, shot: int = RETURN_SHOT, after_frames: int = 3,
+                  seed: int = 0, horizon_s: float = SHOT_HORIZON_S,
+                  truth_out: pd.DataFrame | None = None) -> tuple[RallyData, pd.Series]:
+    """The recorded rallies whose shot number `shot` stayed in play, each rolled out from
+    `after_frames` frames after that contact (`branch_rallies`)."""
+    out = shot_outcomes(truth, shot) if truth_out is None else truth_out
+    keep = out.loc[out["in_play"], "contact_frame"] + after_frames + 1
+    return branch_rallies(sim, truth, keep, seed, horizon_s)
+
+
+def answer_share(branch_out: pd.DataFrame, truth_out: pd.DataFrame,
+                 order: pd.Series) -> dict:
+    """Of the branches whose shot stayed in play, the share answered, beside the same share of
+    the recorded rallies they branched from (in play by construction) and the branches' share
+    in play: -> {"model", "data", "n", "in_play"}."""
+    b = branch_out.reindex(order.index)
+    live = b["in_play"].fillna(False).to_numpy(bool)
+    r = truth_out.loc[order.to_numpy()]
+    return {"model": float(b.loc[live, "answered"].mean()) if live.any() else float("nan"),
+            "data": float(r["answered"].mean()), "n": int(live.sum()),
+            "in_play": float(live.mean())}

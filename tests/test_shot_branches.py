@@ -1,0 +1,78 @@
+"""The branches after a recorded return and the share the model's server strikes back."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from sportsngen.data.tokens import Vocab, rally_arrays
+from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
+from sportsngen.eval.shot_branches import (
+    answer_share,
+    landing_gaps_m,
+    shot_branches,
+    shot_outcomes,
+)
+from sportsngen.sim import Simulator
+from sportsngen.tennis.court import is_in_singles
+
+
+def test_shot_outcomes_agree_with_the_generators_shots_table():
+    truth = truth_points(DiagnosticsSetup(n_points=60, seed=4))
+    out = shot_outcomes(truth)
+    shots = truth.shots
+    ret = shots[shots["shot_index"] == 1].set_index("rally_id")
+    third = set(shots.loc[shots["shot_index"] == 2, "rally_id"])
+    assert out["struck"].sum() == len(ret) > 20
+    assert 10 < out["in_play"].sum() < out["struck"].sum()     # some returns are errors
+    for rid, row in out.iterrows():
+        assert row["struck"] == (rid in ret.index)
+        assert row["in_play"] == (rid in ret.index and ret.at[rid, "outcome"] != "error")
+        assert row["answered"] == (rid in third)
+        assert (row["contact_frame"] >= 0) == row["struck"]
+    # A return that bounced before it was struck again stayed in play exactly when that bounce
+    # lies in the server's singles court (a volleyed return has no bounce of its own).
+    server_end = truth.rallies.set_index("rally_id")["server_end"]
+    bounced = out[out["struck"] & out["bounce_x_m"].notna()]
+    assert len(bounced) > 20
+    inside = is_in_singles(bounced["bounce_x_m"].to_numpy(), bounced["bounce_y_m"].to_numpy(),
+                           server_end.loc[bounced.index].to_numpy())
+    assert (inside == bounced["in_play"].to_numpy()).all()
+    with pytest.raises(ValueError, match="after the serve"):
+        shot_outcomes(truth, 0)
+
+
+def test_answer_share_on_known_branches():
+    truth = pd.DataFrame({"in_play": [True] * 4, "answered": [True, True, True, False]},
+                         index=[10, 11, 12, 13])
+    branch = pd.DataFrame({"in_play": [True, True, False, True],
+                           "answered": [True, False, False, False]}, index=[0, 1, 2, 3])
+    order = pd.Series([10, 11, 12, 13], index=[0, 1, 2, 3])
+    got = answer_share(branch, truth, order)
+    assert got == {"model": pytest.approx(1 / 3), "data": 0.75, "n": 3, "in_play": 0.75}
+    truth["bounce_x_m"], truth["bounce_y_m"] = [1.0, 2.0, 3.0, 4.0], [0.0] * 4
+    branch["bounce_x_m"] = [1.0, 5.0, np.nan, 1.0]
+    branch["bounce_y_m"] = [0.0, 4.0, np.nan, 0.0]
+    np.testing.assert_allclose(landing_gaps_m(branch, truth, order), [0.0, 5.0, 3.0])
+    # A branch the rules could not read (no row) counts as not in play.
+    got = answer_share(branch.drop(index=[0]), truth, order)
+    assert got["n"] == 2 and got["model"] == 0.0 and got["in_play"] == 0.5
+
+
+def test_return_branches_keep_the_record_up_to_three_frames_after_the_return(tiny_model_file):
+    sim = Simulator.from_pretrained(tiny_model_file, max_retries=0)
+    truth = truth_points(DiagnosticsSetup(n_points=40, seed=4))
+    out = shot_outcomes(truth)
+    with pytest.warns(UserWarning, match="unknown player"):
+        branches, order = shot_branches(sim, truth, after_frames=3, seed=0, truth_out=out)
+    assert sorted(order.to_numpy()) == sorted(out.index[out["in_play"]])
+    rec = rally_arrays(truth, Vocab.from_data(truth, generic=True))
+    got = rally_arrays(branches, Vocab.from_data(branches, generic=True))
+    rec_at = {rid: i for i, rid in enumerate(rec.rally_id)}
+    for gi, bid in enumerate(got.rally_id):
+        ri = rec_at[int(order[bid])]
+        k = int(out.at[int(order[bid]), "contact_frame"]) + 4
+        kept = got.pos_m[got.start[gi]:got.start[gi] + k]
+        np.testing.assert_allclose(kept, rec.pos_m[rec.start[ri]:rec.start[ri] + k], atol=1e-5)
+        assert got.length[gi] > k                  # and the model played on
