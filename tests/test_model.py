@@ -259,9 +259,11 @@ def test_sample_next_players_on_ground_and_reproducible(ball_centre):
     assert torch.equal(a, b)
     assert (a[..., :2, 2] == 0).all()
     centre = pos + vel / 25.0
-    if ball_centre == "physics":  # the track's acceleration, eased by drag, one more step
+    if ball_centre == "physics":  # gravity and drag, plus the track's lift turned, one step
         from sportsngen.model.centre import flight_acceleration_mps2 as base
-        acc = (vel - prev)[..., 2, :] * 25.0 + base(vel[..., 2, :]) - base(prev[..., 2, :])
+        from sportsngen.model.centre import turned_lift_mps2
+        v, pv = vel[..., 2, :], prev[..., 2, :]
+        acc = base(v) + turned_lift_mps2((v - pv) * 25.0 - base(pv), pv, v)
         centre[..., 2, :] += acc / 625.0
     assert torch.allclose(model.centres(pos, vel, prev), centre, atol=1e-6)
     lim = torch.tensor([80.0, 40.0, 40.0]) / 25.0

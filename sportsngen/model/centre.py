@@ -8,10 +8,12 @@ constant-velocity extrapolation ("cv"). The ball (`ModelConfig.ball_centre`):
 - ``"velocity"``: one frame at the current velocity;
 - ``"physics"``: one step of the ball's flight. The acceleration (gravity, drag and Magnus
   together) is read from the last three frames (the second difference), which carries the
-  spin without estimating it; where that reading is not a flight (a racket contact or a bounce
-  fell among those frames, a toss left the hand, or the track is too noisy: it departs from
-  gravity plus drag by more than Magnus could at that speed, `MAX_LIFT_PER_M` |v|^2, capped
-  at `MAX_LIFT_MPS2`) the step uses gravity plus drag alone for those frames. A step
+  spin without estimating it: gravity and drag are taken at the new velocity and the rest,
+  the lift, is turned with the velocity (`turned_lift_mps2`). Where that reading is not a
+  flight (a racket contact or a bounce fell among those frames, a toss left the hand, or the
+  track is too noisy: it departs from gravity plus drag by more than Magnus could at that
+  speed, `MAX_LIFT_PER_M` |v|^2, capped at `MAX_LIFT_MPS2`) the step uses gravity plus drag
+  alone for those frames. A step
   that would end below the ground bounces (`BOUNCE_RESTITUTION`).
 
 Velocities are backward differences (frame t minus frame t-1, times the frame rate), so the
@@ -71,8 +73,32 @@ def ball_acceleration_mps2(vel_mps: torch.Tensor, prev_vel_mps: torch.Tensor | N
     # t - 1/2 to t + 1/2) needs it at frame t, one frame later, by when drag has eased with the
     # speed: uncorrected, a 30 m/s ball's step missed by 1.1 mm, more than the centre bin's
     # half-width (0.9 mm in x at 61 non-uniform bins); corrected, by 0.3 mm.
-    eased = track + (base - flight_acceleration_mps2(prev_vel_mps))
-    return torch.where(flight, eased, base)
+    lift = track - flight_acceleration_mps2(prev_vel_mps)
+    return torch.where(flight, base + turned_lift_mps2(lift, prev_vel_mps, vel_mps), base)
+
+
+def _lift_direction(vel_mps: torch.Tensor) -> torch.Tensor:
+    """(..., 3) the direction Magnus lift takes for a ball spinning about its horizontal axis
+    across the flight: perpendicular to the velocity, in its vertical plane, |v| long."""
+    vu = torch.linalg.vector_norm(vel_mps[..., :2], dim=-1, keepdim=True)
+    u_hat = vel_mps[..., :2] / vu.clamp_min(1e-6)
+    return torch.cat([-vel_mps[..., 2:3] * u_hat, vu], dim=-1)
+
+
+def turned_lift_mps2(lift_mps2: torch.Tensor, prev_vel_mps: torch.Tensor,
+                     vel_mps: torch.Tensor) -> torch.Tensor:
+    """The lift read at `prev_vel_mps` carried to `vel_mps`: its part across the flight
+    (`_lift_direction`) turns with the velocity, its size in proportion to |v|; the rest (e.g.
+    a drag the constants miss) is kept. The generator's Magnus, k |v|^2 c / (2 |spin| + |v|)
+    with c from the spin, is close to proportional to |v| at rally speeds. Carried unturned, a
+    ball flown by the step alone kept its lift pointing where it pointed at the start: recorded
+    returns flown on from three frames after the contact landed a median 0.22 m (p90 0.33 m)
+    from the generator's bounce; turned, 0.03 m (0.09 m); sized as |v|^2, 0.36 m
+    (docs/evaluation.md, issue 17, seventh part)."""
+    d_prev = _lift_direction(prev_vel_mps)
+    v2_prev = (prev_vel_mps * prev_vel_mps).sum(-1, keepdim=True).clamp_min(1e-6)
+    across = (lift_mps2 * d_prev).sum(-1, keepdim=True) / v2_prev
+    return lift_mps2 - across * d_prev + across * _lift_direction(vel_mps)
 
 
 def physics_step_m(pos_m: torch.Tensor, vel_mps: torch.Tensor,
