@@ -13,8 +13,8 @@ constant-velocity extrapolation ("cv"). The ball (`ModelConfig.ball_centre`):
   flight (a racket contact or a bounce fell among those frames, a toss left the hand, or the
   track is too noisy: it departs from gravity plus drag by more than Magnus could at that
   speed, `MAX_LIFT_PER_M` |v|^2, capped at `MAX_LIFT_MPS2`) the step uses gravity plus drag
-  alone for those frames. A step
-  that would end below the ground bounces (`BOUNCE_RESTITUTION`).
+  alone for those frames. A step that would end below the ground bounces
+  (`BOUNCE_RESTITUTION`).
 
 Velocities are backward differences (frame t minus frame t-1, times the frame rate), so the
 physics step is the exact extrapolation of a constant acceleration:
