@@ -8,6 +8,7 @@ import pytest
 
 from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
+from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.eval.shot_branches import (
     answer_share,
     landing_gaps_m,
@@ -21,6 +22,7 @@ from sportsngen.tennis.court import is_in_singles
 def test_shot_outcomes_agree_with_the_generators_shots_table():
     truth = truth_points(DiagnosticsSetup(n_points=60, seed=4))
     out = shot_outcomes(truth)
+    assert shot_outcomes(truth, 1, analyse_rally_data(truth)).equals(out)   # rules read once
     shots = truth.shots
     ret = shots[shots["shot_index"] == 1].set_index("rally_id")
     third = set(shots.loc[shots["shot_index"] == 2, "rally_id"])

@@ -124,11 +124,12 @@ def truth_points(setup: DiagnosticsSetup) -> RallyData:
     return data.subset(r.loc[r["server"] == setup.server, "rally_id"])
 
 
-def serve_outcomes(data: RallyData) -> pd.DataFrame:
-    """Per rally (rules on the tracks): serve in the box, returned, the receiver's movement
-    from the serve contact to the first bounce (m), the frames (from the rally's first) of
-    that bounce and of the return (-1 where there is none)."""
-    rules = analyse_rally_data(data)
+def serve_outcomes(data: RallyData, rules: pd.DataFrame | None = None) -> pd.DataFrame:
+    """Per rally (rules on the tracks, or `rules` already read from them): serve in the box,
+    returned, the receiver's movement from the serve contact to the first bounce (m), the
+    frames (from the rally's first) of that bounce and of the return (-1 where there is
+    none)."""
+    rules = analyse_rally_data(data) if rules is None else rules
     arr = rally_arrays(data, _generic_vocab(data))
     rows = []
     for ri, rid in enumerate(arr.rally_id):
@@ -294,7 +295,8 @@ def approach_frames(contacts: list[int], bounces: list[int]) -> list[tuple[int, 
     return out
 
 
-def contact_calibration(sim, truth: RallyData, fw: FirstWindows | None = None) -> dict:
+def contact_calibration(sim, truth: RallyData, fw: FirstWindows | None = None,
+                        rules: pd.DataFrame | None = None) -> dict:
     """How well the model's teacher-forced P(contact) matches the recorded contacts (module
     doc), on the first window of every recorded rally -> {"ratio" (the model's expected
     contacts, the sum of its P(contact), over the recorded ones), "early_ratio" (the same
@@ -316,7 +318,7 @@ def contact_calibration(sim, truth: RallyData, fw: FirstWindows | None = None) -
     gap = np.min([np.hypot(*(pos[..., BALL, :2] - pos[..., k, :2]).transpose(2, 0, 1))
                   for k in range(BALL)], axis=0)
     far = scored & (gap >= EARLY_CONTACT_M)
-    rules = analyse_rally_data(truth)
+    rules = analyse_rally_data(truth) if rules is None else rules
     odds: dict[str, tuple[list, list]] = {"return": ([], []), "rally": ([], [])}
     for i, ri in enumerate(rows):
         rule = rules.loc[arr.rally_id[ri]]
@@ -409,7 +411,8 @@ def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.Dat
     signal has no data side), n (serves, frames or, for a leak AUC, comparable pairs) and, for
     the leak AUCs, the bootstrap interval lo-hi (blank under `MIN_LEAK_PAIRS` pairs)."""
     truth = truth_points(setup)
-    truth_out = serve_outcomes(truth)
+    truth_rules = analyse_rally_data(truth)      # read once: three signals use it
+    truth_out = serve_outcomes(truth, truth_rules)
     branches, order = serve_branches(sim, truth, seed=setup.seed)
     branch_out = serve_outcomes(branches)
     rows = []
@@ -446,7 +449,7 @@ def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.Dat
                  float("nan"), n_contact))
     p_serve, n_serve = serve_contact_probability(sim, truth, fw)
     rows.append(("contact probability at the serve's strike", p_serve, float("nan"), n_serve))
-    cal = contact_calibration(sim, truth, fw)
+    cal = contact_calibration(sim, truth, fw, truth_rules)
     for kind, label, n in (("return", "returns of serves", "returns"),
                            ("rally", "later shots", "rally_shots")):
         rows += [(f"contact probability over the approach ({label})", cal[f"{kind}_approach"],
@@ -457,7 +460,7 @@ def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.Dat
              (f"expected / recorded contacts, ball {EARLY_CONTACT_M:g} m or more from both "
               "players", cal["early_ratio"], 1.0, cal["early_contacts"])]
     rows += own_serve_rows(own_serves(sim, truth, seed=setup.seed), truth_out)
-    returns = shot_outcomes(truth, RETURN_SHOT)
+    returns = shot_outcomes(truth, RETURN_SHOT, truth_rules)
     ret_branches, ret_order = shot_branches(sim, truth, RETURN_SHOT, BRANCH_AFTER_FRAMES,
                                             setup.seed, truth_out=returns)
     ret_out = shot_outcomes(ret_branches, RETURN_SHOT)

@@ -58,15 +58,17 @@ def branch_rallies(sim, truth: RallyData, keep_frames: pd.Series, seed: int,
     return RallyData.concat(parts), pd.concat(order)
 
 
-def shot_outcomes(data: RallyData, shot: int = RETURN_SHOT) -> pd.DataFrame:
-    """Per rally, from the rules: `struck` (the rally has contact number `shot`), `in_play`
-    (that ball was struck again before it bounced, or its first bounce lies in the opponent's
-    singles court), `answered` (struck again after it), `contact_frame` (from the rally's
-    first frame; -1 where there is none) and `bounce_x_m`, `bounce_y_m`, where it bounced
-    before anyone struck it again (NaN: not struck, volleyed or not yet bounced)."""
+def shot_outcomes(data: RallyData, shot: int = RETURN_SHOT,
+                  rules: pd.DataFrame | None = None) -> pd.DataFrame:
+    """Per rally, from the rules (or `rules` already read from `data`): `struck` (the rally
+    has contact number `shot`), `in_play` (that ball was struck again before it bounced, or
+    its first bounce lies in the opponent's singles court), `answered` (struck again after
+    it), `contact_frame` (from the rally's first frame; -1 where there is none) and
+    `bounce_x_m`, `bounce_y_m`, where it bounced before anyone struck it again (NaN: not
+    struck, volleyed or not yet bounced)."""
     if shot < 1:
         raise ValueError(f"shot counts contacts after the serve (>= 1), got {shot}")
-    rules = analyse_rally_data(data)
+    rules = analyse_rally_data(data) if rules is None else rules
     rows = []
     for rid, rule in rules.iterrows():
         contacts, bounces = list(rule["contact_frames"]), list(rule["bounce_frames"])
