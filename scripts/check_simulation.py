@@ -1,7 +1,8 @@
 """The simulation issue's acceptance figures: simulated service points against the generator.
 
     .venv/bin/python scripts/check_simulation.py [--model PATH] [--points 500] [--seed 0]
-        [--top-p-player P] [--top-p-ball P] [--[no-]contact-odds] [--json out.json]
+        [--top-p-player P] [--top-p-ball P] [--[no-]contact-odds] [--top-p-contact P]
+        [--refresh-frames K] [--json out.json]
         [--players "Roger Federer,Rafael Nadal"] [--surface hard]
 
 For two players (default Roger Federer v Rafael Nadal) on a surface (default hard): `--points`
@@ -82,6 +83,11 @@ def main() -> None:
     ap.add_argument("--contact-odds", action=argparse.BooleanOptionalAction, default=None,
                     help="the ball's nucleus keeps the model's odds of a racket contact "
                          "(default: the model file's)")
+    ap.add_argument("--top-p-contact", type=float, default=None,
+                    help="with contact odds, the nucleus of a struck ball (default: the ball's)")
+    ap.add_argument("--refresh-frames", type=int, default=None,
+                    help="past the model's window, re-fill the rollout cache from the last "
+                         "window every this many frames (1: training's view every frame)")
     ap.add_argument("--json", default=None)
     ap.add_argument("--players", default=",".join(PLAYERS),
                     help="the two players, comma-separated")
@@ -98,10 +104,15 @@ def main() -> None:
                             ("top_p_ball", args.top_p_ball)) if v is not None}
     if args.contact_odds is not None:
         kw["contact_odds"] = args.contact_odds
+    if args.top_p_contact is not None:
+        kw["top_p_contact"] = args.top_p_contact
+    if args.refresh_frames is not None:
+        kw["refresh_frames"] = args.refresh_frames
     sim = Simulator.from_pretrained(args.model, physical_limits=not args.no_physical_limits,
                                     **kw)
     print(f"top-p player {sim.top_p_player}, ball {sim.top_p_ball}, "
-          f"contact odds {sim.contact_odds}")
+          f"contact odds {sim.contact_odds}, contact {sim.top_p_contact}, "
+          f"cache refresh {sim.refresh_frames}")
     t0 = time.perf_counter()
     simd = sim.simulate_both_serving(*players, args.surface, args.points, seed=args.seed)
     sim_s = time.perf_counter() - t0
@@ -155,7 +166,8 @@ def main() -> None:
                        "outside_tolerance": misses,
                        "agreement_sim": agree_sim, "agreement_truth": agree_true,
                        "simulate_s": sim_s, "top_p_player": sim.top_p_player,
-                       "top_p_ball": sim.top_p_ball}, fh, indent=2)
+                       "top_p_ball": sim.top_p_ball, "top_p_contact": sim.top_p_contact},
+                      fh, indent=2)
 
 
 if __name__ == "__main__":

@@ -104,6 +104,11 @@ def test_serve_outcomes_agree_with_the_shots_table():
         assert row["returned"] == (rid in returned)
         if rid in faults:
             assert not row["in_box"]
+    # The serve's bounce read from the track is the generator's, within 5 cm.
+    serve = shots[shots["shot_index"] == 0].set_index("rally_id")
+    both = out.index[out["in_box"]]
+    gap = (out.loc[both, "bounce_abs_y_m"] - serve.loc[both, "bounce_y"].abs()).abs()
+    assert len(both) > 10 and gap.max() < 0.05
 
 
 def test_rules_serve_outcomes_replace_a_classifier_that_mislabels_serves():
@@ -177,8 +182,14 @@ def test_run_diagnostics_on_the_tiny_model(tiny_model_file):
     assert shares["model"].dropna().between(0, 1).all()
     own = table[table["signal"].str.startswith("own serves")].set_index("signal")
     assert list(own.index) == ["own serves struck", "own serves struck from the server's place",
-                               "own serves in the box",
+                               "own serves in the box", "own serves in the box, first serves",
+                               "own serves in the box, second serves",
+                               "own serves wide (serves in the box)",
                                "own serves returned (serves in the box)"]
+    # First and second serves split the serves.
+    assert own.at["own serves in the box, first serves", "n"] + \
+        own.at["own serves in the box, second serves", "n"] == own.at["own serves in the box", "n"]
+    assert 0.0 < own.at["own serves wide (serves in the box)", "data"] < 1.0
     # Every recorded serve is played again, as many as were branched.
     paired = table.set_index("signal").at["branch return share minus recorded (paired)", "n"]
     assert (own["n"].iloc[:3] == paired).all() and own["data"].iloc[0] == 1.0

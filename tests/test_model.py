@@ -350,7 +350,8 @@ def test_physics_centred_ball_in_the_centre_bin_stays_on_the_step(ball_centre, m
     model = make_model(bin_centre="cv", ball_centre=ball_centre)
     n = model.cfg.n_bins
     monkeypatch.setattr(model.ball_head, "sample",
-                        lambda h, top_p, gen, regions=None: torch.full((*h.shape[:-1], 3), n // 2))
+                        lambda h, top_p, gen, regions=None, top_p_regions=None:
+                        torch.full((*h.shape[:-1], 3), n // 2))
     pos = torch.tensor([[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [-5.0, 1.0, 2.0]]])
     vel = torch.tensor([[[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [20.0, 0.0, 3.0]]])
     h = torch.zeros(1, 3, model.cfg.d_model)
@@ -373,7 +374,8 @@ def test_ball_target_bins_sample_back_inside_their_bins(monkeypatch):
     nxt = pos + vel / 25.0 + 0.8 * (vel - prev) / 25.0   # the contact's offset again, scaled
     _, b_idx = model.target_bins(pos, vel, nxt, prev)
     assert (b_idx[0] != model.cfg.n_bins // 2).all()
-    monkeypatch.setattr(model.ball_head, "sample", lambda h, top_p, gen, regions=None: b_idx)
+    monkeypatch.setattr(model.ball_head, "sample",
+                        lambda h, top_p, gen, regions=None, top_p_regions=None: b_idx)
     h = torch.zeros(1, 3, model.cfg.d_model)
     again = model.sample_next(h, pos, vel, generator=torch.Generator().manual_seed(0),
                               prev_vel_mps=prev)
@@ -402,3 +404,59 @@ def test_nucleus_in_regions_keeps_the_regions_odds():
     assert torch.equal(sample_top_p_in_regions(logits[:50], regions, 1.0,
                                                torch.Generator().manual_seed(1)),
                        sample_top_p(logits[:50], 1.0, torch.Generator().manual_seed(1)))
+
+
+def test_nucleus_per_row_and_a_wider_nucleus_inside_the_regions():
+    from sportsngen.model.sampling import sample_top_p_in_regions
+
+    probs = torch.tensor([0.70, 0.20, 0.09, 0.01])
+    logits = probs.log().expand(200_000, 4)
+    # One top-p per row: rows at 0.6 keep only bin 0, rows at 0.95 bins 0-2 at their odds.
+    row_p = torch.where(torch.arange(len(logits)) % 2 == 0, 0.6, 0.95)
+    draws = sample_top_p(logits, row_p, torch.Generator().manual_seed(0))
+    assert (draws[::2] == 0).all()
+    odd = torch.bincount(draws[1::2], minlength=4).double() / len(draws[1::2])
+    assert odd[3].item() == 0.0
+    assert abs(odd[0].item() - 0.70 / 0.99) < 0.005
+    # A float top-p and the same value on every row draw the same classes.
+    same = sample_top_p(logits[:100], torch.full((100,), 0.8), torch.Generator().manual_seed(3))
+    assert torch.equal(same, sample_top_p(logits[:100], 0.8, torch.Generator().manual_seed(3)))
+    # Inside the regions a nucleus of 1 keeps bin 3 (0.01 of 0.30); outside 0.6 still trims.
+    regions = torch.tensor([False, True, True, True])
+    split = sample_top_p_in_regions(logits, regions, 0.6, torch.Generator().manual_seed(1),
+                                    top_p_inside=1.0)
+    share = torch.bincount(split, minlength=4).double() / len(split)
+    assert abs(share[0].item() - 0.70) < 0.005
+    assert abs(share[3].item() - 0.01) < 0.002
+    with pytest.raises(ValueError, match="top_p"):
+        sample_top_p(logits[:2], torch.tensor([0.5, 0.0]))
+
+
+def test_factorised_head_samples_a_struck_row_at_its_own_nucleus():
+    torch.manual_seed(0)
+    m = FactorisedHead(16, 7, 3, hidden=8)
+    h = torch.randn(4000, 16)
+    regions = torch.zeros(7, dtype=torch.bool)
+    regions[5:] = True
+
+    def greedy_given_x(chosen):
+        out = chosen.clone()
+        for k in (1, 2):
+            out[:, k] = m.dim_logits(h, out, k).argmax(-1)
+        return out
+
+    with torch.no_grad():
+        p_in = m.dim_logits(h, None, 0).softmax(-1)[:, regions].sum(-1)
+        tight = m.sample(h, 1e-6, torch.Generator().manual_seed(0), regions)
+        wide = m.sample(h, 1e-6, torch.Generator().manual_seed(0), regions, top_p_regions=1.0)
+        g_tight, g_wide = greedy_given_x(tight), greedy_given_x(wide)
+    # The side is drawn at the model's odds with the same draws in both; outside the regions
+    # x, y and z are greedy in both; inside, y and z are greedy only with the tight nucleus.
+    inside = regions[wide[:, 0]]
+    assert torch.equal(inside, regions[tight[:, 0]])
+    assert abs(inside.float().mean().item() - p_in.mean().item()) < 0.03
+    assert inside.sum() > 200
+    assert torch.equal(tight, g_tight)
+    assert torch.equal(wide[~inside], g_wide[~inside])
+    assert (wide[inside] != g_wide[inside]).any(-1).float().mean() > 0.2
+

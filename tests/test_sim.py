@@ -96,6 +96,13 @@ def test_rollout_cache_recompute_and_window_agree(tiny_model_file):
     assert (cache.pos_m[:, 2:, :2, 2] == 0).all()       # sampled players on the ground
     with pytest.raises(ValueError, match="mode"):
         rollout(model, inputs, n, mode="fast")
+    # A cache re-filled from the last window on every frame is the rolling window, past the
+    # window too (a training window's view); never re-filled, it is the band.
+    every = rollout(model, inputs, n, seed=1, mode="cache", top_p_ball=0.9, refresh_frames=1)
+    window = rollout(model, inputs, n, seed=1, mode="window", top_p_ball=0.9)
+    np.testing.assert_allclose(every.pos_m, window.pos_m, atol=1e-4)
+    assert not np.allclose(every.pos_m[:, w + 1:], cache.pos_m[:, w + 1:], atol=1e-3)
+    np.testing.assert_allclose(every.pos_m[:, :w + 1], cache.pos_m[:, :w + 1], atol=1e-4)
 
 
 def test_initial_conditions_draw_rotate_and_round_trip():
@@ -144,6 +151,15 @@ def test_stored_sim_defaults_are_defaults_and_arguments_win(tiny_model_file, tmp
     sim = Simulator.from_pretrained(path, contact_odds=False, top_p_ball=0.9)
     assert sim.top_p_ball == 0.9 and sim.contact_odds is False
     assert Simulator.from_pretrained(tiny_model_file).contact_odds is False
+    update_extra(path, sim_defaults={"top_p_ball": 0.45, "contact_odds": True,
+                                     "top_p_contact": 0.8})
+    assert Simulator.from_pretrained(path).top_p_contact == 0.8
+    assert Simulator.from_pretrained(tiny_model_file).top_p_contact is None
+    with pytest.raises(ValueError, match="top_p_contact"):
+        Simulator.from_pretrained(tiny_model_file, top_p_contact=1.5)
+    with pytest.raises(ValueError, match="refresh_frames"):
+        Simulator.from_pretrained(tiny_model_file, refresh_frames=0)
+    assert Simulator.from_pretrained(tiny_model_file, refresh_frames=25.0).refresh_frames == 25
 
 
 def test_simulate_py_learned_engine_writes_outputs(tiny_model_file, tmp_path, capsys):
@@ -348,3 +364,10 @@ def test_contact_odds_rollouts_are_reproducible_and_change_only_the_ball(tiny_mo
     pd.testing.assert_frame_equal(a.frames, b.frames)
     ball = [c for c in a.frames.columns if c.startswith("ball")]
     assert not a.frames[ball].equals(c.frames[ball])
+    # A contact nucleus equal to the ball's changes nothing; a wider one changes the ball.
+    same = _sim(tiny_model_file, contact_odds=True, top_p_contact=0.6, **kw).simulate_points(
+        "Toy Alpha", "Toy Beta", "hard", 4, seed=0, serve_number=1)
+    pd.testing.assert_frame_equal(a.frames, same.frames)
+    wide = _sim(tiny_model_file, contact_odds=True, top_p_contact=1.0, **kw).simulate_points(
+        "Toy Alpha", "Toy Beta", "hard", 4, seed=0, serve_number=1)
+    assert not a.frames[ball].equals(wide.frames[ball])

@@ -261,6 +261,28 @@ def test_same_seed_same_weights(tmp_path):
     assert not all(torch.equal(wa[k], wc[k]) for k in wa)
 
 
+def test_training_windows_of_two_model_windows(tmp_path, monkeypatch):
+    from sportsngen.train import run as run_module
+
+    seen = []
+    real = run_module.TrackingDataModule
+
+    def spy(data, vocab, window_frames, **kw):
+        seen.append(window_frames)
+        return real(data, vocab, window_frames, **kw)
+
+    monkeypatch.setattr(run_module, "TrackingDataModule", spy)
+    over = ["experiment=tiny", "data=toy", "data.n_rallies=12", "trainer.max_steps=2",
+            "trainer.val_check_interval=2", "trainer.limit_val_batches=1",
+            "trainer.enable_progress_bar=false", "events.enabled=false",
+            "windows.length_windows=2"]
+    out = train_from_config(_compose(over), tmp_path / "a")
+    cfg = load_model(out["model_file"])[3]
+    # The model keeps its window (the band of its mask); only the training windows grow.
+    assert seen == [2 * cfg.window_frames]
+    assert np.isfinite(out["decoder"]["val/loss"])
+
+
 @pytest.mark.skipif(sys.platform == "win32", reason="gloo DDP test on POSIX only")
 def test_ddp_two_cpu_processes_slow(tmp_path):
     """SLOW (~20-30 s): trainer=ddp runs Lightning's DDP (gloo) on 2 CPU processes."""

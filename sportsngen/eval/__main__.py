@@ -6,7 +6,7 @@
     python -m sportsngen.eval leaks FOLDER [--k 6 12] [--boot N] [--seed S] [--csv PATH] \\
         [--band 0.4 0.6] [--paths]
     python -m sportsngen.eval diagnose [--model PATH] [--points 400] [--seed 0] [--csv PATH]
-        [--top-p-ball P] [--[no-]contact-odds]
+        [--top-p-ball P] [--[no-]contact-odds] [--top-p-contact P]
 
 Folders are `RallyData.save` folders, read without physics validation (simulated rallies may
 break physics and are flagged, not refused). `--ref-synthetic` generates the reference with
@@ -156,6 +156,10 @@ def run_diagnose(args: argparse.Namespace) -> int:
     kw = {} if args.top_p_ball is None else {"top_p_ball": args.top_p_ball}
     if args.contact_odds is not None:
         kw["contact_odds"] = args.contact_odds
+    if args.top_p_contact is not None:
+        if not 0.0 < args.top_p_contact <= 1.0:
+            raise UsageError(f"--top-p-contact must be in (0, 1], got {args.top_p_contact}")
+        kw["top_p_contact"] = args.top_p_contact
     try:
         sim = Simulator.from_pretrained(args.model, **kw)
     except FileNotFoundError as exc:
@@ -233,6 +237,9 @@ def build_parser() -> argparse.ArgumentParser:
     diag.add_argument("--contact-odds", action=argparse.BooleanOptionalAction, default=None,
                       help="the ball's nucleus keeps the model's odds of a racket contact "
                            "(default: the model file's, else off)")
+    diag.add_argument("--top-p-contact", type=float, default=None,
+                      help="with contact odds, the nucleus of a struck ball (default: the "
+                           "model file's, else the ball's)")
     return ap
 
 

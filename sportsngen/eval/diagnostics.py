@@ -33,7 +33,8 @@ Federer serving to Rafael Nadal on hard) and compare the model with that truth:
   these move with the weights, not with a rollout's draws;
 - **own serves**: the same serves played by the model from its own serve starts (the pool in
   the model file, as `simulate_points` plays them): the share struck at all (the rules stop a
-  rally with no serve after 4 s), struck from the server's place, landing in the box and
+  rally with no serve after 4 s), struck from the server's place, landing in the box (all,
+  first and second serves), wide (of those in the box, bouncing in its outer third) and
   returned. The branches start after the recorded strike, so only these show a model that
   drops its own toss (a physics-centred fine-tune struck no serve in 12-17 % of its rallies
   while its branches returned 87 % of serves, docs/evaluation.md);
@@ -43,6 +44,9 @@ Federer serving to Rafael Nadal on hard) and compare the model with that truth:
   record's (where serve points are lost after the return); and the **landing gap**, how far
   from the recorded first bounce the model flew those returns (median and p90, m): the free
   flight's error integrated over a rally ball's 20-30 frames;
+- **shots after the window** (`sportsngen.eval.long_rallies`): the contact odds over the
+  approach of recorded shots struck after the model's window, in the cached rollout's view and
+  in a training window's;
 - **leak check on rollouts** (`sportsngen.eval.leaks`, the serve pairs, with bootstrap
   intervals; cells on fewer than `MIN_LEAK_PAIRS` comparable pairs left blank): whether the
   model's players, after the branch point, move as if they knew the serve's outcome.
@@ -82,12 +86,13 @@ from sportsngen.eval.shot_branches import (
 )
 from sportsngen.model.decoder import CONTACT_OFFSET_M
 from sportsngen.sim.assemble import PLAN_COLUMNS
-from sportsngen.tennis.court import is_in_service_box
+from sportsngen.tennis.court import SINGLES_HALF_WIDTH_M, is_in_service_box
 from sportsngen.train.metrics import window_states
 
 BRANCH_AFTER_FRAMES = 3   # frames after the serve contact kept from the record
 HORIZON_S = 3.0           # a branch is rolled out this long: the serve, the return, its flight
 OWN_SERVE_S = 4.5         # own serves: past the rules' 4 s "no serve struck" and the return
+WIDE_SERVE_Y_M = 2.0 * SINGLES_HALF_WIDTH_M / 3.0   # a serve bouncing in the box's outer third
 STILL_M = 0.05
 REACH_M = 1.5
 # Recorded racket contacts are struck within 1.43 m of the hitter (99th percentile, Federer v
@@ -128,17 +133,19 @@ def serve_outcomes(data: RallyData, rules: pd.DataFrame | None = None) -> pd.Dat
     """Per rally (rules on the tracks, or `rules` already read from them): serve in the box,
     returned, the receiver's movement from the serve contact to the first bounce (m), the
     frames (from the rally's first) of that bounce and of the return (-1 where there is
-    none)."""
+    none), and how far from the centre line the serve bounced (`bounce_abs_y_m`, NaN
+    without a bounce)."""
     rules = analyse_rally_data(data) if rules is None else rules
     arr = rally_arrays(data, _generic_vocab(data))
     rows = []
     for ri, rid in enumerate(arr.rally_id):
         rule = rules.loc[rid]
         contacts, bounces = rule["contact_frames"], rule["bounce_frames"]
-        in_box, moved, bounce = False, np.nan, -1
+        in_box, moved, bounce, abs_y = False, np.nan, -1, np.nan
         if len(contacts) and len(bounces) and bounces[0] > contacts[0]:
             bounce = int(bounces[0])
             bx, by = rule["bounces_m"][0][:2]
+            abs_y = abs(float(by))
             in_box = bool(is_in_service_box(bx, by, int(rule["server_end"]), str(rule["side"])))
             track = arr.pos_m[arr.start[ri]:arr.start[ri] + arr.length[ri], RECEIVER_SLOT, :2]
             # The rules round an event to the nearer frame of its step, which for a rally cut
@@ -147,7 +154,7 @@ def serve_outcomes(data: RallyData, rules: pd.DataFrame | None = None) -> pd.Dat
             moved = float(np.hypot(*(track[min(bounce, last)] - track[min(contacts[0], last)])))
         returned = in_box and int(rule["n_shots"]) >= 2
         rows.append({"rally_id": int(rid), "in_box": in_box, "returned": returned,
-                     "moved_m": moved, "bounce_frame": bounce,
+                     "moved_m": moved, "bounce_frame": bounce, "bounce_abs_y_m": abs_y,
                      "return_frame": int(contacts[1]) if returned else -1})
     return pd.DataFrame(rows).set_index("rally_id")
 
@@ -390,7 +397,9 @@ def own_serves(sim, truth: RallyData, seed: int = 0) -> RallyData:
 
 def own_serve_rows(own: RallyData, truth_out: pd.DataFrame) -> list[tuple]:
     """Rows of the diagnostics table for `own_serves`: struck, struck from the right place, in
-    the box, returned (of those in the box), beside the recorded serves."""
+    the box (all, first and second serves), wide (of those in the box, bouncing in the box's
+    outer third) and returned (of those in the box), beside the recorded serves (the same
+    rally ids, so the same serve numbers)."""
     failed = own.rallies.set_index("rally_id")["failed_checks"].astype(str)
     out = serve_outcomes(own)
     n = len(failed)
@@ -399,6 +408,18 @@ def own_serve_rows(own: RallyData, truth_out: pd.DataFrame) -> list[tuple]:
              float((~failed.str.contains("serve_position|no_serve")).mean()), 1.0, n),
             ("own serves in the box", float(out["in_box"].mean()),
              float(truth_out["in_box"].mean()), n)]
+    number = own.rallies.set_index("rally_id")["serve_number"]
+    for k, name in ((1, "first"), (2, "second")):
+        mine = out.loc[number.reindex(out.index).to_numpy() == k, "in_box"]
+        theirs = truth_out.loc[number.reindex(truth_out.index).to_numpy() == k, "in_box"]
+        rows.append((f"own serves in the box, {name} serves", float(mine.mean()) if len(mine) else
+                     float("nan"), float(theirs.mean()) if len(theirs) else float("nan"),
+                     int(len(mine))))
+    in_box, truth_in = out[out["in_box"]], truth_out[truth_out["in_box"]]
+    rows.append(("own serves wide (serves in the box)",
+                 float((in_box["bounce_abs_y_m"] > WIDE_SERVE_Y_M).mean()) if len(in_box)
+                 else float("nan"),
+                 float((truth_in["bounce_abs_y_m"] > WIDE_SERVE_Y_M).mean()), int(len(in_box))))
     ret = out.loc[out["in_box"], "returned"]
     rows.append(("own serves returned (serves in the box)",
                  float(ret.mean()) if len(ret) else float("nan"),
@@ -459,6 +480,13 @@ def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.Dat
     rows += [("expected / recorded contacts (ball tokens)", cal["ratio"], 1.0, cal["contacts"]),
              (f"expected / recorded contacts, ball {EARLY_CONTACT_M:g} m or more from both "
               "players", cal["early_ratio"], 1.0, cal["early_contacts"])]
+    from sportsngen.eval.long_rallies import late_shot_contact_odds  # it reads this module
+
+    late = late_shot_contact_odds(sim, truth, truth_rules)
+    rows += [("contact probability over the approach, shots after the window (rollout's band)",
+              late["band"], 1.0, late["shots"]),
+             ("contact probability over the approach, shots after the window (training's "
+              "window)", late["window"], 1.0, late["shots"])]
     rows += own_serve_rows(own_serves(sim, truth, seed=setup.seed), truth_out)
     returns = shot_outcomes(truth, RETURN_SHOT, truth_rules)
     ret_branches, ret_order = shot_branches(sim, truth, RETURN_SHOT, BRANCH_AFTER_FRAMES,

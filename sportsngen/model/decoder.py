@@ -297,7 +297,8 @@ class SportsNGEN(nn.Module):
                     top_p_player: float = 1.0, top_p_ball: float = 1.0,
                     generator: torch.Generator | None = None,
                     prev_vel_mps: torch.Tensor | None = None,
-                    contact_odds: bool = False) -> torch.Tensor:
+                    contact_odds: bool = False,
+                    top_p_contact: float | None = None) -> torch.Tensor:
         """Next positions (..., 3, 3) from output states h (..., 3, d): nucleus per object
         kind, then uniform inside the chosen bin. Players stay on the ground (z = 0).
 
@@ -310,11 +311,14 @@ class SportsNGEN(nn.Module):
 
         `contact_odds`: the ball's nucleus is taken inside the contact bins (`contact_bins`)
         or inside the rest, chosen at the model's own odds, so a nucleus under 1 cannot cut a
-        racket contact the model gives a few tens of per cent on a frame."""
+        racket contact the model gives a few tens of per cent on a frame. `top_p_contact`
+        (with `contact_odds`; default `top_p_ball`): the nucleus of every dimension of a
+        ball that is struck, so a strike keeps more of the spread a flight does not need."""
         centre = self.centres(pos_m, vel_mps, prev_vel_mps)
         pi = self.player_head.sample(h[..., :BALL, :], top_p_player, generator)
         bi = self.ball_head.sample(h[..., BALL, :], top_p_ball, generator,
-                                   self.contact_bins() if contact_odds else None)
+                                   self.contact_bins() if contact_odds else None,
+                                   top_p_contact if contact_odds else None)
         p_off = self.player_bins.value(pi, uniform_in_bin(pi.shape, h.device, generator))
         u_ball = uniform_in_bin(bi.shape, h.device, generator)
         if self.cfg.ball_centre == "physics":

@@ -6,9 +6,10 @@ learned embeddings of the bins already chosen. It is exact (any joint distributi
 written so) and needs O(n) outputs instead of O(n^dims).
 
 Every head offers the same calls: `nll(h, idx)`, `top1(h)` and `sample(h, top_p, generator,
-regions)`. With `regions` (a bool mask over the first dimension's bins) and a nucleus, `sample`
-first chooses between the masked bins and the rest at the model's own probability, then takes
-the nucleus inside the chosen side (`sportsngen.model.sampling.sample_top_p_in_regions`).
+regions, top_p_regions)`. With `regions` (a bool mask over the first dimension's bins) and a
+nucleus, `sample` first chooses between the masked bins and the rest at the model's own
+probability, then takes the nucleus inside the chosen side
+(`sportsngen.model.sampling.sample_top_p_in_regions`), `top_p_regions` inside the regions.
 """
 
 from __future__ import annotations
@@ -46,12 +47,14 @@ class JointHead(nn.Module):
 
     def sample(self, h: torch.Tensor, top_p: float = 1.0,
                generator: torch.Generator | None = None,
-               regions: torch.Tensor | None = None) -> torch.Tensor:
+               regions: torch.Tensor | None = None,
+               top_p_regions: float | None = None) -> torch.Tensor:
         logits = self.proj(h)
         if regions is None:
             return self._unflat(sample_top_p(logits, top_p, generator))
         joint = regions.repeat_interleave(self.n_bins ** (self.dims - 1))
-        return self._unflat(sample_top_p_in_regions(logits, joint, top_p, generator))
+        return self._unflat(sample_top_p_in_regions(logits, joint, top_p, generator,
+                                                    top_p_regions))
 
 
 class FactorisedHead(nn.Module):
@@ -95,15 +98,22 @@ class FactorisedHead(nn.Module):
 
     def sample(self, h: torch.Tensor, top_p: float = 1.0,
                generator: torch.Generator | None = None,
-               regions: torch.Tensor | None = None) -> torch.Tensor:
-        """Dimension by dimension, each with its own nucleus (the first inside `regions`)."""
+               regions: torch.Tensor | None = None,
+               top_p_regions: float | None = None) -> torch.Tensor:
+        """Dimension by dimension, each with its own nucleus (the first inside `regions`).
+        `top_p_regions`: the nucleus of every dimension of a row whose first falls in
+        `regions` (default `top_p`)."""
         if regions is None:
             return self._decode(h, lambda lg: sample_top_p(lg, top_p, generator))
         chosen = torch.zeros(*h.shape[:-1], self.dims, dtype=torch.long, device=h.device)
         chosen[..., 0] = sample_top_p_in_regions(self.dim_logits(h, chosen, 0), regions, top_p,
-                                                 generator)
+                                                 generator, top_p_regions)
+        row_p = top_p
+        if top_p_regions is not None and top_p_regions != top_p:
+            inside = regions.to(h.device)[chosen[..., 0]]
+            row_p = torch.where(inside, float(top_p_regions), float(top_p))
         for k in range(1, self.dims):
-            chosen[..., k] = sample_top_p(self.dim_logits(h, chosen, k), top_p, generator)
+            chosen[..., k] = sample_top_p(self.dim_logits(h, chosen, k), row_p, generator)
         return chosen
 
 

@@ -24,9 +24,10 @@ def top_p_filter(logits: torch.Tensor, top_p: float) -> torch.Tensor:
     return logits.masked_fill(drop, float("-inf"))
 
 
-def sample_top_p(logits: torch.Tensor, top_p: float,
+def sample_top_p(logits: torch.Tensor, top_p: float | torch.Tensor,
                  generator: torch.Generator | None = None) -> torch.Tensor:
     """One class index per row of `logits` (..., n) -> (...) int64, nucleus-filtered.
+    `top_p`: one value, or one per row (a tensor of shape (...)).
 
     Inverse-CDF sampling on the sorted probabilities: the nucleus is the sorted prefix whose
     mass first reaches `top_p`, so a uniform draw scaled to that prefix's mass picks a class of
@@ -34,38 +35,51 @@ def sample_top_p(logits: torch.Tensor, top_p: float,
     search: about half the operations of masking, renormalising and `torch.multinomial`,
     which matters in rollouts that sample five distributions a frame.
     """
-    if not 0.0 < top_p <= 1.0:
-        raise ValueError(f"top_p must be in (0, 1], got {top_p}")
     flat = logits.float().reshape(-1, logits.shape[-1])
+    if isinstance(top_p, torch.Tensor):
+        p = top_p.to(device=flat.device, dtype=flat.dtype).expand(logits.shape[:-1])
+        p = p.reshape(-1, 1)
+        if not bool(((p > 0.0) & (p <= 1.0)).all()):
+            raise ValueError("top_p must be in (0, 1] on every row")
+    else:
+        if not 0.0 < top_p <= 1.0:
+            raise ValueError(f"top_p must be in (0, 1], got {top_p}")
+        p = torch.full((len(flat), 1), float(top_p), device=flat.device)
     sorted_logits, order = torch.sort(flat, dim=-1, descending=True)
     cdf = torch.cumsum(torch.softmax(sorted_logits, dim=-1), dim=-1)
     # Mass of the nucleus: the first cumulative value reaching top_p (the whole row at 1).
-    n_keep = torch.searchsorted(cdf, torch.full((len(cdf), 1), min(top_p, 1.0),
-                                                device=cdf.device), right=False)
+    n_keep = torch.searchsorted(cdf, p, right=False)
     n_keep = n_keep.clamp_max(cdf.shape[-1] - 1)
-    mass = cdf.gather(-1, n_keep) if top_p < 1.0 else cdf[:, -1:]
+    mass = torch.where(p < 1.0, cdf.gather(-1, n_keep), cdf[:, -1:])
     u = torch.rand(len(cdf), 1, generator=generator, device=cdf.device) * mass
     pick = torch.searchsorted(cdf, u, right=True).clamp_max(n_keep)
     return order.gather(-1, pick).reshape(logits.shape[:-1])
 
 
 def sample_top_p_in_regions(logits: torch.Tensor, regions: torch.Tensor, top_p: float,
-                            generator: torch.Generator | None = None) -> torch.Tensor:
+                            generator: torch.Generator | None = None,
+                            top_p_inside: float | None = None) -> torch.Tensor:
     """Like `sample_top_p`, but first chooses between the classes in `regions` (a (n,) bool
     mask) and the others at their full probability, then samples the nucleus of the chosen
     side. The two sides keep the model's odds whatever `top_p`; inside each, the nucleus
     trims the tails as usual. For the ball's first axis, split into racket contacts and the
     rest: a plain nucleus drops a contact whose frame holds less than 1 - top-p of the mass, and
-    a model that spreads a return over several frames then returns none of them."""
+    a model that spreads a return over several frames then returns none of them.
+    `top_p_inside` (default `top_p`): the nucleus inside `regions`, so a strike can keep more
+    of its spread than a flight."""
     if not 0.0 < top_p <= 1.0:
         raise ValueError(f"top_p must be in (0, 1], got {top_p}")
-    if top_p >= 1.0:
+    inner = top_p if top_p_inside is None else float(top_p_inside)
+    if not 0.0 < inner <= 1.0:
+        raise ValueError(f"top_p_inside must be in (0, 1], got {top_p_inside}")
+    if top_p >= 1.0 and inner >= 1.0:
         return sample_top_p(logits, top_p, generator)
     regions = regions.to(device=logits.device, dtype=torch.bool)
     p_in = torch.softmax(logits.float(), dim=-1)[..., regions].sum(-1)
     inside = torch.rand(p_in.shape, generator=generator, device=logits.device) < p_in
     keep = torch.where(inside[..., None], regions, ~regions)
-    return sample_top_p(logits.masked_fill(~keep, float("-inf")), top_p, generator)
+    row_p = top_p if inner == top_p else torch.where(inside, inner, top_p)
+    return sample_top_p(logits.masked_fill(~keep, float("-inf")), row_p, generator)
 
 
 def uniform_in_bin(shape: torch.Size | tuple, device: torch.device | str = "cpu",

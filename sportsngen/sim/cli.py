@@ -129,6 +129,10 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
         kw = {"top_p_player": float(cfg.top_p), "top_p_ball": float(cfg.top_p)}
     if cfg.get("contact_odds") is not None:
         kw["contact_odds"] = bool(cfg.contact_odds)
+    if cfg.get("top_p_contact") is not None:
+        kw["top_p_contact"] = float(cfg.top_p_contact)
+    if cfg.get("refresh_frames") is not None:
+        kw["refresh_frames"] = int(cfg.refresh_frames)
     sim = Simulator.from_pretrained(cfg.get("model_file"), **kw)
     names = (str(cfg.player1), str(cfg.player2))
     results = sim.simulate_matches([names] * int(cfg.n_matches), str(cfg.surface), fmt=fmt,

@@ -113,7 +113,7 @@ class Constraint(Protocol):
 
 
 def _constrain(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top_p_player,
-               top_p_ball, generator, contact_odds=False):
+               top_p_ball, generator, contact_odds=False, top_p_contact=None):
     """Resample the rows `constraint` rejects: up to its max_tries from the nucleus, then as
     many from the whole distribution. -> (frames, redraws per live row)."""
     bad = ~constraint.accept(alive, n, pos, nxt, vel)
@@ -125,7 +125,8 @@ def _constrain(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top_p_pl
         wide = tries >= constraint.max_tries
         again = model.sample_next(h[idx], pos[idx], vel[idx],
                                   1.0 if wide else top_p_player, 1.0 if wide else top_p_ball,
-                                  generator, prev_vel[idx], contact_odds)
+                                  generator, prev_vel[idx], contact_odds,
+                                  1.0 if wide else top_p_contact)
         nxt[idx] = again
         drawn[idx.cpu().numpy()] += 1
         ok = constraint.accept(alive[idx.cpu().numpy()], n, pos[idx], again, vel[idx])
@@ -169,7 +170,8 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             top_p_ball: float = 1.0, seed: int | None = 0,
             generator: torch.Generator | None = None, mode: str = "cache",
             progress: bool = False, constraint: Constraint | None = None,
-            contact_odds: bool = False) -> Rollout:
+            contact_odds: bool = False, top_p_contact: float | None = None,
+            refresh_frames: int | None = None) -> Rollout:
     """Roll `inputs` forward until the tracker ends each rally or it has `max_frames` frames.
 
     The tracker sees every frame of every rally in order, the initial ones included, and
@@ -178,8 +180,13 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
     same distribution, which samples the distribution restricted to the accepted set.
     `generator` (or `seed`) makes the rollout reproducible: the same inputs, seed and batch
     give the same tracks. `contact_odds`: the ball's nucleus keeps the model's odds of a racket
-    contact (`SportsNGEN.sample_next`). Cached rollouts of up to `SINGLE_THREAD_ROWS` rallies
-    run on one CPU thread.
+    contact (`SportsNGEN.sample_next`), with `top_p_contact` the nucleus of a struck ball
+    (default `top_p_ball`). `refresh_frames` (cache mode): once a rally is longer than the
+    model's window, every this many frames the cache is filled again from the last window
+    alone, so the next tokens read the rally as training windows do; without it the band's
+    lower layers reach back over the whole rally (`sportsngen.eval.long_rallies`). 1 is the
+    "window" mode's view at the cost of a window's pass a frame. Cached rollouts of up to
+    `SINGLE_THREAD_ROWS` rallies run on one CPU thread.
     """
     small = (mode == "cache" and len(inputs.init_pos_m) <= SINGLE_THREAD_ROWS
              and next(model.parameters()).device.type == "cpu")
@@ -238,7 +245,12 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             if n >= max_frames:
                 break
             if mode == "cache":
-                if steps:
+                w = model.cfg.window_frames
+                if steps and refresh_frames and n > w and n % refresh_frames == 0:
+                    hs, cache = model(_window_features(hist, n - w, n, fps), ident, ctx,
+                                      return_cache=True)
+                    h = hs[:, -1]
+                elif steps:
                     h = model.forward_step(_features(hist, n, fps), cache)[0]
             else:
                 lo = max(0, n - model.cfg.window_frames) if mode == "window" else 0
@@ -248,10 +260,11 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             vel = (pos - prev) * fps
             prev_vel = (prev - hist[:, n - 3]) * fps if n >= 3 else torch.zeros_like(vel)
             nxt = model.sample_next(h, pos, vel, top_p_player, top_p_ball, generator, prev_vel,
-                                    contact_odds)
+                                    contact_odds, top_p_contact)
             if constraint is not None:
                 nxt, drawn = _constrain(model, constraint, alive, n, h, pos, vel, prev_vel, nxt,
-                                        top_p_player, top_p_ball, generator, contact_odds)
+                                        top_p_player, top_p_ball, generator, contact_odds,
+                                        top_p_contact)
                 resampled[alive] += drawn
             hist[:, n] = nxt
             nxt_np = nxt.cpu().numpy()

@@ -86,10 +86,12 @@ class Simulator:
                  top_p_ball: float = 1.0, max_duration_s: float = 30.0,
                  batch_size: int = 256, max_retries: int = 10, unknown: str | None = None,
                  physical_limits: bool = True, device: str | torch.device = "cpu",
-                 contact_odds: bool = False):
+                 contact_odds: bool = False, top_p_contact: float | None = None,
+                 refresh_frames: int | None = None):
         if abs(initial.fps - model.cfg.fps) > 1e-6:
             raise ValueError(f"initial conditions at {initial.fps} Hz, model at {model.cfg.fps}")
-        for name, p in (("top_p_player", top_p_player), ("top_p_ball", top_p_ball)):
+        for name, p in (("top_p_player", top_p_player), ("top_p_ball", top_p_ball),
+                        ("top_p_contact", 1.0 if top_p_contact is None else top_p_contact)):
             if not 0.0 < p <= 1.0:
                 raise ArgumentError(f"{name} must be in (0, 1], got {p}")
         self.model = model.to(device).eval()
@@ -105,6 +107,14 @@ class Simulator:
         self.physical_limits = bool(physical_limits)
         # The ball's nucleus keeps the model's odds of a racket contact (`rollout`).
         self.contact_odds = bool(contact_odds)
+        # With contact_odds: the nucleus of a struck ball (None: top_p_ball).
+        self.top_p_contact = None if top_p_contact is None else float(top_p_contact)
+        # Past the model's window, re-fill the cache from the last window every this many
+        # frames (`rollout`): None keeps the band; 1 gives training's view on every frame.
+        if refresh_frames is not None and int(refresh_frames) < 1:
+            raise ArgumentError(f"refresh_frames must be a positive int or None, got "
+                                f"{refresh_frames!r}")
+        self.refresh_frames = None if refresh_frames is None else int(refresh_frames)
         self._warned: set[str] = set()    # unknown players already warned about
         # Raw rollout win probabilities -> observed frequencies, when the model file has one
         # (`scripts/rally_outcome_study.py --save-calibrator`).
@@ -114,8 +124,8 @@ class Simulator:
     def from_pretrained(cls, path_or_name: str | Path | None = None, **kwargs) -> Simulator:
         """Load a model file (or a bundled model by name; None: the default bundled model).
         Keyword arguments go to `Simulator` (top_p_player, top_p_ball, contact_odds,
-        max_duration_s, ...); those stored with the model (`sim_defaults`: its top-p and
-        contact odds) are the defaults."""
+        top_p_contact, refresh_frames, max_duration_s, ...); those stored with the model
+        (`sim_defaults`: its top-p and contact odds) are the defaults."""
         path = model_path(path_or_name)
         model, ec, vocab, _ = load_model(path)
         extra = read_extra(path)
@@ -197,7 +207,9 @@ class Simulator:
             t0 = inputs.init_pos_m.shape[1]
             roll = rollout(self.model, inputs, max(max_frames, t0 + 2), tracker,
                            self.top_p_player, self.top_p_ball, generator=gen,
-                           progress=progress, constraint=con, contact_odds=self.contact_odds)
+                           progress=progress, constraint=con, contact_odds=self.contact_odds,
+                           top_p_contact=self.top_p_contact,
+                           refresh_frames=self.refresh_frames)
             labels = None if self.event_model is None else frame_labels(
                 self.event_model, roll.pos_m, roll.length, self.fps, self.model.cfg.window_frames)
             data = assemble(part, roll.pos_m, roll.length, tracker.results(), labels, self.fps)

@@ -157,7 +157,8 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
                                        data.fps, vocab)
     w = cfg.windows
     dm = TrackingDataModule(
-        data, vocab, model_cfg.window_frames, batch_size=int(w.batch_size),
+        data, vocab, model_cfg.window_frames * int(w.get("length_windows", 1)),
+        batch_size=int(w.batch_size),
         val_fraction=float(w.val_fraction), seed=int(cfg.seed),
         augment=Augment(**OmegaConf.to_container(w.augment, resolve=True)),
         num_workers=int(w.num_workers), unknown=model_cfg.unknown,
