@@ -31,7 +31,7 @@ import torch
 from torch.utils.data import default_collate
 
 from sportsngen.data.tokens import BALL, WindowDataset, rally_arrays
-from sportsngen.eval.diagnostics import REVERSAL_M, far_probability
+from sportsngen.eval.contact_odds import REVERSAL_M, far_probability
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.sim import Simulator
 from sportsngen.synth.generate import generate_matches

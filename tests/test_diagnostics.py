@@ -9,12 +9,10 @@ import pytest
 import torch
 
 from sportsngen.eval import diagnostics
+from sportsngen.eval.contact_odds import REVERSAL_M, approach_frames, far_probability
 from sportsngen.eval.diagnostics import (
-    REVERSAL_M,
     DiagnosticsSetup,
-    approach_frames,
     contact_calibration,
-    far_probability,
     paired_return_gap,
     run_diagnostics,
     serve_outcomes,

@@ -18,8 +18,8 @@ Federer serving to Rafael Nadal on hard) and compare the model with that truth:
   against recorded serves;
 - **contact probability within reach**: teacher-forced on the recorded serves that were
   returned, the model's largest probability of a racket contact (a next ball frame more than
-  `REVERSAL_M` from its bin centre along x) over the frames the ball is within `REACH_M` of
-  the receiver. Low means the model lets balls fly past players who could hit them;
+  `contact_odds.REVERSAL_M` from its bin centre along x) over the frames the ball is within
+  `REACH_M` of the receiver. Low means the model lets balls fly past players who could hit them;
 - **contact probability at the serve's strike**: the same, on the tokens that predict the
   frames around each recorded serve's strike;
 - **contact odds, calibrated?** (`contact_calibration`), teacher-forced on every ball token
@@ -73,8 +73,10 @@ from sportsngen.data.tokens import (
     rally_arrays,
 )
 from sportsngen.data.tracking import RallyData
+from sportsngen.eval.contact_odds import approach_frames, far_probability
 from sportsngen.eval.flight import flight_residuals, rally_tracks
 from sportsngen.eval.leaks import check_leaks
+from sportsngen.eval.long_rallies import late_shot_contact_odds
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.eval.shot_branches import (
     RETURN_SHOT,
@@ -84,7 +86,6 @@ from sportsngen.eval.shot_branches import (
     shot_branches,
     shot_outcomes,
 )
-from sportsngen.model.decoder import CONTACT_OFFSET_M
 from sportsngen.sim.assemble import PLAN_COLUMNS
 from sportsngen.tennis.court import SINGLES_HALF_WIDTH_M, is_in_service_box
 from sportsngen.train.metrics import window_states
@@ -98,8 +99,6 @@ REACH_M = 1.5
 # Recorded racket contacts are struck within 1.43 m of the hitter (99th percentile, Federer v
 # Nadal, 400 points); a contact drawn with the ball further from both players is early.
 EARLY_CONTACT_M = 1.5
-REVERSAL_M = CONTACT_OFFSET_M
-VOLLEY_GAP_FRAMES = 3     # a volley's approach starts this long after the previous contact
 SERVE_PAIRS = ("fault_vs_in", "ace_vs_returned")
 RECEIVER_SLOT = OBJECTS.index("receiver")
 # A leak cell resting on fewer comparable pairs is left blank (NaN): with 3 pairs an AUC is 0,
@@ -263,13 +262,6 @@ def first_windows(sim, truth: RallyData, batch_size: int = 32) -> FirstWindows:
     return FirstWindows(arr, first, dict(zip(rows, p)))
 
 
-def far_probability(model, h: torch.Tensor) -> torch.Tensor:
-    """P(contact) of ball output states h (N, d): the next ball frame more than `REVERSAL_M`
-    from its bin centre along x (the decoder's `contact_bins`)."""
-    p0 = model.ball_head.dim_logits(h, torch.zeros(len(h), 3, dtype=torch.long), 0)
-    return p0.softmax(-1)[:, model.contact_bins()].sum(-1)
-
-
 @torch.no_grad()
 def window_contact_probabilities(model, windows: list, batch_size: int = 32) -> np.ndarray:
     """Teacher-forced P(contact) (`far_probability`) of every ball token of `windows`
@@ -285,21 +277,6 @@ def window_contact_probabilities(model, windows: list, batch_size: int = 32) -> 
 def _max_contact_probability(fw: FirstWindows, picked: list) -> list[float]:
     """For (rally position, frames) pairs: the largest P(contact) over those frames."""
     return [float(fw.odds[ri][frames].max()) for ri, frames in picked]
-
-
-def approach_frames(contacts: list[int], bounces: list[int]) -> list[tuple[int, int, int]]:
-    """A rally's recorded shots after the serve -> (shot index, first, last token) of each
-    shot's approach: from the bounce before the contact (for a volley, `VOLLEY_GAP_FRAMES`
-    after the previous contact) to the token that predicts the contact (token t predicts
-    frame t + 1; the rules put a contact on the nearer frame of its step, whose token carries
-    the reversal)."""
-    out = []
-    for j in range(1, len(contacts)):
-        before = [b for b in bounces if contacts[j - 1] < b < contacts[j]]
-        lo = before[-1] + 1 if before else contacts[j - 1] + VOLLEY_GAP_FRAMES
-        if lo < contacts[j]:
-            out.append((j, lo, contacts[j]))
-    return out
 
 
 def contact_calibration(sim, truth: RallyData, fw: FirstWindows | None = None,
@@ -480,8 +457,6 @@ def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.Dat
     rows += [("expected / recorded contacts (ball tokens)", cal["ratio"], 1.0, cal["contacts"]),
              (f"expected / recorded contacts, ball {EARLY_CONTACT_M:g} m or more from both "
               "players", cal["early_ratio"], 1.0, cal["early_contacts"])]
-    from sportsngen.eval.long_rallies import late_shot_contact_odds  # it reads this module
-
     late = late_shot_contact_odds(sim, truth, truth_rules)
     rows += [("contact probability over the approach, shots after the window (rollout's band)",
               late["band"], 1.0, late["shots"]),

@@ -155,8 +155,10 @@ def _features(hist: torch.Tensor, n: int, fps: float) -> torch.Tensor:
     return object_features(pos[:, None], vel[:, None], t[:, None])[:, 0]
 
 
-def _window_features(hist: torch.Tensor, lo: int, n: int, fps: float) -> torch.Tensor:
-    """Tokens of frames lo..n-1 -> (B, n - lo, 3, F), velocities from the frame before lo."""
+def window_features(hist: torch.Tensor, lo: int, n: int, fps: float) -> torch.Tensor:
+    """Tokens of frames lo..n-1 of positions hist (B, T, 3, 3) -> (B, n - lo, 3, F), velocities
+    from the frame before lo (0 at the rally's first frame), times from the rally's start: the
+    tokens a training window starting at lo holds."""
     pos = hist[:, lo:n]
     first_prev = max(lo - 1, 0)  # the rally's first frame has no predecessor: velocity 0
     prev = torch.cat([hist[:, first_prev:first_prev + 1], hist[:, lo:n - 1]], dim=1)
@@ -202,7 +204,7 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             generator = torch.Generator(device=dev)
             generator.manual_seed(0 if seed is None else int(seed))
         tracker = tracker or _NoTracker()
-        fps = model.cfg.fps
+        fps, window = model.cfg.fps, model.cfg.window_frames
 
         def tens(x, dtype):
             return torch.as_tensor(np.array(x), dtype=dtype, device=dev)
@@ -226,7 +228,7 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
         latest = inputs.init_pos_m[:, -1].astype(np.float32)   # every rally's newest frame
         cache, h = None, None
         if mode == "cache":
-            hs, cache = model(_window_features(hist, 0, t0, fps), ident, ctx, return_cache=True)
+            hs, cache = model(window_features(hist, 0, t0, fps), ident, ctx, return_cache=True)
             h = hs[:, -1]
         n, steps, frames = t0, 0, 0
         resampled = np.zeros(b, dtype=np.int64)
@@ -245,16 +247,15 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             if n >= max_frames:
                 break
             if mode == "cache":
-                w = model.cfg.window_frames
-                if steps and refresh_frames and n > w and n % refresh_frames == 0:
-                    hs, cache = model(_window_features(hist, n - w, n, fps), ident, ctx,
+                if steps and refresh_frames and n > window and n % refresh_frames == 0:
+                    hs, cache = model(window_features(hist, n - window, n, fps), ident, ctx,
                                       return_cache=True)
                     h = hs[:, -1]
                 elif steps:
                     h = model.forward_step(_features(hist, n, fps), cache)[0]
             else:
-                lo = max(0, n - model.cfg.window_frames) if mode == "window" else 0
-                h = model(_window_features(hist, lo, n, fps), ident, ctx)[:, -1]
+                lo = max(0, n - window) if mode == "window" else 0
+                h = model(window_features(hist, lo, n, fps), ident, ctx)[:, -1]
             pos = hist[:, n - 1]
             prev = hist[:, n - 2] if n >= 2 else pos
             vel = (pos - prev) * fps
