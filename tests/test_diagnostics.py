@@ -11,6 +11,7 @@ import torch
 from sportsngen.eval import diagnostics
 from sportsngen.eval.contact_odds import REVERSAL_M, approach_frames, far_probability
 from sportsngen.eval.diagnostics import (
+    WIDE_SERVE_Y_M,
     DiagnosticsSetup,
     contact_calibration,
     paired_return_gap,
@@ -216,10 +217,14 @@ def test_strike_branches_count_every_serve_at_every_branch_point(tiny_model_file
     for serve, g in out.groupby(number.to_numpy()):
         assert rec.at[serve, "n"] == len(g)
         assert rec.at[serve, "in_box"] == pytest.approx(g["in_box"].mean())
+        box = g[g["in_box"]]
+        wide = (box["bounce_abs_y_m"] > WIDE_SERVE_Y_M).mean() if len(box) else float("nan")
+        assert rec.at[serve, "wide"] == pytest.approx(wide, nan_ok=True)
     # Every recorded serve is branched at each point (none is too short for 3 frames more).
     per_point = table.groupby("after")["n"].sum()
     assert (per_point == per_point["recorded"]).all()
     assert table["in_box"].between(0, 1).all()
+    assert table["wide"].dropna().between(0, 1).all() and table["wide"].notna().any()
 
 
 def test_diagnose_command_refuses_bad_input(tmp_path, capsys):

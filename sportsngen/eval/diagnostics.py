@@ -196,8 +196,9 @@ def serve_branches(sim, truth: RallyData, seed: int = 0, horizon_s: float = HORI
 def strike_branches(sim, truth: RallyData, after_frames: tuple[int, ...] = (-1, 0, 1, 3),
                     seed: int = 0) -> pd.DataFrame:
     """Where a serve's fate is decided: the recorded serves branched at each of `after_frames`
-    (`serve_branches`) -> per branch point and serve number, the share landing in the box and
-    the share of those returned, beside the recorded serves' (`after` = "recorded"). From -1
+    (`serve_branches`) -> per branch point and serve number, the share landing in the box, the
+    shares of those wide (`WIDE_SERVE_Y_M`) and returned, beside the recorded serves' (`after`
+    = "recorded"). From -1
     the model strikes from the recorded toss; from 0 it has the strike's first frame and
     decides the next; from 3 the flight is set."""
     number = truth.rallies.set_index("rally_id")["serve_number"]
@@ -214,6 +215,8 @@ def strike_branches(sim, truth: RallyData, after_frames: tuple[int, ...] = (-1, 
             box = g[g["in_box"]]
             parts.append({"after": label, "serve_number": int(serve), "n": len(g),
                           "in_box": float(g["in_box"].mean()),
+                          "wide": float((box["bounce_abs_y_m"] > WIDE_SERVE_Y_M).mean())
+                          if len(box) else np.nan,
                           "returned": float(box["returned"].mean()) if len(box) else np.nan})
     return pd.DataFrame(parts)
 
