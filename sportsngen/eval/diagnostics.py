@@ -176,6 +176,12 @@ def _generic_vocab(data: RallyData) -> Vocab:
     return Vocab.from_data(data, generic=True)
 
 
+def wide_share(in_box: pd.DataFrame) -> float:
+    """Of serves in the box (`serve_outcomes` rows), the share bouncing in the box's outer third
+    (`WIDE_SERVE_Y_M`); NaN without any."""
+    return float((in_box["bounce_abs_y_m"] > WIDE_SERVE_Y_M).mean()) if len(in_box) else np.nan
+
+
 def serve_strike_frames(data: RallyData) -> pd.Series:
     """Rally id -> the frame of its serve's strike (shots table, `shot_index` 0), counted from
     the rally's first frame (rallies without a serve left out)."""
@@ -197,10 +203,9 @@ def strike_branches(sim, truth: RallyData, after_frames: tuple[int, ...] = (-1, 
                     seed: int = 0) -> pd.DataFrame:
     """Where a serve's fate is decided: the recorded serves branched at each of `after_frames`
     (`serve_branches`) -> per branch point and serve number, the share landing in the box, the
-    shares of those wide (`WIDE_SERVE_Y_M`) and returned, beside the recorded serves' (`after`
-    = "recorded"). From -1
-    the model strikes from the recorded toss; from 0 it has the strike's first frame and
-    decides the next; from 3 the flight is set."""
+    shares of those wide (`wide_share`) and returned, beside the recorded serves' (`after` =
+    "recorded"). From -1 the model strikes from the recorded toss; from 0 it has the strike's
+    first frame and decides the next; from 3 the flight is set."""
     number = truth.rallies.set_index("rally_id")["serve_number"]
     parts = []
     for after in [*after_frames, None]:
@@ -215,8 +220,7 @@ def strike_branches(sim, truth: RallyData, after_frames: tuple[int, ...] = (-1, 
             box = g[g["in_box"]]
             parts.append({"after": label, "serve_number": int(serve), "n": len(g),
                           "in_box": float(g["in_box"].mean()),
-                          "wide": float((box["bounce_abs_y_m"] > WIDE_SERVE_Y_M).mean())
-                          if len(box) else np.nan,
+                          "wide": wide_share(box),
                           "returned": float(box["returned"].mean()) if len(box) else np.nan})
     return pd.DataFrame(parts)
 
@@ -396,10 +400,8 @@ def own_serve_rows(own: RallyData, truth_out: pd.DataFrame) -> list[tuple]:
                      float("nan"), float(theirs.mean()) if len(theirs) else float("nan"),
                      int(len(mine))))
     in_box, truth_in = out[out["in_box"]], truth_out[truth_out["in_box"]]
-    rows.append(("own serves wide (serves in the box)",
-                 float((in_box["bounce_abs_y_m"] > WIDE_SERVE_Y_M).mean()) if len(in_box)
-                 else float("nan"),
-                 float((truth_in["bounce_abs_y_m"] > WIDE_SERVE_Y_M).mean()), int(len(in_box))))
+    rows.append(("own serves wide (serves in the box)", wide_share(in_box),
+                 wide_share(truth_in), int(len(in_box))))
     ret = out.loc[out["in_box"], "returned"]
     rows.append(("own serves returned (serves in the box)",
                  float(ret.mean()) if len(ret) else float("nan"),
