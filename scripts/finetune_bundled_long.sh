@@ -4,7 +4,7 @@
 # centred on one physics step and training windows of two model windows (12 s under the 6 s
 # band mask, so the tokens past the window are trained as the cached rollout reads them), then
 # the export: generic identity row averaged, sampling defaults, rally-outcome calibrator.
-# About 28 minutes a stage at one thread, 40 more for the calibrator (docs/model-card.md).
+# About 28 minutes a stage at one thread, about 80 more for the calibrator (docs/model-card.md).
 #
 #   scripts/finetune_bundled_long.sh               # both stages, then export into the package
 #   STAGES="2 export" scripts/finetune_bundled_long.sh   # from stage 1's folder on
