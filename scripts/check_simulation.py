@@ -2,6 +2,7 @@
 
     .venv/bin/python scripts/check_simulation.py [--model PATH] [--points 500] [--seed 0]
         [--top-p-player P] [--top-p-ball P] [--[no-]contact-odds] [--top-p-contact P]
+        [--[no-]strike-in-reach]
         [--refresh-frames K] [--json out.json]
         [--players "Roger Federer,Rafael Nadal"] [--surface hard]
 
@@ -24,6 +25,7 @@ import argparse
 import collections
 import json
 import time
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -31,7 +33,7 @@ import torch
 from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.eval.physical import shot_quantities
 from sportsngen.eval.rules import analyse_rally_data
-from sportsngen.eval.stats import serve_stats
+from sportsngen.eval.stats import rally_hazards, serve_stats
 from sportsngen.sim import Simulator
 from sportsngen.sim.assemble import realistic_points
 from sportsngen.sim.events import classifier_winner, frame_labels, shot_labels
@@ -92,6 +94,11 @@ def main() -> None:
     ap.add_argument("--players", default=",".join(PLAYERS),
                     help="the two players, comma-separated")
     ap.add_argument("--surface", default="hard", choices=SURFACES)
+    ap.add_argument("--strike-in-reach", action=argparse.BooleanOptionalAction, default=None,
+                    help="a good ball passing within a player's reach is struck "
+                         "(default: the model file's, else off)")
+    ap.add_argument("--save-sim", type=Path, default=None,
+                    help="write the simulated rallies (a RallyData folder) here")
     ap.add_argument("--no-physical-limits", action="store_true",
                     help="free rollouts, as the paper (no redraws, no net/ground correction)")
     args = ap.parse_args()
@@ -108,13 +115,17 @@ def main() -> None:
         kw["top_p_contact"] = args.top_p_contact
     if args.refresh_frames is not None:
         kw["refresh_frames"] = args.refresh_frames
+    if args.strike_in_reach is not None:
+        kw["strike_in_reach"] = args.strike_in_reach
     sim = Simulator.from_pretrained(args.model, physical_limits=not args.no_physical_limits,
                                     **kw)
     print(f"top-p player {sim.top_p_player}, ball {sim.top_p_ball}, "
           f"contact odds {sim.contact_odds}, contact {sim.top_p_contact}, "
-          f"cache refresh {sim.refresh_frames}")
+          f"cache refresh {sim.refresh_frames}, strike in reach {sim.strike_in_reach}")
     t0 = time.perf_counter()
     simd = sim.simulate_both_serving(*players, args.surface, args.points, seed=args.seed)
+    if args.save_sim is not None:
+        simd.save(args.save_sim)
     sim_s = time.perf_counter() - t0
     r = simd.rallies
     failed = collections.Counter(c for f in r["failed_checks"] for c in f.split(";") if c)
@@ -153,6 +164,12 @@ def main() -> None:
           f"non-realistic {'under' if unreal < 0.10 else 'NOT under'} 10 %")
     for m in misses:
         print(f"  outside: {m}")
+    # Shot by shot, where the points end: odd lengths are the server's wins, even ones the
+    # receiver's (docs/evaluation.md, tenth part: where serve points are lost).
+    hz = {name: rally_hazards(pts["rally"], 6)["hazard"] for name, pts in
+          (("sim", real.points()), ("truth", truth.points()))}
+    print("\npoints ending at rally length L of those reaching it (L = 1 .. 6), sim / truth: " +
+          "  ".join(f"{L}: {hz['sim'][L]:.2f} / {hz['truth'][L]:.2f}" for L in range(1, 7)))
     decided = r[(r["rules_winner"] >= 0)]
     agree_sim = float((decided["classifier_winner"] == decided["rules_winner"]).mean())
     sub = truth.subset(truth.rallies["rally_id"].iloc[:1000])
@@ -165,8 +182,10 @@ def main() -> None:
             json.dump({"non_realistic": unreal, "failed_checks": dict(failed), "stats": rows,
                        "outside_tolerance": misses,
                        "agreement_sim": agree_sim, "agreement_truth": agree_true,
+                       "rally_hazards": {k: [float(v) for v in h] for k, h in hz.items()},
                        "simulate_s": sim_s, "top_p_player": sim.top_p_player,
-                       "top_p_ball": sim.top_p_ball, "top_p_contact": sim.top_p_contact},
+                       "top_p_ball": sim.top_p_ball, "top_p_contact": sim.top_p_contact,
+                       "strike_in_reach": sim.strike_in_reach},
                       fh, indent=2)
 
 

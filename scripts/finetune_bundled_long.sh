@@ -4,7 +4,7 @@
 # centred on one physics step and training windows of two model windows (12 s under the 6 s
 # band mask, so the tokens past the window are trained as the cached rollout reads them), then
 # the export: generic identity row averaged, sampling defaults, rally-outcome calibrator.
-# About 28 minutes a stage at one thread, about 80 more for the calibrator (docs/model-card.md).
+# About 28 minutes a stage at one thread, about 50 more for the calibrator (docs/model-card.md).
 #
 #   scripts/finetune_bundled_long.sh               # both stages, then export into the package
 #   STAGES="2 export" scripts/finetune_bundled_long.sh   # from stage 1's folder on
@@ -38,6 +38,6 @@ if [[ " $STAGES " == *" export "* ]]; then
         --average-generic-identity
     "$PY" -c "from sportsngen.model.export import update_extra; update_extra('$DEST',
         sim_defaults={'top_p_player': 1.0, 'top_p_ball': 0.45, 'contact_odds': True})"
-    "$PY" scripts/rally_outcome_study.py --rallies 400 --n 16 --threads 1 --save-calibrator
+    "$PY" scripts/rally_outcome_study.py --rallies 250 --n 16 --threads 1 --save-calibrator
     echo "exported $DEST ($(stat -c %s "$DEST") bytes)"
 fi

@@ -54,27 +54,35 @@ def test_physics_step_follows_a_spinning_flight_to_a_millimetre(spin_mps):
 
 
 def eased(vel: torch.Tensor, prev: torch.Tensor) -> torch.Tensor:
-    """The track's acceleration carried a frame on: gravity plus drag at the new velocity,
-    the lift read from the track turned with it."""
-    lift = (vel - prev) * FPS - flight_acceleration_mps2(prev)
-    return flight_acceleration_mps2(vel) + turned_lift_mps2(lift, prev, vel)
+    """The track's acceleration carried a frame on: gravity plus drag at frame t's velocity,
+    the lift read from the track (at frame t - 1, the mean velocity) turned with it."""
+    lift = (vel - prev) * FPS - flight_acceleration_mps2(0.5 * (prev + vel))
+    return flight_acceleration_mps2(1.5 * vel - 0.5 * prev) + turned_lift_mps2(lift, prev, vel)
 
 
-def test_lift_across_the_flight_turns_with_the_velocity_and_the_rest_is_kept():
+def test_lift_across_the_flight_turns_with_the_velocity_sideways_is_kept_along_is_dropped():
     prev = torch.tensor([30.0, 0.0, 0.0])
-    vel = torch.tensor([30.0, 0.0, -3.0])
-    # Straight up across a level flight: 0.2 |v| along (3, 0, 30) once the ball dips.
+    vel = torch.tensor([29.6, 0.0, -0.4])                 # one frame of a dipping rally ball
     turned = turned_lift_mps2(torch.tensor([0.0, 0.0, 6.0]), prev, vel)
-    assert torch.allclose(turned, torch.tensor([0.6, 0.0, 6.0]), atol=1e-6)
-    assert float(turned @ vel) == pytest.approx(0.0, abs=1e-5)     # still across the flight
-    # Along the flight (a drag the constants miss) and sideways: kept as read.
-    for kept in ([-1.0, 0.0, 0.0], [0.0, 0.5, 0.0]):
-        assert torch.allclose(turned_lift_mps2(torch.tensor(kept), prev, vel),
-                              torch.tensor(kept), atol=1e-6)
+    # Still across the flight, leaning forward as the ball dips, its size in proportion to |v|.
+    assert abs(float(turned @ vel)) / float(vel.norm()) < 0.06
+    assert float(turned[0]) > 0.1
+    assert float(turned.norm()) == pytest.approx(6.0 * float(vel.norm()) / 30.0, rel=1e-3)
+    # Sideways: kept as read. Along the flight (Magnus has none, drag is the step's): dropped.
+    assert torch.allclose(turned_lift_mps2(torch.tensor([0.0, 0.5, 0.0]), prev, vel),
+                          torch.tensor([0.0, 0.5, 0.0]), atol=1e-6)
+    assert torch.allclose(turned_lift_mps2(torch.tensor([2.0, 0.0, 0.0]), prev, vel),
+                          torch.zeros(3), atol=0.02)
+    # A rising flight: the part along (30, 0, 10) goes, the part across it stays.
+    up = torch.tensor([30.0, 0.0, 10.0])
+    push = 0.1 * up + torch.tensor([-1.0, 0.0, 3.0])
+    assert torch.allclose(turned_lift_mps2(push, up, up), torch.tensor([-1.0, 0.0, 3.0]),
+                          atol=1e-5)
     # The same in any horizontal direction: a flight along -y.
     turned_y = turned_lift_mps2(torch.tensor([0.0, 0.0, 6.0]), torch.tensor([0.0, -30.0, 0.0]),
-                                torch.tensor([0.0, -30.0, -3.0]))
-    assert torch.allclose(turned_y, torch.tensor([0.0, -0.6, 6.0]), atol=1e-6)
+                                torch.tensor([0.0, -29.6, -0.4]))
+    assert torch.allclose(turned_y, turned[[1, 0, 2]] * torch.tensor([1.0, -1.0, 1.0]),
+                          atol=1e-5)
 
 
 @pytest.mark.parametrize("spin_mps, within_m", [(8.0, 0.06), (-4.0, 0.15), (15.0, 0.08)])

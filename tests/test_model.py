@@ -263,7 +263,8 @@ def test_sample_next_players_on_ground_and_reproducible(ball_centre):
         from sportsngen.model.centre import flight_acceleration_mps2 as base
         from sportsngen.model.centre import turned_lift_mps2
         v, pv = vel[..., 2, :], prev[..., 2, :]
-        acc = base(v) + turned_lift_mps2((v - pv) * 25.0 - base(pv), pv, v)
+        acc = base(1.5 * v - 0.5 * pv) + turned_lift_mps2(
+            (v - pv) * 25.0 - base(0.5 * (v + pv)), pv, v)
         centre[..., 2, :] += acc / 625.0
     assert torch.allclose(model.centres(pos, vel, prev), centre, atol=1e-6)
     lim = torch.tensor([80.0, 40.0, 40.0]) / 25.0

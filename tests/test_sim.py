@@ -371,3 +371,50 @@ def test_contact_odds_rollouts_are_reproducible_and_change_only_the_ball(tiny_mo
     wide = _sim(tiny_model_file, contact_odds=True, top_p_contact=1.0, **kw).simulate_points(
         "Toy Alpha", "Toy Beta", "hard", 4, seed=0, serve_number=1)
     assert not a.frames[ball].equals(wide.frames[ball])
+
+
+def test_strike_in_reach_rejects_a_good_ball_leaving_the_due_players_reach_unstruck():
+    from types import SimpleNamespace
+
+    from sportsngen.sim.constraints import StrikeInReach
+
+    # Rows 0-5: the server (end +1) hit last, the ball bounced good on the receiver's side (x < 0).
+    n = 8
+    tracker = SimpleNamespace(ended=np.zeros(n, dtype=bool), hitter=np.zeros(n, dtype=np.int64),
+                              n_bounces=np.ones(n, dtype=np.int64), server_end=np.ones(n))
+    tracker.n_bounces[2] = 0            # row 2: not bounced yet (a volley is the player's choice)
+    tracker.ended[3] = True             # row 3: the rally is over
+    tracker.hitter[6:] = 1              # rows 6-7: the receiver hit; the server (x > 0) is due
+    con = StrikeInReach(tracker, reach_m=1.2, max_z_m=2.3, fps=25.0)
+    pos = torch.zeros(n, 3, 3)
+    pos[:, 0, :2] = torch.tensor([11.0, 0.0])
+    pos[:, 1, :2] = torch.tensor([-11.0, 0.0])
+    pos[:, 2] = torch.tensor([-11.6, 0.6, 1.0])          # 0.85 m from the receiver
+    pos[4, 2, 2] = 2.6                                   # row 4: above any groundstroke
+    pos[6:, 2] = torch.tensor([11.6, 0.6, 1.0])          # 0.85 m from the server
+    nxt = pos.clone()
+    nxt[:, 2, 0] -= 0.8                                  # on past the receiver (1.52 m), 20 m/s
+    nxt[6:, 2, 0] += 1.6                                 # on past the server (1.52 m)
+    nxt[5, 2, 0] = pos[5, 2, 0] + 0.6                    # row 5: sent back toward the net
+    nxt[7, 2, 0] = pos[7, 2, 0] + 0.2                    # row 7: 1.0 m from him, still in reach
+    ok = con.accept(np.arange(n), 10, pos, nxt)
+    assert ok.tolist() == [False, False, True, True, True, True, False, True]
+    # The player keeping the ball in reach (he moved with it) is a possible frame too.
+    nxt[0, 1, 0] -= 0.8
+    assert bool(con.accept(np.arange(1), 10, pos[:1], nxt[:1])[0])
+    with pytest.raises(ValueError, match="positive"):
+        StrikeInReach(tracker, reach_m=0.0)
+
+
+def test_strike_in_reach_runs_in_rollouts_and_changes_nothing_before_a_good_bounce(
+        tiny_model_file):
+    kw = dict(max_duration_s=1.2, top_p_ball=0.6, contact_odds=True)
+    a = _sim(tiny_model_file, **kw).simulate_points("Toy Alpha", "Toy Beta", "hard", 4, seed=0,
+                                                    serve_number=1)
+    b = _sim(tiny_model_file, strike_in_reach=True, **kw).simulate_points(
+        "Toy Alpha", "Toy Beta", "hard", 4, seed=0, serve_number=1)
+    assert len(a.rallies) == len(b.rallies)
+    # Up to the serve's bounce (the toss and the serve's first frames) both draw the same frames.
+    fa = a.frames[a.frames["frame"] < 20].reset_index(drop=True)
+    fb = b.frames[b.frames["frame"] < 20].reset_index(drop=True)
+    pd.testing.assert_frame_equal(fa, fb)

@@ -6,7 +6,7 @@
     python -m sportsngen.eval leaks FOLDER [--k 6 12] [--boot N] [--seed S] [--csv PATH] \\
         [--band 0.4 0.6] [--paths]
     python -m sportsngen.eval diagnose [--model PATH] [--points 400] [--seed 0] [--csv PATH]
-        [--top-p-ball P] [--[no-]contact-odds] [--top-p-contact P]
+        [--top-p-ball P] [--[no-]contact-odds] [--top-p-contact P] [--[no-]strike-in-reach]
 
 Folders are `RallyData.save` folders, read without physics validation (simulated rallies may
 break physics and are flagged, not refused). `--ref-synthetic` generates the reference with
@@ -156,6 +156,8 @@ def run_diagnose(args: argparse.Namespace) -> int:
     kw = {} if args.top_p_ball is None else {"top_p_ball": args.top_p_ball}
     if args.contact_odds is not None:
         kw["contact_odds"] = args.contact_odds
+    if args.strike_in_reach is not None:
+        kw["strike_in_reach"] = args.strike_in_reach
     if args.top_p_contact is not None:
         if not 0.0 < args.top_p_contact <= 1.0:
             raise UsageError(f"--top-p-contact must be in (0, 1], got {args.top_p_contact}")
@@ -237,6 +239,9 @@ def build_parser() -> argparse.ArgumentParser:
     diag.add_argument("--contact-odds", action=argparse.BooleanOptionalAction, default=None,
                       help="the ball's nucleus keeps the model's odds of a racket contact "
                            "(default: the model file's, else off)")
+    diag.add_argument("--strike-in-reach", action=argparse.BooleanOptionalAction, default=None,
+                      help="a good ball passing within a player's reach is struck (default: "
+                           "the model file's, else off)")
     diag.add_argument("--top-p-contact", type=float, default=None,
                       help="with contact odds, the nucleus of a struck ball (default: the "
                            "model file's, else the ball's)")

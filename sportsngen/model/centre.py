@@ -9,7 +9,8 @@ constant-velocity extrapolation ("cv"). The ball (`ModelConfig.ball_centre`):
 - ``"physics"``: one step of the ball's flight. The acceleration (gravity, drag and Magnus
   together) is read from the last three frames (the second difference), which carries the
   spin without estimating it: gravity and drag are taken at the new velocity and the rest,
-  the lift, is turned with the velocity (`turned_lift_mps2`). Where that reading is not a
+  the lift, loses any part along the velocity (Magnus has none) and is turned with the
+  velocity (`turned_lift_mps2`). Where that reading is not a
   flight (a racket contact or a bounce fell among those frames, a toss left the hand, or the
   track is too noisy: it departs from gravity plus drag by more than Magnus could at that
   speed, `MAX_LIFT_PER_M` |v|^2, capped at `MAX_LIFT_MPS2`) the step uses gravity plus drag
@@ -69,12 +70,14 @@ def ball_acceleration_mps2(vel_mps: torch.Tensor, prev_vel_mps: torch.Tensor | N
     speed2 = (vel_mps * vel_mps).sum(dim=-1, keepdim=True)
     limit = torch.clamp(MAX_LIFT_PER_M * speed2, max=MAX_LIFT_MPS2)
     flight = torch.linalg.vector_norm(track - base, dim=-1, keepdim=True) <= limit
-    # The second difference is the acceleration at frame t - 1; the step (velocity at
-    # t - 1/2 to t + 1/2) needs it at frame t, one frame later, by when drag has eased with the
-    # speed: uncorrected, a 30 m/s ball's step missed by 1.1 mm, more than the centre bin's
-    # half-width (0.9 mm in x at 61 non-uniform bins); corrected, by 0.3 mm.
-    lift = track - flight_acceleration_mps2(prev_vel_mps)
-    return torch.where(flight, base + turned_lift_mps2(lift, prev_vel_mps, vel_mps), base)
+    # The second difference is the acceleration at frame t - 1, where the velocity is the
+    # mean of the two; the step (velocity at t - 1/2 to t + 1/2) needs it at frame t, one frame
+    # later, by when drag has eased with the speed: uncorrected, a 30 m/s ball's step missed by
+    # 1.1 mm, more than the centre bin's half-width (0.9 mm in x at 61 non-uniform bins);
+    # corrected, by 0.3 mm.
+    lift = track - flight_acceleration_mps2(0.5 * (prev_vel_mps + vel_mps))
+    at_t = flight_acceleration_mps2(1.5 * vel_mps - 0.5 * prev_vel_mps)
+    return torch.where(flight, at_t + turned_lift_mps2(lift, prev_vel_mps, vel_mps), base)
 
 
 def _lift_direction(vel_mps: torch.Tensor) -> torch.Tensor:
@@ -87,18 +90,28 @@ def _lift_direction(vel_mps: torch.Tensor) -> torch.Tensor:
 
 def turned_lift_mps2(lift_mps2: torch.Tensor, prev_vel_mps: torch.Tensor,
                      vel_mps: torch.Tensor) -> torch.Tensor:
-    """The lift read at `prev_vel_mps` carried to `vel_mps`: its part across the flight
-    (`_lift_direction`) turns with the velocity, its size in proportion to |v|; the rest (e.g.
-    a drag the constants miss) is kept. The generator's Magnus, k |v|^2 c / (2 |spin| + |v|)
-    with c from the spin, is close to proportional to |v| at rally speeds. Carried unturned, a
-    ball flown by the step alone kept its lift pointing where it pointed at the start: recorded
-    returns flown on from three frames after the contact landed a median 0.22 m (p90 0.33 m)
-    from the generator's bounce; turned, 0.03 m (0.09 m); sized as |v|^2, 0.36 m
-    (docs/evaluation.md, issue 17, seventh part)."""
-    d_prev = _lift_direction(prev_vel_mps)
+    """The lift read at `prev_vel_mps` carried to `vel_mps`: its part along the velocity is
+    dropped, its part across the flight in the velocity's vertical plane (`_lift_direction`)
+    turns with the velocity, its size in proportion to |v|, and the rest (sideways) is kept.
+    The generator's Magnus, k |v|^2 c / (2 |spin| + |v|) with c from the spin, is
+    perpendicular to the velocity and close to proportional to |v| at rally speeds. Carried
+    unturned, a ball flown by the step alone kept its lift pointing where it pointed at the
+    start: recorded returns flown on from three frames after the contact landed a median 0.22 m
+    (p90 0.33 m) from the generator's bounce; turned, 0.03 m (0.09 m); sized as |v|^2, 0.36 m
+    (docs/evaluation.md, issue 17, seventh part). Why drop the part along the velocity: Magnus
+    has none and drag is the step's own, so in the generator's flights it reads 0.01-0.02
+    m/s^2, but read from a model's own strike frames it held a forward push (median 0.5-1.9,
+    p90 3.3-4.1 m/s^2 in the bundled model's rollouts) that the step then carried to the
+    bounce: less drag, rally balls flying long (tenth part)."""
+    # The lift is read at the frame between the two velocities (their mean): its part along
+    # the velocity there is what Magnus cannot give.
+    mid = 0.5 * (prev_vel_mps + vel_mps)
+    mid2 = (mid * mid).sum(-1, keepdim=True).clamp_min(1e-6)
+    lift = lift_mps2 - (lift_mps2 * mid).sum(-1, keepdim=True) / mid2 * mid
     v2_prev = (prev_vel_mps * prev_vel_mps).sum(-1, keepdim=True).clamp_min(1e-6)
-    across = (lift_mps2 * d_prev).sum(-1, keepdim=True) / v2_prev
-    return lift_mps2 - across * d_prev + across * _lift_direction(vel_mps)
+    d_prev = _lift_direction(prev_vel_mps)
+    across = (lift * d_prev).sum(-1, keepdim=True) / v2_prev
+    return lift - across * d_prev + across * _lift_direction(vel_mps)
 
 
 def physics_step_m(pos_m: torch.Tensor, vel_mps: torch.Tensor,

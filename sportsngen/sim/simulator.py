@@ -38,7 +38,7 @@ from sportsngen.model.event_classifier import EventClassifier
 from sportsngen.model.export import load_model, read_extra
 from sportsngen.sim import whatif
 from sportsngen.sim.assemble import PLAN_COLUMNS, assemble
-from sportsngen.sim.constraints import AllOf, PhysicalLimits
+from sportsngen.sim.constraints import AllOf, PhysicalLimits, StrikeInReach
 from sportsngen.sim.events import frame_labels
 from sportsngen.sim.initial import InitialConditions
 from sportsngen.sim.match import MatchResult, simulate_matches
@@ -87,7 +87,7 @@ class Simulator:
                  batch_size: int = 256, max_retries: int = 10, unknown: str | None = None,
                  physical_limits: bool = True, device: str | torch.device = "cpu",
                  contact_odds: bool = False, top_p_contact: float | None = None,
-                 refresh_frames: int | None = None):
+                 refresh_frames: int | None = None, strike_in_reach: bool = False):
         if abs(initial.fps - model.cfg.fps) > 1e-6:
             raise ValueError(f"initial conditions at {initial.fps} Hz, model at {model.cfg.fps}")
         for name, p in (("top_p_player", top_p_player), ("top_p_ball", top_p_ball),
@@ -115,6 +115,8 @@ class Simulator:
             raise ArgumentError(f"refresh_frames must be a positive int or None, got "
                                 f"{refresh_frames!r}")
         self.refresh_frames = None if refresh_frames is None else int(refresh_frames)
+        # A good ball is struck by the player it passes within reach of (`StrikeInReach`).
+        self.strike_in_reach = bool(strike_in_reach)
         self._warned: set[str] = set()    # unknown players already warned about
         # Raw rollout win probabilities -> observed frequencies, when the model file has one
         # (`scripts/rally_outcome_study.py --save-calibrator`).
@@ -196,12 +198,13 @@ class Simulator:
             part = plan.iloc[lo:lo + self.batch_size].reset_index(drop=True)
             inputs = self._inputs(part, rng, None if init_pos_m is None else
                                   init_pos_m[lo:lo + self.batch_size])
-            limits = PhysicalLimits(fps=self.fps) if self.physical_limits else None
-            con = AllOf(limits, constraint) if (limits or constraint) else None
-            if con is not None:
-                con.offset = lo
             tracker = RallyTracker(part["server_end"].to_numpy(), part["side"].to_numpy(),
                                    part["serve_number"].to_numpy(), self.fps, duration_s)
+            limits = PhysicalLimits(fps=self.fps) if self.physical_limits else None
+            strike = StrikeInReach(tracker, fps=self.fps) if self.strike_in_reach else None
+            con = AllOf(limits, strike, constraint) if (limits or strike or constraint) else None
+            if con is not None:
+                con.offset = lo
             gen = torch.Generator(device=next(self.model.parameters()).device)
             gen.manual_seed(int(rng.integers(2 ** 62)))
             t0 = inputs.init_pos_m.shape[1]
