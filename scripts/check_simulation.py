@@ -137,8 +137,9 @@ def main() -> None:
                              workers=2)
     print(f"ground truth: {len(truth.rallies)} rallies in {time.perf_counter() - t0:.0f} s")
     real = realistic_points(simd)
-    s_sim = serve_stats(real.points()).reindex(list(players))
-    s_true = serve_stats(truth.points()).reindex(list(players))
+    points = {"sim": real.points(), "truth": truth.points()}
+    s_sim = serve_stats(points["sim"]).reindex(list(players))
+    s_true = serve_stats(points["truth"]).reindex(list(players))
     # Serve speeds measured the same way on both (the ball track's first frame after contact:
     # the generator's table holds launch speeds, the simulator's track speeds).
     for st, d in ((s_sim, simd), (s_true, truth)):
@@ -166,8 +167,7 @@ def main() -> None:
         print(f"  outside: {m}")
     # Shot by shot, where the points end: odd lengths are the server's wins, even ones the
     # receiver's (docs/evaluation.md, tenth part: where serve points are lost).
-    hz = {name: rally_hazards(pts["rally"], 6)["hazard"] for name, pts in
-          (("sim", real.points()), ("truth", truth.points()))}
+    hz = {name: rally_hazards(pts["rally"], 6)["hazard"] for name, pts in points.items()}
     print("\npoints ending at rally length L of those reaching it (L = 1 .. 6), sim / truth: " +
           "  ".join(f"{L}: {hz['sim'][L]:.2f} / {hz['truth'][L]:.2f}" for L in range(1, 7)))
     decided = r[(r["rules_winner"] >= 0)]
