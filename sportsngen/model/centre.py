@@ -90,9 +90,10 @@ def _lift_direction(vel_mps: torch.Tensor) -> torch.Tensor:
 
 def turned_lift_mps2(lift_mps2: torch.Tensor, prev_vel_mps: torch.Tensor,
                      vel_mps: torch.Tensor) -> torch.Tensor:
-    """The lift read at `prev_vel_mps` carried to `vel_mps`: its part along the velocity is
-    dropped, its part across the flight in the velocity's vertical plane (`_lift_direction`)
-    turns with the velocity, its size in proportion to |v|, and the rest (sideways) is kept.
+    """The lift read between `prev_vel_mps` and `vel_mps`, carried on a frame: its part along
+    the velocity is dropped, its part across the flight in the velocity's vertical plane
+    (`_lift_direction`) turns with the velocity, its size in proportion to |v|, and the rest
+    (sideways) is kept.
     The generator's Magnus, k |v|^2 c / (2 |spin| + |v|) with c from the spin, is
     perpendicular to the velocity and close to proportional to |v| at rally speeds. Carried
     unturned, a ball flown by the step alone kept its lift pointing where it pointed at the

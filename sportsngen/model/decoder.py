@@ -307,7 +307,8 @@ class SportsNGEN(nn.Module):
         noise put into a frame is integrated three times over the frames after it. Uniform
         inside the centre bin (+-0.4-0.9 mm), a free flight drifted 0.5 m (90th percentile)
         after 1 s and 1.6 m after 2 s although no frame missed by a millimetre, and the
-        model's own tosses fell past the racket (docs/evaluation.md).
+        model's own tosses fell past the racket (docs/evaluation.md); the step now drops what
+        it reads along the flight, and across it the drift is still 0.25 m after 1 s.
 
         `contact_odds`: the ball's nucleus is taken inside the contact bins (`contact_bins`)
         or inside the rest, chosen at the model's own odds, so a nucleus under 1 cannot cut a
