@@ -97,6 +97,9 @@ def main() -> None:
     ap.add_argument("--strike-in-reach", action=argparse.BooleanOptionalAction, default=None,
                     help="a good ball passing within a player's reach is struck "
                          "(default: the model file's, else off)")
+    ap.add_argument("--strike-in-reach-from", type=int, default=None,
+                    help="with --strike-in-reach: from this contact on (1 the return, 2 the "
+                         "server's first rally ball; default: the model file's, else 1)")
     ap.add_argument("--save-sim", type=Path, default=None,
                     help="write the simulated rallies (a RallyData folder) here")
     ap.add_argument("--no-physical-limits", action="store_true",
@@ -117,11 +120,14 @@ def main() -> None:
         kw["refresh_frames"] = args.refresh_frames
     if args.strike_in_reach is not None:
         kw["strike_in_reach"] = args.strike_in_reach
+    if args.strike_in_reach_from is not None:
+        kw["strike_in_reach_from"] = args.strike_in_reach_from
     sim = Simulator.from_pretrained(args.model, physical_limits=not args.no_physical_limits,
                                     **kw)
     print(f"top-p player {sim.top_p_player}, ball {sim.top_p_ball}, "
           f"contact odds {sim.contact_odds}, contact {sim.top_p_contact}, "
-          f"cache refresh {sim.refresh_frames}, strike in reach {sim.strike_in_reach}")
+          f"cache refresh {sim.refresh_frames}, strike in reach {sim.strike_in_reach}"
+          + (f" from shot {sim.strike_in_reach_from}" if sim.strike_in_reach else ""))
     t0 = time.perf_counter()
     simd = sim.simulate_both_serving(*players, args.surface, args.points, seed=args.seed)
     if args.save_sim is not None:
@@ -185,7 +191,8 @@ def main() -> None:
                        "rally_hazards": {k: [float(v) for v in h] for k, h in hz.items()},
                        "simulate_s": sim_s, "top_p_player": sim.top_p_player,
                        "top_p_ball": sim.top_p_ball, "top_p_contact": sim.top_p_contact,
-                       "strike_in_reach": sim.strike_in_reach},
+                       "strike_in_reach": sim.strike_in_reach,
+                       "strike_in_reach_from": sim.strike_in_reach_from},
                       fh, indent=2)
 
 

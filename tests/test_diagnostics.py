@@ -236,6 +236,12 @@ def test_diagnose_command_refuses_bad_input(tmp_path, capsys):
     assert "no model file" in capsys.readouterr().err
     assert main(["diagnose", "--top-p-ball", "0"]) == 2
     assert "--top-p-ball must be in (0, 1]" in capsys.readouterr().err
+    assert main(["diagnose", "--boot", "-1"]) == 2
+    assert "--boot must be >= 0" in capsys.readouterr().err
+    assert main(["strikes", "--shots", "0", "2"]) == 2
+    assert "--shots count contacts after the serve" in capsys.readouterr().err
+    assert main(["strikes", "--model", str(tmp_path / "none.pt")]) == 2
+    assert "no model file" in capsys.readouterr().err
 
 
 def test_contact_probability_is_the_heads_mass_beyond_the_reversal():

@@ -461,3 +461,63 @@ def test_factorised_head_samples_a_struck_row_at_its_own_nucleus():
     assert torch.equal(wide[~inside], g_wide[~inside])
     assert (wide[inside] != g_wide[inside]).any(-1).float().mean() > 0.2
 
+
+
+def _turned(x: torch.Tensor) -> torch.Tensor:
+    return torch.cat([-x[..., :2], x[..., 2:]], dim=-1)
+
+
+def _rally_frames(server_x_m: float) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Two rallies of 6 frames: positions, velocities, velocities a frame earlier."""
+    g = torch.Generator().manual_seed(4)
+    pos = torch.rand(2, 6, 3, 3, generator=g)
+    pos[..., 0, 0] += server_x_m
+    pos[..., 1, 0] -= server_x_m
+    pos[..., 2, 2] += 1.0
+    pos[..., :2, 2] = 0
+    vel = torch.randn(2, 6, 3, 3, generator=g)
+    vel[..., 2, :] += torch.tensor([25.0, 3.0, 3.0])
+    prev = vel + 0.1 * torch.randn(2, 6, 3, 3, generator=g)
+    return pos, vel, prev
+
+
+@pytest.mark.parametrize("server_x_m", [-11.0, 11.0])
+def test_server_frame_plays_both_ends_alike(server_x_m):
+    # Turned 180 degrees about the net's centre, a rally gives the model the same output
+    # states, the same target bins and, drawn with the same stream, the turned next frame.
+    from sportsngen.data.tokens import object_features
+
+    model = make_model(bin_centre="cv", ball_centre="physics", frame="server")
+    world = make_model(bin_centre="cv", ball_centre="physics")
+    _, ident, ctx = inputs(model.cfg)
+    pos, vel, prev = _rally_frames(server_x_m)
+    t = torch.arange(6, dtype=torch.float32).expand(2, -1) / 25.0
+    noise = torch.randn(2, 6, 3, 3, generator=torch.Generator().manual_seed(1))
+    nxt = pos + vel / 25.0 + 0.05 * noise
+    outs = {}
+    with torch.no_grad():
+        for key, (p, v, pv, n) in {"as is": (pos, vel, prev, nxt),
+                                   "turned": tuple(map(_turned, (pos, vel, prev, nxt)))}.items():
+            feats = object_features(p, v, t)
+            h = model(feats, ident, model.context_tokens(*ctx))
+            outs[key] = (h, model.target_bins(p, v, n, pv),
+                         model.sample_next(h, p, v, 0.9, 0.9, torch.Generator().manual_seed(3), pv),
+                         world(feats, ident, world.context_tokens(*ctx)))
+    (h0, bins0, next0, w0), (h1, bins1, next1, w1) = outs["as is"], outs["turned"]
+    assert torch.allclose(h0, h1, atol=1e-5)
+    assert all(torch.equal(a, b) for a, b in zip(bins0, bins1))
+    assert torch.allclose(_turned(next0), next1, atol=1e-5)
+    assert not torch.allclose(w0, w1, atol=1e-3)     # the world frame tells the ends apart
+    # The server's end is read from his side of the net: the turn is its own inverse.
+    sign = model.frame_sign(pos[:, 0])
+    assert torch.equal(sign, torch.full_like(sign, math.copysign(1.0, server_x_m)))
+    off = torch.randn(2, 3, 3)
+    assert torch.equal(model.to_model_frame(model.to_model_frame(off, pos[:, 0]), pos[:, 0]), off)
+    assert world.frame_sign(pos[:, 0]) is None
+
+
+def test_frame_config_is_checked():
+    with pytest.raises(ValueError, match="model.frame"):
+        tiny_cfg(frame="receiver")
+    assert ModelConfig.from_dict({k: v for k, v in tiny_cfg().to_dict().items()
+                                  if k != "frame"}).frame == "world"

@@ -7,6 +7,7 @@ import pandas as pd
 import pytest
 
 from sportsngen.data.tokens import Vocab, rally_arrays
+from sportsngen.data.tracking import RallyData
 from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.eval.shot_branches import (
@@ -14,6 +15,7 @@ from sportsngen.eval.shot_branches import (
     landing_gaps_m,
     shot_branches,
     shot_outcomes,
+    strike_shares,
 )
 from sportsngen.sim import Simulator
 from sportsngen.tennis.court import is_in_singles
@@ -78,3 +80,52 @@ def test_return_branches_keep_the_record_up_to_three_frames_after_the_return(tin
         kept = got.pos_m[got.start[gi]:got.start[gi] + k]
         np.testing.assert_allclose(kept, rec.pos_m[rec.start[ri]:rec.start[ri] + k], atol=1e-5)
         assert got.length[gi] > k                  # and the model played on
+
+
+class _Replay:
+    """A stand-in simulator whose rollouts replay the recorded rally they branched from (the
+    one whose first frames they were given), under the plan's rally id."""
+
+    fps = 25.0
+
+    def __init__(self, truth: RallyData):
+        self.truth = truth
+        self.vocab = Vocab.from_data(truth, generic=True)
+        arr = rally_arrays(truth, self.vocab)
+        self.tracks = {int(r): arr.pos_m[s:s + n]
+                       for r, s, n in zip(arr.rally_id, arr.start, arr.length)}
+        self.calls = []
+
+    def simulate_rallies(self, plan, seed, init_pos_m, max_duration_s):
+        k = init_pos_m.shape[1]
+        self.calls.append(k)
+        parts = []
+        for new_id, init in zip(plan["rally_id"], init_pos_m):
+            rid, = [r for r, t in self.tracks.items() if len(t) > k and np.array_equal(t[:k], init)]
+            one = self.truth.subset([rid])
+            tables = {name: getattr(one, name).assign(rally_id=int(new_id))
+                      for name in ("frames", "rallies", "shots")}
+            parts.append(RallyData(**tables, fps=one.fps))
+        return RallyData.concat(parts)
+
+
+def test_strike_shares_of_a_replay_are_the_records():
+    # A "model" that plays the record again keeps exactly the record's shares, shot by shot,
+    # and every branch starts at its own recorded contact (the frames before it only).
+    truth = truth_points(DiagnosticsSetup(n_points=60, seed=2))
+    sim = _Replay(truth)
+    table = strike_shares(sim, truth, shots=(1, 2, 3), seed=0)
+    assert table["shot"].tolist() == [1, 2, 3]
+    assert table["hitter"].tolist() == ["receiver", "server", "receiver"]
+    for row in table.itertuples():
+        rec = shot_outcomes(truth, row.shot)
+        rec = rec[rec["struck"]]
+        assert row.n == len(rec) > 0
+        assert row.recorded_in_play == pytest.approx(rec["in_play"].mean())
+        assert row.model_struck == 1.0
+        assert row.model_in_play == pytest.approx(row.recorded_in_play)
+        assert row.model_answered == pytest.approx(row.recorded_answered)
+    first_return = shot_outcomes(truth, 1)
+    first_return = first_return[first_return["struck"]]
+    assert min(sim.calls) == first_return["contact_frame"].min()
+    assert table.loc[0, "recorded_in_play"] < 1.0   # some returns are errors: the test can tell

@@ -381,10 +381,12 @@ def test_strike_in_reach_rejects_a_good_ball_leaving_the_due_players_reach_unstr
     # Rows 0-5: the server (end +1) hit last, the ball bounced good on the receiver's side (x < 0).
     n = 8
     tracker = SimpleNamespace(ended=np.zeros(n, dtype=bool), hitter=np.zeros(n, dtype=np.int64),
-                              n_bounces=np.ones(n, dtype=np.int64), server_end=np.ones(n))
+                              n_bounces=np.ones(n, dtype=np.int64), server_end=np.ones(n),
+                              n_shots=np.ones(n, dtype=np.int64))   # the serve: the return due
     tracker.n_bounces[2] = 0            # row 2: not bounced yet (a volley is the player's choice)
     tracker.ended[3] = True             # row 3: the rally is over
     tracker.hitter[6:] = 1              # rows 6-7: the receiver hit; the server (x > 0) is due
+    tracker.n_shots[6:] = 2             # (his first rally ball)
     con = StrikeInReach(tracker, reach_m=1.2, max_z_m=2.3, fps=25.0)
     pos = torch.zeros(n, 3, 3)
     pos[:, 0, :2] = torch.tensor([11.0, 0.0])
@@ -402,8 +404,13 @@ def test_strike_in_reach_rejects_a_good_ball_leaving_the_due_players_reach_unstr
     # The player keeping the ball in reach (he moved with it) is a possible frame too.
     nxt[0, 1, 0] -= 0.8
     assert bool(con.accept(np.arange(1), 10, pos[:1], nxt[:1])[0])
+    # From the server's first rally ball on, the return is left to the model.
+    rally = StrikeInReach(tracker, reach_m=1.2, max_z_m=2.3, fps=25.0, from_shot=2)
+    assert rally.accept(np.arange(n), 10, pos, nxt).tolist() == [True] * 6 + [False, True]
     with pytest.raises(ValueError, match="positive"):
         StrikeInReach(tracker, reach_m=0.0)
+    with pytest.raises(ValueError, match="from_shot"):
+        StrikeInReach(tracker, from_shot=0)
 
 
 def test_strike_in_reach_runs_in_rollouts_and_changes_nothing_before_a_good_bounce(
@@ -418,3 +425,12 @@ def test_strike_in_reach_runs_in_rollouts_and_changes_nothing_before_a_good_boun
     fa = a.frames[a.frames["frame"] < 20].reset_index(drop=True)
     fb = b.frames[b.frames["frame"] < 20].reset_index(drop=True)
     pd.testing.assert_frame_equal(fa, fb)
+    # From the server's first rally ball on: nothing changes before the return's first bounce
+    # either, and a contact number before the return is refused.
+    c = _sim(tiny_model_file, strike_in_reach=True, strike_in_reach_from=2, **kw)
+    assert c.strike_in_reach_from == 2
+    fc = c.simulate_points("Toy Alpha", "Toy Beta", "hard", 4, seed=0, serve_number=1).frames
+    pd.testing.assert_frame_equal(fa, fc[fc["frame"] < 20].reset_index(drop=True))
+    from sportsngen.errors import ArgumentError
+    with pytest.raises(ArgumentError, match="strike_in_reach_from"):
+        _sim(tiny_model_file, strike_in_reach=True, strike_in_reach_from=0)

@@ -7,6 +7,9 @@
         [--band 0.4 0.6] [--paths]
     python -m sportsngen.eval diagnose [--model PATH] [--points 400] [--seed 0] [--csv PATH]
         [--top-p-ball P] [--[no-]contact-odds] [--top-p-contact P] [--[no-]strike-in-reach]
+        [--strike-in-reach-from N]
+    python -m sportsngen.eval strikes [--model PATH] [--points 800] [--shots 1 2 3 4 5]
+        [--after -1] [--seed 0] [--csv PATH] [sampling options as diagnose]
 
 Folders are `RallyData.save` folders, read without physics validation (simulated rallies may
 break physics and are flagged, not refused). `--ref-synthetic` generates the reference with
@@ -14,9 +17,11 @@ break physics and are flagged, not refused). `--ref-synthetic` generates the ref
 points). Real slam points of `--real-year` served by the same players form a third column when
 the shared data is present; without it the report is written without them and a note says why.
 `diagnose` prints the rollout diagnostics of `sportsngen.eval.diagnostics` for a model file
-(default the bundled model). `leaks` prints the AUC table of `sportsngen.eval.leaks` (with
-`--paths` also the path-matched fault check of `sportsngen.eval.leak_paths`) and exits with
-status 1 when some AUC lies outside the band (a gate for CI).
+(default the bundled model); `strikes` the model's strikes of recorded approaches shot by shot
+(`sportsngen.eval.shot_branches.strike_shares`). `leaks` prints the AUC table of
+`sportsngen.eval.leaks` (with `--paths` also the path-matched fault check of
+`sportsngen.eval.leak_paths`) and exits with status 1 when some AUC lies outside the band (a
+gate for CI).
 Exit status 2 on a missing folder, empty data or a bad option.
 """
 
@@ -139,18 +144,13 @@ def run_leaks(args: argparse.Namespace) -> int:
     return int(outside_band(table, (lo, hi)).any())
 
 
-def run_diagnose(args: argparse.Namespace) -> int:
-    """The rollout diagnostics of a model: prints the table (and writes the CSV)."""
-    import time
-
-    import pandas as pd
-
-    from sportsngen.eval.diagnostics import DiagnosticsSetup, run_diagnostics
+def _simulator(args: argparse.Namespace):
+    """The model file of `args.model` (default the bundled one) with the sampling options."""
     from sportsngen.sim import Simulator
 
-    if args.points < 20 or args.seed < 0 or args.boot < 0:
-        raise UsageError(f"--points must be >= 20, --seed and --boot >= 0, got {args.points}, "
-                         f"{args.seed}, {args.boot}")
+    if args.points < 20 or args.seed < 0:
+        raise UsageError(f"--points must be >= 20 and --seed >= 0, got {args.points}, "
+                         f"{args.seed}")
     if args.top_p_ball is not None and not 0.0 < args.top_p_ball <= 1.0:
         raise UsageError(f"--top-p-ball must be in (0, 1], got {args.top_p_ball}")
     kw = {} if args.top_p_ball is None else {"top_p_ball": args.top_p_ball}
@@ -158,21 +158,26 @@ def run_diagnose(args: argparse.Namespace) -> int:
         kw["contact_odds"] = args.contact_odds
     if args.strike_in_reach is not None:
         kw["strike_in_reach"] = args.strike_in_reach
+    if args.strike_in_reach_from is not None:
+        if args.strike_in_reach_from < 1:
+            raise UsageError(f"--strike-in-reach-from counts contacts after the serve (>= 1), "
+                             f"got {args.strike_in_reach_from}")
+        kw["strike_in_reach_from"] = args.strike_in_reach_from
     if args.top_p_contact is not None:
         if not 0.0 < args.top_p_contact <= 1.0:
             raise UsageError(f"--top-p-contact must be in (0, 1], got {args.top_p_contact}")
         kw["top_p_contact"] = args.top_p_contact
     try:
-        sim = Simulator.from_pretrained(args.model, **kw)
+        return Simulator.from_pretrained(args.model, **kw)
     except FileNotFoundError as exc:
         raise UsageError(f"--model: {exc}") from exc
-    t0 = time.perf_counter()
-    setup = DiagnosticsSetup(server=args.server, receiver=args.receiver, surface=args.surface,
-                             n_points=args.points, seed=args.seed, leak_boot=args.boot)
-    try:
-        table = run_diagnostics(sim, setup)
-    except ValueError as exc:
-        raise UsageError(f"diagnose: {exc}") from exc
+
+
+def _print_table(table, args: argparse.Namespace, t0: float, setup) -> None:
+    import time
+
+    import pandas as pd
+
     with pd.option_context("display.width", 160, "display.max_colwidth", 60):
         print(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
     print(f"({time.perf_counter() - t0:.0f} s, {setup.n_points} points of "
@@ -181,6 +186,47 @@ def run_diagnose(args: argparse.Namespace) -> int:
         args.csv.parent.mkdir(parents=True, exist_ok=True)
         table.to_csv(args.csv, index=False)
         print(f"wrote {args.csv}")
+
+
+def run_diagnose(args: argparse.Namespace) -> int:
+    """The rollout diagnostics of a model: prints the table (and writes the CSV)."""
+    import time
+
+    from sportsngen.eval.diagnostics import DiagnosticsSetup, run_diagnostics
+
+    if args.boot < 0:
+        raise UsageError(f"--boot must be >= 0, got {args.boot}")
+    sim = _simulator(args)
+    t0 = time.perf_counter()
+    setup = DiagnosticsSetup(server=args.server, receiver=args.receiver, surface=args.surface,
+                             n_points=args.points, seed=args.seed, leak_boot=args.boot)
+    try:
+        table = run_diagnostics(sim, setup)
+    except ValueError as exc:
+        raise UsageError(f"diagnose: {exc}") from exc
+    _print_table(table, args, t0, setup)
+    return 0
+
+
+def run_strikes(args: argparse.Namespace) -> int:
+    """The model's strikes of recorded approaches, shot by shot: prints the table."""
+    import time
+
+    from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
+    from sportsngen.eval.shot_branches import strike_shares
+
+    if not args.shots or min(args.shots) < 1:
+        raise UsageError(f"--shots count contacts after the serve (>= 1), got {args.shots}")
+    sim = _simulator(args)
+    t0 = time.perf_counter()
+    setup = DiagnosticsSetup(server=args.server, receiver=args.receiver, surface=args.surface,
+                             n_points=args.points, seed=args.seed)
+    try:
+        table = strike_shares(sim, truth_points(setup), tuple(args.shots),
+                              after_frames=args.after, seed=args.seed)
+    except ValueError as exc:
+        raise UsageError(f"strikes: {exc}") from exc
+    _print_table(table, args, t0, setup)
     return 0
 
 
@@ -222,29 +268,49 @@ def build_parser() -> argparse.ArgumentParser:
                             "fault explained by the ball's path and the player's position?")
     leaks.add_argument("--band", type=float, nargs=2, default=[0.4, 0.6],
                        metavar=("LOW", "HIGH"), help="AUCs outside it fail (default 0.4 0.6)")
-    diag = sub.add_parser("diagnose", help="rollout diagnostics of a model: branch return "
-                                           "share, free-flight residual, contact probability, "
-                                           "receivers at the bounce, leaks on rollouts")
-    diag.add_argument("--model", default=None, help="model file (default: the bundled model)")
+    model_opts = argparse.ArgumentParser(add_help=False)
+    model_opts.add_argument("--model", default=None,
+                            help="model file (default: the bundled model)")
+    model_opts.add_argument("--seed", type=int, default=0,
+                            help="seed of the truth and the rollouts")
+    model_opts.add_argument("--server", default="Roger Federer")
+    model_opts.add_argument("--receiver", default="Rafael Nadal")
+    model_opts.add_argument("--surface", default="hard", choices=["hard", "clay", "grass"])
+    model_opts.add_argument("--csv", type=Path, default=None, help="write the table as CSV here")
+    model_opts.add_argument("--top-p-ball", type=float, default=None,
+                            help="the ball's nucleus (default: the model file's, else 1)")
+    model_opts.add_argument("--contact-odds", action=argparse.BooleanOptionalAction,
+                            default=None,
+                            help="the ball's nucleus keeps the model's odds of a racket contact "
+                                 "(default: the model file's, else off)")
+    model_opts.add_argument("--strike-in-reach", action=argparse.BooleanOptionalAction,
+                            default=None,
+                            help="a good ball passing within a player's reach is struck "
+                                 "(default: the model file's, else off)")
+    model_opts.add_argument("--strike-in-reach-from", type=int, default=None,
+                            help="with --strike-in-reach: from this contact on (1 the return, "
+                                 "2 the server's first rally ball; default: the model file's, "
+                                 "else 1)")
+    model_opts.add_argument("--top-p-contact", type=float, default=None,
+                            help="with contact odds, the nucleus of a struck ball (default: the "
+                                 "model file's, else the ball's)")
+    diag = sub.add_parser("diagnose", parents=[model_opts],
+                          help="rollout diagnostics of a model: branch return share, "
+                               "free-flight residual, contact probability, receivers at the "
+                               "bounce, leaks on rollouts")
     diag.add_argument("--points", type=int, default=400,
                       help="ground-truth points generated to branch from (default 400)")
-    diag.add_argument("--seed", type=int, default=0, help="seed of the truth and the rollouts")
-    diag.add_argument("--server", default="Roger Federer")
-    diag.add_argument("--receiver", default="Rafael Nadal")
-    diag.add_argument("--surface", default="hard", choices=["hard", "clay", "grass"])
     diag.add_argument("--boot", type=int, default=200, help="bootstrap resamples of the leaks")
-    diag.add_argument("--csv", type=Path, default=None, help="write the table as CSV here")
-    diag.add_argument("--top-p-ball", type=float, default=None,
-                      help="the ball's nucleus (default: the model file's, else 1)")
-    diag.add_argument("--contact-odds", action=argparse.BooleanOptionalAction, default=None,
-                      help="the ball's nucleus keeps the model's odds of a racket contact "
-                           "(default: the model file's, else off)")
-    diag.add_argument("--strike-in-reach", action=argparse.BooleanOptionalAction, default=None,
-                      help="a good ball passing within a player's reach is struck (default: "
-                           "the model file's, else off)")
-    diag.add_argument("--top-p-contact", type=float, default=None,
-                      help="with contact odds, the nucleus of a struck ball (default: the "
-                           "model file's, else the ball's)")
+    strikes = sub.add_parser("strikes", parents=[model_opts],
+                             help="the model strikes recorded approaches, shot by shot: shares "
+                                  "struck and in play by hitter, beside the record")
+    strikes.add_argument("--points", type=int, default=800,
+                         help="ground-truth points generated to branch from (default 800)")
+    strikes.add_argument("--shots", type=int, nargs="+", default=[1, 2, 3, 4, 5],
+                         help="contacts after the serve to branch at (default 1 2 3 4 5)")
+    strikes.add_argument("--after", type=int, default=-1,
+                         help="frames kept after the recorded contact (default -1: the model "
+                              "strikes)")
     return ap
 
 
@@ -255,6 +321,8 @@ def main(argv: list[str] | None = None) -> int:
             return run_leaks(args)
         if args.command == "diagnose":
             return run_diagnose(args)
+        if args.command == "strikes":
+            return run_strikes(args)
         path = run_report(args)
     except UsageError as exc:
         print(f"error: {exc}", file=sys.stderr)

@@ -8,6 +8,7 @@ HEAD_KINDS = ("joint", "factorised")
 BIN_SPACINGS = ("uniform", "nonuniform")
 BIN_CENTRES = ("current", "cv")
 BALL_CENTRES = ("physics", "velocity", "current")
+FRAMES = ("world", "server")
 # Model files saved before `ball_centre` existed centred the ball like the players.
 LEGACY_BALL_CENTRE = {"current": "current", "cv": "velocity"}
 # The object-feature groups as `sportsngen.data.tokens.object_features` lays them out: name ->
@@ -45,6 +46,13 @@ class ModelConfig:
     # the model's own serves and simulated points (docs/evaluation.md): physics makes a flight
     # exact but carries the bin error of every decision frame through it.
     ball_centre: str = "velocity"
+    # The court frame the decoder sees its inputs and offsets in: "world" as recorded, or
+    # "server" (turned 180 degrees about the net's centre where the server stands at -x, so
+    # he is always at +x). In the server frame, whose ball it is (coming to the server or to
+    # the receiver) is the sign of its own x velocity, a feature of the ball's token, not a
+    # relation the attention has to find between the ball's and the server's tokens
+    # (docs/evaluation.md, eleventh part). Physics and the court are the same either way.
+    frame: str = "world"
     player_max_speed_mps: float = 10.0   # bin range: offsets up to this speed over one frame
     ball_max_speed_mps: tuple[float, float, float] = (80.0, 40.0, 40.0)
     window_s: float = 6.0
@@ -87,6 +95,8 @@ class ModelConfig:
         if self.ball_centre not in BALL_CENTRES:
             raise ValueError(f"model.ball_centre must be one of {BALL_CENTRES}, "
                              f"got {self.ball_centre!r}")
+        if self.frame not in FRAMES:
+            raise ValueError(f"model.frame must be one of {FRAMES}, got {self.frame!r}")
         for name in ("dropout", "attn_dropout"):
             if not 0.0 <= getattr(self, name) < 1.0:
                 raise ValueError(f"model.{name} must be in [0, 1), got {getattr(self, name)}")

@@ -27,10 +27,14 @@ from torch import nn
 from sportsngen.data.tokens import BALL, GENERIC_ID, N_OBJECTS, N_SPECIAL_IDS
 from sportsngen.model.bins import Bins
 from sportsngen.model.centre import object_centres_m
-from sportsngen.model.config import ModelConfig
+from sportsngen.model.config import FEATURE_GROUPS, ModelConfig
 from sportsngen.model.embedding import ContextEmbedding, ObjectEmbedding, run_mlp
 from sportsngen.model.heads import make_head
 from sportsngen.model.sampling import uniform_in_bin
+
+# Object-feature columns that change sign when the court is turned about the vertical through
+# the net's centre: position and velocity x and y.
+TURNED_FEATURES = tuple(FEATURE_GROUPS[g][0] + i for g in ("position", "velocity") for i in (0, 1))
 
 
 class Attention(nn.Module):
@@ -188,6 +192,36 @@ class SportsNGEN(nn.Module):
                              f"{ident.unique().tolist()}")
         return ident
 
+    # --- the model's court frame (`ModelConfig.frame`) ----------------------------------------
+    def frame_sign(self, pos_m: torch.Tensor) -> torch.Tensor | None:
+        """(..., 3, 3) positions of a frame's objects -> (..., 1, 1) +1 / -1: the turn about
+        the vertical through the net's centre that puts the server at +x (None in the world
+        frame). It is its own inverse. The server never crosses the net, so his side of it
+        says which end he serves from."""
+        if self.cfg.frame == "world":
+            return None
+        return torch.where(pos_m[..., :1, :1] < 0, -1.0, 1.0).to(pos_m.dtype)
+
+    def to_model_frame(self, vec: torch.Tensor, pos_m: torch.Tensor) -> torch.Tensor:
+        """(..., 3, 3) per-object vectors (offsets, velocities) of frames whose objects stand
+        at `pos_m` -> the same in the model's frame (x and y turned in the server frame); also
+        back to the world, the turn being its own inverse."""
+        sign = self.frame_sign(pos_m)
+        if sign is None:
+            return vec
+        return torch.cat([vec[..., :2] * sign, vec[..., 2:]], dim=-1)
+
+    def _frame_features(self, feats: torch.Tensor) -> torch.Tensor:
+        """Object features (..., 3, N_FEATURES) in the model's frame: position and velocity x
+        and y turned with the server's side (feature 0 of object 0 is his x over a positive
+        scale)."""
+        if self.cfg.frame == "world":
+            return feats
+        sign = torch.where(feats[..., :1, :1] < 0, -1.0, 1.0).to(feats.dtype)
+        turn = torch.ones(feats.shape[-1], dtype=feats.dtype, device=feats.device)
+        turn[list(TURNED_FEATURES)] = -1.0
+        return torch.where(sign < 0, feats * turn, feats)
+
     def context_tokens(self, surface, tournament, serve, score) -> torch.Tensor:
         return self.context(surface, tournament, serve, score)
 
@@ -198,6 +232,7 @@ class SportsNGEN(nn.Module):
         ctx (B, 4, d) context tokens -> h (B, T, 3, d) output states [, KVCache after them]."""
         b, t, k, _ = feats.shape
         ident = self._ident(ident)
+        feats = self._frame_features(feats)
         x = torch.cat([ctx, self.embed(feats, ident).reshape(b, t * k, -1)], dim=1)
         mask = baller2vec_mask(ctx.shape[1], t, k, device=x.device,
                                window_frames=self.cfg.window_frames)
@@ -249,7 +284,8 @@ class SportsNGEN(nn.Module):
         """The cached step's computation (see `forward_step`): writes the frame's keys/values
         into ring slots lo:lo+3 of every layer and returns the output states (B, 3, d)."""
         b = new_frame_feats.shape[0]
-        x = self.embed(new_frame_feats[:, None], ident).reshape(b, N_OBJECTS, -1)
+        x = self.embed(self._frame_features(new_frame_feats[:, None]), ident)
+        x = x.reshape(b, N_OBJECTS, -1)
         for blk, k_ring, v_ring in zip(self.blocks, k_rings, v_rings):
             x = blk.step(x, k_ring, v_ring, lo, n_keys)
         return _layer_norm(self.ln_f, x)
@@ -278,7 +314,8 @@ class SportsNGEN(nn.Module):
 
     def target_bins(self, pos_m, vel_mps, next_pos_m, prev_vel_mps=None):
         """Bin indices of the next positions: (players (..., 2, 2), ball (..., 3))."""
-        off = next_pos_m - self.centres(pos_m, vel_mps, prev_vel_mps)
+        off = self.to_model_frame(next_pos_m - self.centres(pos_m, vel_mps, prev_vel_mps),
+                                  pos_m)
         return (self.player_bins.index(off[..., :BALL, :2]),
                 self.ball_bins.index(off[..., BALL, :]))
 
@@ -326,8 +363,8 @@ class SportsNGEN(nn.Module):
             u_ball = torch.where(bi == self.cfg.n_bins // 2, torch.full_like(u_ball, 0.5),
                                  u_ball)
         b_off = self.ball_bins.value(bi, u_ball)
-        nxt = centre.clone()
-        nxt[..., :BALL, :2] += p_off
+        off = torch.cat([torch.cat([p_off, torch.zeros_like(p_off[..., :1])], dim=-1),
+                         b_off[..., None, :]], dim=-2)
+        nxt = centre + self.to_model_frame(off, pos_m)
         nxt[..., :BALL, 2] = 0.0
-        nxt[..., BALL, :] += b_off
         return nxt

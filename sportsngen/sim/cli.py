@@ -131,6 +131,8 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
         kw["contact_odds"] = bool(cfg.contact_odds)
     if cfg.get("strike_in_reach") is not None:
         kw["strike_in_reach"] = bool(cfg.strike_in_reach)
+    if cfg.get("strike_in_reach_from") is not None:
+        kw["strike_in_reach_from"] = int(cfg.strike_in_reach_from)
     if cfg.get("top_p_contact") is not None:
         kw["top_p_contact"] = float(cfg.top_p_contact)
     if cfg.get("refresh_frames") is not None:

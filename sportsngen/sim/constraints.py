@@ -138,12 +138,19 @@ class StrikeInReach:
     decision the game does not leave open and leaves the shot itself to the model.
 
     `tracker`: the rollout's `RallyTracker`, indexed like the rollout's rows (`rows` of
-    `accept`); it has seen every frame up to the current one."""
+    `accept`); it has seen every frame up to the current one. `from_shot`: the first contact
+    the rule asks for, counted from the serve (0): 1 the return, 2 the server's first rally
+    ball. From the return it took the model's aces below the truth's; from shot 2 it leaves
+    the serve and the return to the model and makes the servers' failures at rally lengths 2,
+    4 and 6 the truth's (docs/evaluation.md, eleventh part)."""
 
     def __init__(self, tracker, reach_m: float = STRIKE_REACH_M, max_z_m: float = STRIKE_MAX_Z_M,
-                 max_tries: int = 20, fps: float = 25.0):
+                 max_tries: int = 20, fps: float = 25.0, from_shot: int = 1):
         if not reach_m > 0 or not max_z_m > 0:
             raise ValueError(f"reach_m and max_z_m must be positive, got {reach_m}, {max_z_m}")
+        if int(from_shot) < 1:
+            raise ValueError(f"from_shot counts contacts after the serve (>= 1), got {from_shot}")
+        self.from_shot = int(from_shot)
         self.tracker = tracker
         self.reach_m = float(reach_m)
         self.max_z_m = float(max_z_m)
@@ -156,7 +163,8 @@ class StrikeInReach:
         """(rows,) bool: the ball of these rallies has had its good bounce and is still to be
         struck; and the role (0 server, 1 receiver) of the player due to strike it."""
         t = self.tracker
-        due = ~t.ended[rows] & (t.hitter[rows] >= 0) & (t.n_bounces[rows] == 1)
+        due = ~t.ended[rows] & (t.hitter[rows] >= 0) & (t.n_bounces[rows] == 1) & \
+            (t.n_shots[rows] >= self.from_shot)
         return due, 1 - np.clip(t.hitter[rows], 0, 1)
 
     def accept(self, rows: np.ndarray, frame: int, pos_m: torch.Tensor,

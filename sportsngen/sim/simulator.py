@@ -87,7 +87,8 @@ class Simulator:
                  batch_size: int = 256, max_retries: int = 10, unknown: str | None = None,
                  physical_limits: bool = True, device: str | torch.device = "cpu",
                  contact_odds: bool = False, top_p_contact: float | None = None,
-                 refresh_frames: int | None = None, strike_in_reach: bool = False):
+                 refresh_frames: int | None = None, strike_in_reach: bool = False,
+                 strike_in_reach_from: int = 1):
         if abs(initial.fps - model.cfg.fps) > 1e-6:
             raise ValueError(f"initial conditions at {initial.fps} Hz, model at {model.cfg.fps}")
         for name, p in (("top_p_player", top_p_player), ("top_p_ball", top_p_ball),
@@ -117,6 +118,11 @@ class Simulator:
         self.refresh_frames = None if refresh_frames is None else int(refresh_frames)
         # A good ball is struck by the player it passes within reach of (`StrikeInReach`).
         self.strike_in_reach = bool(strike_in_reach)
+        # ... from this contact on (1: the return; 2: the server's first rally ball).
+        if int(strike_in_reach_from) < 1:
+            raise ArgumentError(f"strike_in_reach_from counts contacts after the serve (>= 1), "
+                                f"got {strike_in_reach_from!r}")
+        self.strike_in_reach_from = int(strike_in_reach_from)
         self._warned: set[str] = set()    # unknown players already warned about
         # Raw rollout win probabilities -> observed frequencies, when the model file has one
         # (`scripts/rally_outcome_study.py --save-calibrator`).
@@ -201,7 +207,8 @@ class Simulator:
             tracker = RallyTracker(part["server_end"].to_numpy(), part["side"].to_numpy(),
                                    part["serve_number"].to_numpy(), self.fps, duration_s)
             limits = PhysicalLimits(fps=self.fps) if self.physical_limits else None
-            strike = StrikeInReach(tracker, fps=self.fps) if self.strike_in_reach else None
+            strike = StrikeInReach(tracker, fps=self.fps, from_shot=self.strike_in_reach_from) \
+                if self.strike_in_reach else None
             con = AllOf(limits, strike, constraint) if (limits or strike or constraint) else None
             if con is not None:
                 con.offset = lo

@@ -76,8 +76,8 @@ class NextFrameMetrics:
         p_top = model.player_head.top1(h[..., :BALL, :])
         b_top = model.ball_head.top1(h[..., BALL, :])
         centre = model.centres(pos, vel, prev)
-        off = nxt - centre
-        cv_mean = pos + vel / cfg.fps - centre
+        off = model.to_model_frame(nxt - centre, pos)          # the frame the bins are in
+        cv_mean = model.to_model_frame(pos + vel / cfg.fps - centre, pos)
         m = batch["has_next"].bool()
         near = batch["near_contact"].bool()
         pb, bb = model.player_bins, model.ball_bins

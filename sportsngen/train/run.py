@@ -145,6 +145,10 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
             # Fine-tuning to a new ball bin centre: same weights and shapes, new targets.
             model_cfg = ModelConfig.from_dict({**model_cfg.to_dict(),
                                                "ball_centre": cfg.init_ball_centre})
+        if cfg.get("init_frame"):
+            # Fine-tuning in another court frame: same weights and shapes. A model trained
+            # with the flip augmentation already plays both ends alike.
+            model_cfg = ModelConfig.from_dict({**model_cfg.to_dict(), "frame": cfg.init_frame})
         check_data_matches(model_cfg, vocab, data)
         init_state = model.state_dict()
     else:
