@@ -194,10 +194,10 @@ class SportsNGEN(nn.Module):
 
     # --- the model's court frame (`ModelConfig.frame`) ----------------------------------------
     def frame_sign(self, pos_m: torch.Tensor) -> torch.Tensor | None:
-        """(..., 3, 3) positions of a frame's objects -> (..., 1, 1) +1 / -1: the turn about
-        the vertical through the net's centre that puts the server at +x (None in the world
-        frame). It is its own inverse. The server never crosses the net, so his side of it
-        says which end he serves from."""
+        """(..., 3, C) positions (or object features: column 0 is x over a positive scale) of
+        a frame's objects -> (..., 1, 1) +1 / -1: the turn about the vertical through the net's
+        centre that puts the server at +x (None in the world frame). It is its own inverse. The
+        server never crosses the net, so his side of it says which end he serves from."""
         if self.cfg.frame == "world":
             return None
         return torch.where(pos_m[..., :1, :1] < 0, -1.0, 1.0).to(pos_m.dtype)
@@ -213,11 +213,10 @@ class SportsNGEN(nn.Module):
 
     def _frame_features(self, feats: torch.Tensor) -> torch.Tensor:
         """Object features (..., 3, N_FEATURES) in the model's frame: position and velocity x
-        and y turned with the server's side (feature 0 of object 0 is his x over a positive
-        scale)."""
-        if self.cfg.frame == "world":
+        and y turned with the server's side."""
+        sign = self.frame_sign(feats)
+        if sign is None:
             return feats
-        sign = torch.where(feats[..., :1, :1] < 0, -1.0, 1.0).to(feats.dtype)
         turn = torch.ones(feats.shape[-1], dtype=feats.dtype, device=feats.device)
         turn[list(TURNED_FEATURES)] = -1.0
         return torch.where(sign < 0, feats * turn, feats)
