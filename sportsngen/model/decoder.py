@@ -24,7 +24,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from sportsngen.data.tokens import BALL, GENERIC_ID, N_OBJECTS, N_SPECIAL_IDS
+from sportsngen.data.tokens import BALL, GENERIC_ID, N_FEATURES, N_OBJECTS, N_SPECIAL_IDS
 from sportsngen.model.bins import Bins
 from sportsngen.model.centre import object_centres_m
 from sportsngen.model.config import FEATURE_GROUPS, ModelConfig
@@ -180,6 +180,9 @@ class SportsNGEN(nn.Module):
         self.ball_bins = Bins(cfg.ball_bin_half_ranges_m, cfg.n_bins, cfg.bin_spacing)
         mid = (self.ball_bins.edges[0, :-1] + self.ball_bins.edges[0, 1:]) / 2
         self.register_buffer("_contact_bins", mid.abs() > CONTACT_OFFSET_M, persistent=False)
+        turn = torch.ones(N_FEATURES)
+        turn[list(TURNED_FEATURES)] = -1.0
+        self.register_buffer("_turn", turn, persistent=False)   # the object features turned
         self.player_head = make_head(cfg.head, cfg.d_model, cfg.n_bins, 2, cfg.head_hidden)
         self.ball_head = make_head(cfg.head, cfg.d_model, cfg.n_bins, 3, cfg.head_hidden)
 
@@ -217,9 +220,7 @@ class SportsNGEN(nn.Module):
         sign = self.frame_sign(feats)
         if sign is None:
             return feats
-        turn = torch.ones(feats.shape[-1], dtype=feats.dtype, device=feats.device)
-        turn[list(TURNED_FEATURES)] = -1.0
-        return torch.where(sign < 0, feats * turn, feats)
+        return torch.where(sign < 0, feats * self._turn.to(feats.dtype), feats)
 
     def context_tokens(self, surface, tournament, serve, score) -> torch.Tensor:
         return self.context(surface, tournament, serve, score)
@@ -362,8 +363,12 @@ class SportsNGEN(nn.Module):
             u_ball = torch.where(bi == self.cfg.n_bins // 2, torch.full_like(u_ball, 0.5),
                                  u_ball)
         b_off = self.ball_bins.value(bi, u_ball)
-        off = torch.cat([torch.cat([p_off, torch.zeros_like(p_off[..., :1])], dim=-1),
-                         b_off[..., None, :]], dim=-2)
-        nxt = centre + self.to_model_frame(off, pos_m)
+        sign = self.frame_sign(pos_m)
+        if sign is not None:    # offsets drawn in the server frame, back to the world
+            p_off = p_off * sign
+            b_off = torch.cat([b_off[..., :2] * sign[..., 0, :], b_off[..., 2:]], dim=-1)
+        nxt = centre.clone()
+        nxt[..., :BALL, :2] += p_off
         nxt[..., :BALL, 2] = 0.0
+        nxt[..., BALL, :] += b_off
         return nxt
