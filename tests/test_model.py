@@ -521,3 +521,71 @@ def test_frame_config_is_checked():
         tiny_cfg(frame="receiver")
     assert ModelConfig.from_dict({k: v for k, v in tiny_cfg().to_dict().items()
                                   if k != "frame"}).frame == "world"
+
+
+def test_sub_index_splits_a_bin_into_equal_parts():
+    bins = Bins((1.0,), 5, "uniform")        # edges -1, -0.6, -0.2, 0.2, 0.6, 1.0
+    off = torch.tensor([[-0.59], [-0.21], [0.0], [0.19], [0.61], [0.99], [1.7], [-3.0]])
+    idx = bins.index(off)
+    assert idx[:, 0].tolist() == [1, 1, 2, 2, 4, 4, 4, 0]
+    # Bin 1 is [-0.6, -0.2): -0.59 in its first quarter, -0.21 in its last; beyond the outer
+    # edges the outermost part.
+    assert bins.sub_index(off, idx, 4)[:, 0].tolist() == [0, 3, 2, 3, 0, 3, 3, 0]
+
+
+def test_sub_bin_head_is_a_normalised_distribution_and_samples_its_mass():
+    from sportsngen.model.heads import SubBinHead
+
+    torch.manual_seed(0)
+    m = 3
+    head = SubBinHead(16, 5, 3, m, hidden=8)
+    h = torch.randn(2, 16)
+    bins = torch.tensor([[0, 4, 2], [1, 1, 3]])
+    grid = torch.cartesian_prod(torch.arange(m), torch.arange(m), torch.arange(m))
+    with torch.no_grad():
+        nll = head.nll(h[:, None].expand(2, len(grid), 16), bins[:, None].expand(2, len(grid), 3),
+                       grid[None].expand(2, -1, -1))
+    torch.testing.assert_close(torch.exp(-nll).sum(dim=1), torch.ones(2), atol=1e-5, rtol=0)
+    # All the mass on part 2 of every dimension: that is what it samples.
+    with torch.no_grad():
+        for cond in head.cond:
+            cond[-1].weight.zero_()
+            cond[-1].bias.copy_(torch.tensor([-50.0, -50.0, 50.0]))
+    got = head.sample(h, bins, torch.Generator().manual_seed(1))
+    assert torch.equal(got, torch.full((2, 3), 2))
+
+
+def test_sampled_ball_lies_in_its_chosen_sub_bin(monkeypatch):
+    model = make_model(bin_centre="cv", n_bins=61, bin_spacing="nonuniform", ball_sub_bins=8)
+    n = model.cfg.n_bins
+    chosen = torch.tensor([[n // 2 + 20, n // 2 - 7, n // 2 + 3]])
+    monkeypatch.setattr(model.ball_head, "sample",
+                        lambda h, top_p, gen, regions=None, top_p_regions=None: chosen)
+    monkeypatch.setattr(model.ball_sub_head, "sample",
+                        lambda h, bins, gen: torch.tensor([[0, 7, 5]]))
+    pos = torch.tensor([[[0.0, -11.0, 0.0], [1.0, 11.0, 0.0], [10.0, 0.5, 1.0]]])
+    vel = torch.tensor([[[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [-30.0, -6.0, 4.0]]])
+    h = torch.zeros(1, 3, model.cfg.d_model)
+    nxt = model.sample_next(h, pos, vel, generator=torch.Generator().manual_seed(0),
+                            prev_vel_mps=vel)
+    off = nxt[0, 2] - model.centres(pos, vel, vel)[0, 2]
+    lo = model.ball_bins.value(chosen[0], torch.zeros(3))
+    width = model.ball_bins.width(chosen[0])
+    frac = (off - lo) / width
+    assert (frac >= torch.tensor([0.0, 7 / 8, 5 / 8]) - 1e-5).all()
+    assert (frac <= torch.tensor([1 / 8, 1.0, 6 / 8]) + 1e-5).all()
+    # Its target parts are the ones it was drawn in, and they cost the sub-bin head's NLL.
+    _, b_idx = model.target_bins(pos, vel, nxt, vel)
+    assert torch.equal(b_idx, chosen)
+    sub = model.ball_bins.sub_index(off[None], b_idx, 8)
+    assert sub[0].tolist() == [0, 7, 5]
+    hs = torch.zeros(1, 3, model.cfg.d_model)
+    direct = model.ball_sub_head.nll(hs[:, 2], b_idx, sub)
+    torch.testing.assert_close(model.ball_sub_nll(hs, pos, vel, nxt, b_idx, vel), direct)
+    assert make_model().ball_sub_nll(hs, pos, vel, nxt, b_idx, vel).item() == 0.0
+
+
+def test_sub_bin_config_is_checked():
+    with pytest.raises(ValueError, match="ball_sub_bins"):
+        tiny_cfg(ball_sub_bins=1)
+    assert tiny_cfg().ball_sub_bins == 0 and make_model().ball_sub_head is None

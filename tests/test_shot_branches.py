@@ -125,6 +125,10 @@ def test_strike_shares_of_a_replay_are_the_records():
         assert row.model_struck == 1.0
         assert row.model_in_play == pytest.approx(row.recorded_in_play)
         assert row.model_answered == pytest.approx(row.recorded_answered)
+        assert row.model_side_m == pytest.approx(row.recorded_side_m)
+        in_bounds = rec.loc[rec["in_play"], "bounce_y_m"].abs().dropna()
+        assert row.recorded_side_m == pytest.approx(in_bounds.median())
+        assert 0.0 < row.recorded_side_m < 4.115   # inside a singles half-width
     first_return = shot_outcomes(truth, 1)
     first_return = first_return[first_return["struck"]]
     assert min(sim.calls) == first_return["contact_frame"].min()

@@ -1,6 +1,7 @@
 """Training: loss goes down, frozen fine-tuning, NaN errors, data sources, train.py via Hydra
 (checkpoint, resume, config mismatch, fine-tune a player) and one DDP run on 2 CPU processes."""
 
+import math
 import os
 import subprocess
 import sys
@@ -245,6 +246,29 @@ def test_train_py_through_hydra_resume_mismatch_and_finetune(tmp_path, monkeypat
     with pytest.raises(ValueError, match="ball_centre"):
         train_from_config(_compose([*fast, f"init={out / 'model.pt'}", "trainer.max_steps=0",
                                     "init_ball_centre=spin"]), tmp_path / "rc2")
+
+
+def test_a_sub_bin_head_added_to_a_trained_model_trains_alone(tmp_path, tiny_model_file):
+    fast = ["experiment=tiny", "data=toy", "data.n_rallies=16", "trainer.val_check_interval=3",
+            "trainer.limit_val_batches=1", "trainer.enable_progress_bar=false",
+            "events.enabled=false", f"init={tiny_model_file}", "init_ball_sub_bins=4"]
+    base = load_model(tiny_model_file)[0].state_dict()
+    runs = {}
+    for steps in (0, 3):
+        s = train_from_config(_compose([*fast, f"trainer.max_steps={steps}",
+                                        "train_only=ball_sub_head"]), tmp_path / f"s{steps}")
+        runs[steps] = load_model(s["model_file"])
+    m0, m3 = runs[0][0].state_dict(), runs[3][0].state_dict()
+    assert runs[3][3].ball_sub_bins == 4
+    # The decoder and its heads as they were; the new head trained.
+    for k, v in base.items():
+        assert torch.equal(v, m3[k]), k
+    head = [k for k in m3 if k.startswith("ball_sub_head.")]
+    assert head and not all(torch.equal(m0[k], m3[k]) for k in head)
+    assert 0 < s["decoder"]["val/sub_nll_ball_flight"] < 3 * math.log(4) + 1.0
+    with pytest.raises(ValueError, match="names no parameter"):
+        train_from_config(_compose([*fast, "trainer.max_steps=1", "train_only=nothing"]),
+                          tmp_path / "bad")
 
 
 def test_same_seed_same_weights(tmp_path):

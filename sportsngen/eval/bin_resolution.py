@@ -12,11 +12,15 @@ to within its bin. Two measurements of what that does to the ball (`docs/evaluat
   ball's offset is large and the bins wide) are drawn again inside their own bins, then flown on
   by the physics step to the first bounce. Returns the share landing in the service box, against
   the record and against the same flight loop on the unchanged record.
+- `strikes_redrawn_in_bins`: the same for the strikes after the serve (share landing in the
+  opponent's singles court), also with each bin split into parts as a sub-bin head would
+  (`ModelConfig.ball_sub_bins`) and the recorded part kept.
 """
 
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import torch
 
 from sportsngen.data.tokens import BALL, Vocab, rally_arrays
@@ -31,7 +35,7 @@ from sportsngen.model.centre import (
     physics_step_m,
 )
 from sportsngen.model.config import ModelConfig
-from sportsngen.tennis.court import is_in_service_box
+from sportsngen.tennis.court import is_in_service_box, is_in_singles
 
 MAX_FLIGHT_FRAMES = 80
 
@@ -77,9 +81,10 @@ def centre_noise_drift(n_flights: int = 2000, frames: tuple[int, ...] = (10, 25,
     return out
 
 
-def _landing_in_box(track: list[torch.Tensor], server_end: int, side: str, fps: float) -> bool:
+def _first_bounce_m(track: list[torch.Tensor], fps: float) -> tuple[float, float] | None:
     """Fly the ball on from the last three frames of `track` by the physics step (no bounce
-    inside a step) to where it reaches the ground; in the service box?"""
+    inside a step) to where it reaches the ground: (x, y), or None within
+    `MAX_FLIGHT_FRAMES`."""
     hist = list(track)
     for _ in range(MAX_FLIGHT_FRAMES):
         pos, vel = hist[-1], (hist[-1] - hist[-2]) * fps
@@ -88,9 +93,34 @@ def _landing_in_box(track: list[torch.Tensor], server_end: int, side: str, fps: 
         if nxt[2] < BALL_RADIUS_M:
             s = (pos[2] - BALL_RADIUS_M) / (pos[2] - nxt[2])
             x, y = (pos[:2] + s * (nxt[:2] - pos[:2])).tolist()
-            return bool(is_in_service_box(x, y, server_end, side))
+            return x, y
         hist.append(nxt)
-    return False
+    return None
+
+
+def _landing_in_box(track: list[torch.Tensor], server_end: int, side: str, fps: float) -> bool:
+    """Does the ball flown on from `track` (`_first_bounce_m`) land in the service box?"""
+    xy = _first_bounce_m(track, fps)
+    return xy is not None and bool(is_in_service_box(*xy, server_end, side))
+
+
+def _redraw(track: list[torch.Tensor], frames: tuple[int, ...], bins: Bins, fps: float,
+            gen: torch.Generator, n_sub: int = 0) -> list[torch.Tensor]:
+    """`track` with `frames` drawn again inside their own bins around the physics step, in
+    order (each next centre from the frames already re-drawn): uniformly inside the bin, or,
+    with `n_sub`, inside the recorded offset's own part of the bin split `n_sub` ways (what a
+    sub-bin head that knew the part would leave)."""
+    track = list(track)
+    for k in frames:
+        centre = physics_step_m(track[k - 1], (track[k - 1] - track[k - 2]) * fps,
+                                (track[k - 2] - track[k - 3]) * fps, fps)
+        off = (track[k] - centre).float()[None]
+        idx = bins.index(off)
+        u = torch.rand(1, 3, generator=gen)
+        if n_sub:
+            u = (bins.sub_index(off, idx, n_sub) + u) / n_sub
+        track[k] = centre + bins.value(idx, u)[0].double()
+    return track
 
 
 def serves_redrawn_in_bins(truth: RallyData, n_bins: int = 61, spacing: str = "nonuniform",
@@ -120,13 +150,48 @@ def serves_redrawn_in_bins(truth: RallyData, n_bins: int = 61, spacing: str = "n
         counts["record"] += bool(is_in_service_box(bx, by, end, side))
         track = [torch.as_tensor(p) for p in ball[:f + 3]]
         counts["loop"] += _landing_in_box(track, end, side, fps)
-        for k in (f + 1, f + 2):
-            centre = physics_step_m(track[k - 1], (track[k - 1] - track[k - 2]) * fps,
-                                    (track[k - 2] - track[k - 3]) * fps, fps)
-            idx = bins.index((track[k] - centre).float()[None])
-            u = torch.rand(1, 3, generator=gen)
-            track[k] = centre + bins.value(idx, u)[0].double()
+        track = _redraw(track, (f + 1, f + 2), bins, fps, gen)
         counts["redrawn"] += _landing_in_box(track, end, side, fps)
     n = max(counts["n"], 1)
     return {"record": counts["record"] / n, "loop": counts["loop"] / n,
             "redrawn": counts["redrawn"] / n, "n": counts["n"]}
+
+
+def strikes_redrawn_in_bins(truth: RallyData, shots: tuple[int, ...] = (1, 2, 3, 4),
+                            n_bins: int = 61, spacing: str = "nonuniform", n_sub: int = 0,
+                            seed: int = 0) -> pd.DataFrame:
+    """The serve's measurement for the strikes after it (1 the return, 2 the server's first
+    rally ball, ...): each recorded strike flown on from its record by the physics step
+    ("loop"; it has no net, and flies a volleyed ball on to where it would have landed), and
+    with the two frames after the strike re-drawn inside their bins ("redrawn"; with
+    `n_sub`, inside the recorded part of each bin split `n_sub` ways) ->
+    per shot: `n`, the shares whose first bounce lies in the opponent's singles court for
+    the record (the shots table), the loop and the re-drawn track."""
+    fps = float(truth.fps)
+    bins = ball_bins(n_bins, spacing, fps)
+    gen = torch.Generator().manual_seed(seed)
+    arr = rally_arrays(truth, Vocab.from_data(truth, generic=True))
+    row = {int(rid): i for i, rid in enumerate(arr.rally_id)}
+    first = truth.frames.groupby("rally_id")["frame"].min()
+    server_end = truth.rallies.set_index("rally_id")["server_end"]
+    out = []
+    for shot in shots:
+        rec, loop, redrawn = [], [], []
+        for s in truth.shots[truth.shots["shot_index"] == shot].itertuples():
+            i = row[int(s.rally_id)]
+            f = int(s.frame - first[s.rally_id])
+            ball = arr.pos_m[arr.start[i]:arr.start[i] + arr.length[i], BALL].astype(np.float64)
+            if f < 3 or f + 3 > len(ball):
+                continue
+            # An odd shot is the receiver's and lands on the server's half.
+            side = int(server_end[s.rally_id]) * (1 if shot % 2 else -1)
+            track = [torch.as_tensor(p) for p in ball[:f + 3]]
+            rec.append(s.outcome != "error")
+            for kept, got in ((loop, track), (redrawn, _redraw(track, (f + 1, f + 2), bins,
+                                                                fps, gen, n_sub))):
+                xy = _first_bounce_m(got, fps)
+                kept.append(xy is not None and bool(is_in_singles(*xy, side)))
+        out.append({"shot": shot, "n": len(rec), "record_in_play": float(np.mean(rec)),
+                    "loop_in_play": float(np.mean(loop)),
+                    "redrawn_in_play": float(np.mean(redrawn))})
+    return pd.DataFrame(out)

@@ -137,7 +137,8 @@ def strike_shares(sim, truth: RallyData, shots: tuple[int, ...] = (1, 2, 3, 4, 5
     contact (-1: the frames before it only, so the model strikes the recorded approach) ->
     per shot its hitter (odd shots the receiver's), the recorded rallies `n`, the recorded
     shares of that shot in play and answered, and the model's shares struck, in play, in play
-    of those struck, and answered.
+    of those struck, and answered; `recorded_side_m` and `model_side_m`, the median distance
+    from the centre line of the shot's bounces in play (how wide the strikes are aimed).
 
     The generator's server keeps the initiative all rally (his balls multiply the receiver's
     aim noise), so the receiver's recorded shots stay in play less often than the server's; a
@@ -162,5 +163,14 @@ def strike_shares(sim, truth: RallyData, shots: tuple[int, ...] = (1, 2, 3, 4, 5
                      "model_in_play": float(in_play.mean()),
                      "model_in_play_if_struck": float(in_play[struck].mean())
                      if struck.any() else float("nan"),
-                     "model_answered": float(got["answered"].fillna(False).astype(bool).mean())})
+                     "model_answered": float(got["answered"].fillna(False).astype(bool).mean()),
+                     "recorded_side_m": _median_side_m(rec),
+                     "model_side_m": _median_side_m(got)})
     return pd.DataFrame(rows)
+
+
+def _median_side_m(out: pd.DataFrame) -> float:
+    """Median distance (m) from the centre line of the balls that bounced in play: how
+    much of the court's width the strikes use (NaN where none bounced in)."""
+    side = out.loc[out["in_play"].fillna(False).astype(bool), "bounce_y_m"].abs().dropna()
+    return float(side.median()) if len(side) else float("nan")

@@ -75,6 +75,13 @@ class Bins(nn.Module):
             u = torch.full_like(lo, 0.5)
         return lo + u * (hi - lo)
 
+    def sub_index(self, offset_m: torch.Tensor, idx: torch.Tensor, n_sub: int) -> torch.Tensor:
+        """(..., dims) offsets and their bin indices -> which of `n_sub` equal parts of the bin
+        each lies in (int64; offsets beyond the outer bins' edges take the outermost part)."""
+        lo, hi = self._bounds(idx)
+        frac = (offset_m - lo) / (hi - lo)
+        return (frac * n_sub).floor().clamp(0, n_sub - 1).long()
+
     def width(self, idx: torch.Tensor) -> torch.Tensor:
         """(..., dims) widths of the bins."""
         return self.value(idx, torch.ones(*idx.shape, device=idx.device)) - \

@@ -53,6 +53,12 @@ class ModelConfig:
     # relation the attention has to find between the ball's and the server's tokens
     # (docs/evaluation.md, eleventh part). Physics and the court are the same either way.
     frame: str = "world"
+    # Each ball bin split again into this many equal parts by a head of its own
+    # (`heads.SubBinHead`, p(part | bins)), 0: none, uniform inside the bin. A strike's offset
+    # lies where the bins are 10-17 cm wide, and a track drawn uniformly inside them puts
+    # its speed +-1-2 m/s off: recorded rally balls re-drawn so land in play 0.54-0.64 of the
+    # time instead of 0.86-0.88 (docs/evaluation.md, twelfth part).
+    ball_sub_bins: int = 0
     player_max_speed_mps: float = 10.0   # bin range: offsets up to this speed over one frame
     ball_max_speed_mps: tuple[float, float, float] = (80.0, 40.0, 40.0)
     window_s: float = 6.0
@@ -107,6 +113,9 @@ class ModelConfig:
         if self.n_bins < 3 or self.n_bins % 2 == 0:
             raise ValueError(f"model.n_bins must be odd and >= 3 (a bin centred on 0), "
                              f"got {self.n_bins}")
+        if self.ball_sub_bins != 0 and self.ball_sub_bins < 2:
+            raise ValueError(f"model.ball_sub_bins must be 0 (none) or >= 2, "
+                             f"got {self.ball_sub_bins}")
         if len(self.ball_max_speed_mps) != 3:
             raise ValueError("model.ball_max_speed_mps needs 3 values (x, y, z)")
 

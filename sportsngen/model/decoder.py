@@ -29,7 +29,7 @@ from sportsngen.model.bins import Bins
 from sportsngen.model.centre import object_centres_m
 from sportsngen.model.config import FEATURE_GROUPS, ModelConfig
 from sportsngen.model.embedding import ContextEmbedding, ObjectEmbedding, run_mlp
-from sportsngen.model.heads import make_head
+from sportsngen.model.heads import SubBinHead, make_head
 from sportsngen.model.sampling import uniform_in_bin
 
 # Object-feature columns that change sign when the court is turned about the vertical through
@@ -185,6 +185,8 @@ class SportsNGEN(nn.Module):
         self.register_buffer("_turn", turn, persistent=False)   # the object features turned
         self.player_head = make_head(cfg.head, cfg.d_model, cfg.n_bins, 2, cfg.head_hidden)
         self.ball_head = make_head(cfg.head, cfg.d_model, cfg.n_bins, 3, cfg.head_hidden)
+        self.ball_sub_head = SubBinHead(cfg.d_model, cfg.n_bins, 3, cfg.ball_sub_bins,
+                                        cfg.head_hidden) if cfg.ball_sub_bins else None
 
     # --- inputs -------------------------------------------------------------------------------
     def _ident(self, ident: torch.Tensor) -> torch.Tensor:
@@ -312,12 +314,25 @@ class SportsNGEN(nn.Module):
         return object_centres_m(pos_m, vel_mps, prev_vel_mps, self.cfg.fps, self.cfg.bin_centre,
                                 self.cfg.ball_centre, BALL)
 
+    def _offsets(self, pos_m, vel_mps, next_pos_m, prev_vel_mps=None) -> torch.Tensor:
+        return self.to_model_frame(next_pos_m - self.centres(pos_m, vel_mps, prev_vel_mps),
+                                   pos_m)
+
     def target_bins(self, pos_m, vel_mps, next_pos_m, prev_vel_mps=None):
         """Bin indices of the next positions: (players (..., 2, 2), ball (..., 3))."""
-        off = self.to_model_frame(next_pos_m - self.centres(pos_m, vel_mps, prev_vel_mps),
-                                  pos_m)
+        off = self._offsets(pos_m, vel_mps, next_pos_m, prev_vel_mps)
         return (self.player_bins.index(off[..., :BALL, :2]),
                 self.ball_bins.index(off[..., BALL, :]))
+
+    def ball_sub_nll(self, h: torch.Tensor, pos_m, vel_mps, next_pos_m, ball_idx: torch.Tensor,
+                     prev_vel_mps=None) -> torch.Tensor:
+        """Per ball token (...): -log p(the part of its bins the next position lies in), the
+        sub-bin head's share of the ball's NLL (0 without one)."""
+        if self.ball_sub_head is None:
+            return torch.zeros(ball_idx.shape[:-1], device=ball_idx.device)
+        off = self._offsets(pos_m, vel_mps, next_pos_m, prev_vel_mps)[..., BALL, :]
+        sub = self.ball_bins.sub_index(off, ball_idx, self.cfg.ball_sub_bins)
+        return self.ball_sub_head.nll(h[..., BALL, :], ball_idx, sub)
 
     def nll(self, h: torch.Tensor, player_idx: torch.Tensor, ball_idx: torch.Tensor):
         """Per-token NLL: players (..., 2), ball (...)."""
@@ -359,6 +374,9 @@ class SportsNGEN(nn.Module):
                                    top_p_contact if contact_odds else None)
         p_off = self.player_bins.value(pi, uniform_in_bin(pi.shape, h.device, generator))
         u_ball = uniform_in_bin(bi.shape, h.device, generator)
+        if self.ball_sub_head is not None:
+            part = self.ball_sub_head.sample(h[..., BALL, :], bi, generator)
+            u_ball = (part + u_ball) / self.cfg.ball_sub_bins
         if self.cfg.ball_centre == "physics":
             u_ball = torch.where(bi == self.cfg.n_bins // 2, torch.full_like(u_ball, 0.5),
                                  u_ball)

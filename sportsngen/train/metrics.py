@@ -50,6 +50,8 @@ class NextFrameMetrics:
             for s in _SCALARS:
                 self.sums[f"{s}_{p}"] = torch.zeros((), dtype=torch.float64)
             self.sums[f"cv_{p}"] = torch.zeros(len(CV_SIGMAS_M), _DIMS[p], dtype=torch.float64)
+        for p in PARTS[1:]:     # the ball's sub-bin head, where the model has one
+            self.sums[f"sub_{p}"] = torch.zeros((), dtype=torch.float64)
 
     def _add(self, part: str, nll: torch.Tensor, hit: torch.Tensor, cv_hit: torch.Tensor,
              bins, off: torch.Tensor, cv_mean: torch.Tensor) -> None:
@@ -85,7 +87,9 @@ class NextFrameMetrics:
         self._add("player", p_nll[m].flatten(), (p_top == p_idx).all(-1)[m].flatten(),
                   (pb.index(p_cv) == p_idx[m]).all(-1).flatten(), pb,
                   p_off.reshape(-1, 2), p_cv.reshape(-1, 2))
+        sub = model.ball_sub_nll(h, pos, vel, nxt, b_idx, prev)
         for part, sel in (("flight", m & ~near), ("contact", m & near)):
+            self.sums[f"sub_{part}"] += sub[sel].double().sum().cpu()
             b_cv = cv_mean[..., BALL, :][sel]
             self._add(part, b_nll[sel], (b_top == b_idx).all(-1)[sel],
                       (bb.index(b_cv) == b_idx[sel]).all(-1), bb, off[..., BALL, :][sel], b_cv)
@@ -131,6 +135,10 @@ class NextFrameMetrics:
             out[f"acc_ball_{part}"] = ratio(s[f"hit_{part}"], n)
             out[f"cv_acc_ball_{part}"] = ratio(s[f"cv_hit_{part}"], n)
             out[f"cv_nll_ball_{part}"] = ratio(s[f"cv_{part}"].gather(0, best_b).sum(), n)
+            # NLL of where inside its bins the ball lies (0 without a sub-bin head; uniform
+            # parts would score 3 ln(ball_sub_bins)): not part of `loss`, which stays at the
+            # bins' resolution so models with and without the head compare.
+            out[f"sub_nll_ball_{part}"] = ratio(s[f"sub_{part}"], n)
         out["cv_sigma_player_m"] = [float(CV_SIGMAS_M[i]) for i in best_p]
         out["cv_sigma_ball_m"] = [float(CV_SIGMAS_M[i]) for i in best_b[0]]
         out["loss"] = (2 * out["nll_player"] + out["nll_ball"]) / 3.0

@@ -65,6 +65,17 @@ PLAYER_TOKEN_WEIGHTS = {"onset_weight": movement_onsets, "change_weight": moveme
 TOKEN_WEIGHTS = ("contact_weight", *PLAYER_TOKEN_WEIGHTS)
 
 
+def freeze_except(model: torch.nn.Module, prefix: str) -> None:
+    """Freeze every parameter whose name does not start with `prefix` (`train_only`: e.g. a
+    new sub-bin head trained on a trained decoder, which stays as it was)."""
+    names = [n for n, _ in model.named_parameters() if n.startswith(prefix)]
+    if not names:
+        tops = sorted({n.split(".")[0] for n, _ in model.named_parameters()})
+        raise ValueError(f"train_only={prefix!r} names no parameter; the model's parts: {tops}")
+    for n, p in model.named_parameters():
+        p.requires_grad_(n.startswith(prefix))
+
+
 class DecoderModule(L.LightningModule):
     """Trains `SportsNGEN` on next-frame bins; validation reports per object kind NLL, top-1
     bin accuracy (the ball also in flight and at racket contact) and the constant-velocity
@@ -74,7 +85,7 @@ class DecoderModule(L.LightningModule):
                  weight_decay: float = 0.01, warmup_steps: int = 50,
                  trainable_id_rows: list[int] | None = None, contact_weight: float = 1.0,
                  onset_weight: float = 1.0, change_weight: float = 1.0,
-                 closed_loop: dict | None = None):
+                 closed_loop: dict | None = None, train_only: str | None = None):
         super().__init__()
         weights = {"contact_weight": contact_weight, "onset_weight": onset_weight,
                    "change_weight": change_weight}
@@ -91,6 +102,8 @@ class DecoderModule(L.LightningModule):
             from sportsngen.train.finetune import freeze_except_identity
 
             freeze_except_identity(self.model, trainable_id_rows)
+        if train_only:
+            freeze_except(self.model, train_only)
         self._t0: float | None = None
         self._elapsed = 0.0
         self._n_frames = 0
@@ -105,6 +118,10 @@ class DecoderModule(L.LightningModule):
         p_idx, b_idx = self.model.target_bins(batch["pos_m"], batch["vel_mps"],
                                               batch["next_pos_m"], batch.get("prev_vel_mps"))
         p_nll, b_nll = self.model.nll(h, p_idx, b_idx)
+        if self.model.ball_sub_head is not None:
+            b_nll = b_nll + self.model.ball_sub_nll(h, batch["pos_m"], batch["vel_mps"],
+                                                    batch["next_pos_m"], b_idx,
+                                                    batch.get("prev_vel_mps"))
         return h, p_idx, b_idx, p_nll, b_nll
 
     def loss(self, p_nll: torch.Tensor, b_nll: torch.Tensor, batch: dict) -> torch.Tensor:
@@ -169,6 +186,11 @@ class DecoderModule(L.LightningModule):
     # Throughput: wall time of training batches (data loading included), from the third step
     # on, with validation runs left out.
     def on_train_batch_start(self, batch, batch_idx):
+        if self.hparams.get("train_only"):
+            # The frozen decoder runs as at inference (no dropout): the part that learns is
+            # fitted to the states it will be given.
+            self.model.eval()
+            self.model.get_submodule(self.hparams.train_only.split(".")[0]).train()
         if self._t0 is None and self.global_step >= 2:
             self._t0 = time.perf_counter()
             self._elapsed = 0.0

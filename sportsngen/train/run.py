@@ -123,6 +123,16 @@ def _expert_arrays(cfg: DictConfig, vocab: Vocab) -> RallyArrays | None:
     return arrays
 
 
+def _load_init(model: torch.nn.Module, state: dict) -> None:
+    """The `init` model's weights into `model`; only a sub-bin head the init lacks (added by
+    `init_ball_sub_bins`) may be missing, and nothing may be left over."""
+    missing, unexpected = model.load_state_dict(state, strict=False)
+    bad = [k for k in missing if not k.startswith("ball_sub_head.")]
+    if bad or unexpected:
+        raise ValueError(f"init weights do not fit this model: missing {bad}, unexpected "
+                         f"{list(unexpected)}")
+
+
 def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
     """Train (or fine-tune) as `cfg` says; write checkpoints, logs and `model.pt` in out_dir.
     Returns a summary dict (also written as summary.json)."""
@@ -149,6 +159,11 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
             # Fine-tuning in another court frame: same weights and shapes. A model trained
             # with the flip augmentation already plays both ends alike.
             model_cfg = ModelConfig.from_dict({**model_cfg.to_dict(), "frame": cfg.init_frame})
+        if cfg.get("init_ball_sub_bins") is not None:
+            # A sub-bin head added to a trained model: the rest of the weights as they were,
+            # the new head from its initialisation (`_load_init`).
+            model_cfg = ModelConfig.from_dict({**model_cfg.to_dict(),
+                                               "ball_sub_bins": int(cfg.init_ball_sub_bins)})
         check_data_matches(model_cfg, vocab, data)
         init_state = model.state_dict()
     else:
@@ -172,9 +187,10 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
                            weight_decay=float(opt.weight_decay),
                            warmup_steps=int(opt.warmup_steps), trainable_id_rows=trainable_rows,
                            closed_loop=_container(cfg.get("closed_loop")),
+                           train_only=cfg.get("train_only"),
                            **{k: float(opt.get(k, 1.0)) for k in TOKEN_WEIGHTS})
     if init_state is not None:
-        module.model.load_state_dict(init_state)
+        _load_init(module.model, init_state)
     resume = cfg.get("resume")
     if resume:
         _check_resume(resume, model_cfg, vocab)
