@@ -581,11 +581,41 @@ def test_sampled_ball_lies_in_its_chosen_sub_bin(monkeypatch):
     assert sub[0].tolist() == [0, 7, 5]
     hs = torch.zeros(1, 3, model.cfg.d_model)
     direct = model.ball_sub_head.nll(hs[:, 2], b_idx, sub)
-    torch.testing.assert_close(model.ball_sub_nll(hs, pos, vel, nxt, b_idx, vel), direct)
-    assert make_model().ball_sub_nll(hs, pos, vel, nxt, b_idx, vel).item() == 0.0
+    off_all = model.target_offsets(pos, vel, nxt, vel)
+    torch.testing.assert_close(model.ball_sub_nll(hs, off_all, b_idx), direct)
+    assert make_model().ball_sub_nll(hs, off_all, b_idx).item() == 0.0
 
 
 def test_sub_bin_config_is_checked():
     with pytest.raises(ValueError, match="ball_sub_bins"):
         tiny_cfg(ball_sub_bins=1)
     assert tiny_cfg().ball_sub_bins == 0 and make_model().ball_sub_head is None
+
+
+def test_physics_centre_asks_the_sub_bin_head_only_off_the_centre_bin(monkeypatch):
+    model = make_model(bin_centre="cv", n_bins=61, bin_spacing="nonuniform", ball_sub_bins=8,
+                       ball_centre="physics")
+    c = model.cfg.n_bins // 2
+    chosen = torch.tensor([[c, c, c], [c + 20, c, c - 3]])   # free flight; a strike
+    monkeypatch.setattr(model.ball_head, "sample",
+                        lambda h, top_p, gen, regions=None, top_p_regions=None: chosen)
+    asked = []
+
+    def parts(h, bins, gen):
+        asked.append(bins.clone())
+        return torch.full_like(bins, 7)
+
+    monkeypatch.setattr(model.ball_sub_head, "sample", parts)
+    pos = torch.tensor([[0.0, -11.0, 0.0], [1.0, 11.0, 0.0], [10.0, 0.5, 1.0]]).repeat(2, 1, 1)
+    vel = torch.tensor([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [-30.0, -6.0, 4.0]]).repeat(2, 1, 1)
+    h = torch.zeros(2, 3, model.cfg.d_model)
+    nxt = model.sample_next(h, pos, vel, generator=torch.Generator().manual_seed(0),
+                            prev_vel_mps=vel)
+    assert len(asked) == 1 and torch.equal(asked[0], chosen[1:])
+    centre = model.centres(pos, vel, vel)
+    assert torch.equal(nxt[0, 2], centre[0, 2])             # the step itself
+    off = nxt[1, 2] - centre[1, 2]
+    frac = (off - model.ball_bins.value(chosen[1], torch.zeros(3))) / \
+        model.ball_bins.width(chosen[1])
+    assert frac[0] >= 7 / 8 - 1e-5 and frac[2] >= 7 / 8 - 1e-5   # off-centre axes: part 7
+    assert off[1] == 0.0                                    # its centre-bin axis: the step

@@ -314,24 +314,28 @@ class SportsNGEN(nn.Module):
         return object_centres_m(pos_m, vel_mps, prev_vel_mps, self.cfg.fps, self.cfg.bin_centre,
                                 self.cfg.ball_centre, BALL)
 
-    def _offsets(self, pos_m, vel_mps, next_pos_m, prev_vel_mps=None) -> torch.Tensor:
+    def target_offsets(self, pos_m, vel_mps, next_pos_m, prev_vel_mps=None) -> torch.Tensor:
+        """Next positions as offsets from the bins' centres, in the model's frame (..., 3, 3)."""
         return self.to_model_frame(next_pos_m - self.centres(pos_m, vel_mps, prev_vel_mps),
                                    pos_m)
 
-    def target_bins(self, pos_m, vel_mps, next_pos_m, prev_vel_mps=None):
-        """Bin indices of the next positions: (players (..., 2, 2), ball (..., 3))."""
-        off = self._offsets(pos_m, vel_mps, next_pos_m, prev_vel_mps)
+    def offset_bins(self, off: torch.Tensor):
+        """Bin indices of `target_offsets`: (players (..., 2, 2), ball (..., 3))."""
         return (self.player_bins.index(off[..., :BALL, :2]),
                 self.ball_bins.index(off[..., BALL, :]))
 
-    def ball_sub_nll(self, h: torch.Tensor, pos_m, vel_mps, next_pos_m, ball_idx: torch.Tensor,
-                     prev_vel_mps=None) -> torch.Tensor:
-        """Per ball token (...): -log p(the part of its bins the next position lies in), the
+    def target_bins(self, pos_m, vel_mps, next_pos_m, prev_vel_mps=None):
+        """Bin indices of the next positions: (players (..., 2, 2), ball (..., 3))."""
+        return self.offset_bins(self.target_offsets(pos_m, vel_mps, next_pos_m, prev_vel_mps))
+
+    def ball_sub_nll(self, h: torch.Tensor, off: torch.Tensor,
+                     ball_idx: torch.Tensor) -> torch.Tensor:
+        """Per ball token (...): -log p(the part of its bins the next position lies in), from
+        the output states h, the offsets `off` (`target_offsets`) and their ball bins; the
         sub-bin head's share of the ball's NLL (0 without one)."""
         if self.ball_sub_head is None:
             return torch.zeros(ball_idx.shape[:-1], device=ball_idx.device)
-        off = self._offsets(pos_m, vel_mps, next_pos_m, prev_vel_mps)[..., BALL, :]
-        sub = self.ball_bins.sub_index(off, ball_idx, self.cfg.ball_sub_bins)
+        sub = self.ball_bins.sub_index(off[..., BALL, :], ball_idx, self.cfg.ball_sub_bins)
         return self.ball_sub_head.nll(h[..., BALL, :], ball_idx, sub)
 
     def nll(self, h: torch.Tensor, player_idx: torch.Tensor, ball_idx: torch.Tensor):
@@ -375,7 +379,13 @@ class SportsNGEN(nn.Module):
         p_off = self.player_bins.value(pi, uniform_in_bin(pi.shape, h.device, generator))
         u_ball = uniform_in_bin(bi.shape, h.device, generator)
         if self.ball_sub_head is not None:
-            part = self.ball_sub_head.sample(h[..., BALL, :], bi, generator)
+            # Under the physics centre a ball in the centre bin on every axis (free flight,
+            # most frames) takes the step itself: its parts would be thrown away.
+            rows = (bi != self.cfg.n_bins // 2).any(-1) if self.cfg.ball_centre == "physics" \
+                else torch.ones(bi.shape[:-1], dtype=torch.bool, device=bi.device)
+            part = torch.zeros_like(bi)
+            if bool(rows.any()):
+                part[rows] = self.ball_sub_head.sample(h[..., BALL, :][rows], bi[rows], generator)
             u_ball = (part + u_ball) / self.cfg.ball_sub_bins
         if self.cfg.ball_centre == "physics":
             u_ball = torch.where(bi == self.cfg.n_bins // 2, torch.full_like(u_ball, 0.5),

@@ -73,12 +73,12 @@ class NextFrameMetrics:
             h = window_states(model, batch)
         pos, vel, nxt = batch["pos_m"], batch["vel_mps"], batch["next_pos_m"]
         prev = batch.get("prev_vel_mps")
-        p_idx, b_idx = model.target_bins(pos, vel, nxt, prev)
+        centre = model.centres(pos, vel, prev)
+        off = model.to_model_frame(nxt - centre, pos)          # the frame the bins are in
+        p_idx, b_idx = model.offset_bins(off)
         p_nll, b_nll = model.nll(h, p_idx, b_idx)
         p_top = model.player_head.top1(h[..., :BALL, :])
         b_top = model.ball_head.top1(h[..., BALL, :])
-        centre = model.centres(pos, vel, prev)
-        off = model.to_model_frame(nxt - centre, pos)          # the frame the bins are in
         cv_mean = model.to_model_frame(pos + vel / cfg.fps - centre, pos)
         m = batch["has_next"].bool()
         near = batch["near_contact"].bool()
@@ -87,7 +87,7 @@ class NextFrameMetrics:
         self._add("player", p_nll[m].flatten(), (p_top == p_idx).all(-1)[m].flatten(),
                   (pb.index(p_cv) == p_idx[m]).all(-1).flatten(), pb,
                   p_off.reshape(-1, 2), p_cv.reshape(-1, 2))
-        sub = model.ball_sub_nll(h, pos, vel, nxt, b_idx, prev)
+        sub = model.ball_sub_nll(h, off, b_idx)
         for part, sel in (("flight", m & ~near), ("contact", m & near)):
             self.sums[f"sub_{part}"] += sub[sel].double().sum().cpu()
             b_cv = cv_mean[..., BALL, :][sel]

@@ -115,13 +115,12 @@ class DecoderModule(L.LightningModule):
 
     def _forward(self, batch: dict):
         h = window_states(self.model, batch)
-        p_idx, b_idx = self.model.target_bins(batch["pos_m"], batch["vel_mps"],
-                                              batch["next_pos_m"], batch.get("prev_vel_mps"))
+        off = self.model.target_offsets(batch["pos_m"], batch["vel_mps"], batch["next_pos_m"],
+                                        batch.get("prev_vel_mps"))
+        p_idx, b_idx = self.model.offset_bins(off)
         p_nll, b_nll = self.model.nll(h, p_idx, b_idx)
         if self.model.ball_sub_head is not None:
-            b_nll = b_nll + self.model.ball_sub_nll(h, batch["pos_m"], batch["vel_mps"],
-                                                    batch["next_pos_m"], b_idx,
-                                                    batch.get("prev_vel_mps"))
+            b_nll = b_nll + self.model.ball_sub_nll(h, off, b_idx)
         return h, p_idx, b_idx, p_nll, b_nll
 
     def loss(self, p_nll: torch.Tensor, b_nll: torch.Tensor, batch: dict) -> torch.Tensor:
