@@ -59,6 +59,11 @@ class ModelConfig:
     # its speed +-1-2 m/s off: recorded rally balls re-drawn so land in play 0.54-0.64 of the
     # time instead of 0.86-0.88 (docs/evaluation.md, twelfth part).
     ball_sub_bins: int = 0
+    # A head that gives a rally strike (`model.strike.is_strike`) as where its ball will land,
+    # its height over the net and its spin (`model.strike`), the launch then solved by the
+    # physics centre's own flight: the court's lines are edges of its bins, so a strike no
+    # longer has to invert the flight to land in. False: strikes are drawn in the ball's bins.
+    strike_head: bool = False
     player_max_speed_mps: float = 10.0   # bin range: offsets up to this speed over one frame
     ball_max_speed_mps: tuple[float, float, float] = (80.0, 40.0, 40.0)
     window_s: float = 6.0

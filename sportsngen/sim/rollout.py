@@ -28,7 +28,7 @@ import numpy as np
 import torch
 from tqdm.auto import tqdm
 
-from sportsngen.data.tokens import object_features
+from sportsngen.data.tokens import BALL, object_features
 from sportsngen.model.decoder import SportsNGEN
 
 MODES = ("cache", "recompute", "window")
@@ -140,6 +140,26 @@ def _constrain(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top_p_pl
     return nxt, drawn
 
 
+def _follow_strikes(model: SportsNGEN, h: torch.Tensor, pos: torch.Tensor, vel: torch.Tensor,
+                    nxt: torch.Tensor, plan: torch.Tensor,
+                    generator: torch.Generator) -> tuple[torch.Tensor, torch.Tensor]:
+    """With a strike head: a ball in the frames after its strike flies the launch solved at the
+    strike (`plan`, (B, 2, 3), NaN where none), so the physics centre reads the strike's spin
+    from them; a new strike is drawn by the head (`SportsNGEN.place_strikes`)."""
+    planned = ~torch.isnan(plan[:, 0, 0])
+    if bool(planned.any()):
+        nxt = nxt.clone()
+        nxt[planned, BALL] = plan[planned, 0]
+    plan = torch.cat([plan[:, 1:], torch.full_like(plan[:, :1], float("nan"))], dim=1)
+    free = torch.nonzero(~planned).squeeze(1)
+    if len(free):
+        placed, new = model.place_strikes(h[free], pos[free], vel[free], nxt[free], generator)
+        nxt = nxt.clone()
+        nxt[free] = placed
+        plan[free] = torch.where(torch.isnan(new[:, :1, :1]), plan[free], new)
+    return nxt, plan
+
+
 class _NoTracker:
     """Never ends a rally: rollouts then run to max_frames (benchmarks, tests)."""
 
@@ -232,6 +252,7 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             h = hs[:, -1]
         n, steps, frames = t0, 0, 0
         resampled = np.zeros(b, dtype=np.int64)
+        plan = torch.full((b, 2, 3), float("nan"), device=dev)   # a struck ball's next frames
         bar = tqdm(total=max_frames - t0, desc="frames", disable=not progress, leave=False)
         while True:
             if done.any():
@@ -241,7 +262,7 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                 if len(alive) == 0:
                     break
                 kt = torch.as_tensor(keep, device=dev)
-                hist, ident, ctx = hist[kt], ident[kt], ctx[kt]
+                hist, ident, ctx, plan = hist[kt], ident[kt], ctx[kt], plan[kt]
                 if cache is not None:
                     cache, h = cache.select(kt), h[kt]
             if n >= max_frames:
@@ -267,6 +288,8 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                                         top_p_player, top_p_ball, generator, contact_odds,
                                         top_p_contact)
                 resampled[alive] += drawn
+            if model.strike_head is not None:
+                nxt, plan = _follow_strikes(model, h, pos, vel, nxt, plan, generator)
             hist[:, n] = nxt
             nxt_np = nxt.cpu().numpy()
             out[alive, n] = nxt_np

@@ -52,6 +52,8 @@ class NextFrameMetrics:
             self.sums[f"cv_{p}"] = torch.zeros(len(CV_SIGMAS_M), _DIMS[p], dtype=torch.float64)
         for p in PARTS[1:]:     # the ball's sub-bin head, where the model has one
             self.sums[f"sub_{p}"] = torch.zeros((), dtype=torch.float64)
+        for k in ("n_strike", "nll_strike"):   # the strike head, where the model has one
+            self.sums[k] = torch.zeros((), dtype=torch.float64)
 
     def _add(self, part: str, nll: torch.Tensor, hit: torch.Tensor, cv_hit: torch.Tensor,
              bins, off: torch.Tensor, cv_mean: torch.Tensor) -> None:
@@ -88,6 +90,10 @@ class NextFrameMetrics:
                   (pb.index(p_cv) == p_idx[m]).all(-1).flatten(), pb,
                   p_off.reshape(-1, 2), p_cv.reshape(-1, 2))
         sub = model.ball_sub_nll(h, off, b_idx)
+        if model.strike_head is not None:
+            s_mask, s_bins = model.strike_targets(pos, vel, nxt, batch["has_next"])
+            self.sums["n_strike"] += float(s_mask.sum())
+            self.sums["nll_strike"] += model.strike_nll(h, s_mask, s_bins).double().sum().cpu()
         for part, sel in (("flight", m & ~near), ("contact", m & near)):
             self.sums[f"sub_{part}"] += sub[sel].double().sum().cpu()
             b_cv = cv_mean[..., BALL, :][sel]
@@ -139,6 +145,10 @@ class NextFrameMetrics:
             # parts would score 3 ln(ball_sub_bins)): not part of `loss`, which stays at the
             # bins' resolution so models with and without the head compare.
             out[f"sub_nll_ball_{part}"] = ratio(s[f"sub_{part}"], n)
+        # The strike head's NLL per strike (its four dimensions' bins; NaN without one), apart
+        # from `loss` like the sub-bin head's.
+        out["strike_nll"] = ratio(s["nll_strike"], s["n_strike"])
+        out["n_strikes"] = float(s["n_strike"])
         out["cv_sigma_player_m"] = [float(CV_SIGMAS_M[i]) for i in best_p]
         out["cv_sigma_ball_m"] = [float(CV_SIGMAS_M[i]) for i in best_b[0]]
         out["loss"] = (2 * out["nll_player"] + out["nll_ball"]) / 3.0

@@ -121,6 +121,11 @@ class DecoderModule(L.LightningModule):
         p_nll, b_nll = self.model.nll(h, p_idx, b_idx)
         if self.model.ball_sub_head is not None:
             b_nll = b_nll + self.model.ball_sub_nll(h, off, b_idx)
+        if self.model.strike_head is not None:
+            # A strike's token also carries where its ball goes (`model.strike`).
+            mask, bins = self.model.strike_targets(batch["pos_m"], batch["vel_mps"],
+                                                   batch["next_pos_m"], batch["has_next"])
+            b_nll = b_nll + self.model.strike_nll(h, mask, bins)
         return h, p_idx, b_idx, p_nll, b_nll
 
     def loss(self, p_nll: torch.Tensor, b_nll: torch.Tensor, batch: dict) -> torch.Tensor:

@@ -124,10 +124,11 @@ def _expert_arrays(cfg: DictConfig, vocab: Vocab) -> RallyArrays | None:
 
 
 def _load_init(model: torch.nn.Module, state: dict) -> None:
-    """The `init` model's weights into `model`; only a sub-bin head the init lacks (added by
-    `init_ball_sub_bins`) may be missing, and nothing may be left over."""
+    """The `init` model's weights into `model`; only a sub-bin or strike head the init lacks
+    (added by `init_ball_sub_bins`, `init_strike_head`) may be missing, and nothing may be left
+    over."""
     missing, unexpected = model.load_state_dict(state, strict=False)
-    bad = [k for k in missing if not k.startswith("ball_sub_head.")]
+    bad = [k for k in missing if not k.startswith(("ball_sub_head.", "strike_head."))]
     if bad or unexpected:
         raise ValueError(f"init weights do not fit this model: missing {bad}, unexpected "
                          f"{list(unexpected)}")
@@ -164,6 +165,8 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
             # the new head from its initialisation (`_load_init`).
             model_cfg = ModelConfig.from_dict({**model_cfg.to_dict(),
                                                "ball_sub_bins": int(cfg.init_ball_sub_bins)})
+        if cfg.get("init_strike_head"):
+            model_cfg = ModelConfig.from_dict({**model_cfg.to_dict(), "strike_head": True})
         check_data_matches(model_cfg, vocab, data)
         init_state = model.state_dict()
     else:

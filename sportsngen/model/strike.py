@@ -1,0 +1,275 @@
+"""A racket strike as where its ball goes: landing point, height over the net and spin.
+
+A rally ball's fate (in, out, net) is decided by its velocity the frame after the strike, to a
+few centimetres a frame: a 1 m/s error lands it about a metre off. Drawn as a next-frame offset,
+the strike falls where the ball's bins are 10-17 cm (3-4 m/s) wide along the court, and the
+model has to invert the flight itself to choose a bin that lands in the court. Here the strike
+is described in the coordinates its outcome is decided in, the hitter's view of the other half:
+
+- ``depth_m``: how far beyond the net the flight lands (the baseline at 11.885 m);
+- ``lateral_m``: how far from the centre line it lands, toward the hitter's left
+  (``-side * y``; the singles lines at +-4.115 m);
+- ``net_height_m``: the ball's height as it crosses the net's plane (the net: 0.914-1.07 m);
+- ``lift_per_s``: its spin, as the Magnus lift across the flight per m/s of speed (negative:
+  topspin), the quantity the ball's physics centre carries (`centre.turned_lift_mps2`).
+
+A strike's first three frames are stepped with its lift (`launch_frames`); after them the
+flight is the physics centre's own step (`fly_on`: gravity, drag and the lift read from the
+track, turned), so a strike placed in a rollout flies on as it was solved. `strike_labels`
+reads the four numbers from a recorded strike's first three frames; `solve_launch` finds the
+velocity at the contact that gives them (Newton's method on the flight). Pure numpy: no model,
+no torch.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sportsngen.tennis.court import BALL_RADIUS_M, BASELINE_X_M, SINGLES_HALF_WIDTH_M
+
+# The physics centre's values (`sportsngen.model.centre`), here without torch.
+GRAVITY_MPS2 = 9.81
+DRAG_PER_M = 0.0206
+MAX_LIFT_MPS2 = 30.0
+MAX_LIFT_PER_M = DRAG_PER_M / 0.55 / 2.0
+STRIKE_DIMS = ("depth_m", "lateral_m", "net_height_m", "lift_per_s")
+STRIKE_BINS = 96
+# Each dimension's range, split into STRIKE_BINS equal bins. Depth and lateral edges fall on
+# the baseline and the singles lines, so a bin is wholly in or wholly out.
+_DEPTH_W = 0.25
+_LAT_HALF = SINGLES_HALF_WIDTH_M * 48.0 / 28.0      # +-4.115 m are edges 20 and 76
+STRIKE_RANGES = ((BASELINE_X_M - 48 * _DEPTH_W, BASELINE_X_M + 48 * _DEPTH_W),
+                 (-_LAT_HALF, _LAT_HALF), (0.0, 7.2), (-1.6, 0.8))
+MAX_FLIGHT_FRAMES = 150                              # 6 s at 25 Hz: the highest lob lands
+MAX_LAUNCH_MPS = 75.0
+MIN_INCOMING_MPS = 2.0   # a strike meets a ball coming to the hitter's side this fast along x
+# Where inside the frame after the struck one the contact falls. The generator's contacts
+# mostly fall on the struck frame itself: recorded strikes' first three frames re-solved from
+# a contact this far on lie a median 0.05 / 0.42 / 0.63 m from the record at 0 / 0.25 / 0.5.
+CONTACT_FRACTION = 0.0
+
+
+def strike_edges() -> np.ndarray:
+    """(4, STRIKE_BINS + 1) the bins' edges of each strike dimension."""
+    u = np.linspace(0.0, 1.0, STRIKE_BINS + 1)
+    return np.stack([lo + u * (hi - lo) for lo, hi in STRIKE_RANGES])
+
+
+def strike_bin_index(values: np.ndarray) -> np.ndarray:
+    """(..., 4) strike values -> (..., 4) int64 bin indices (clamped to the outer bins)."""
+    edges = strike_edges()
+    out = [np.clip(np.searchsorted(edges[d, 1:-1], values[..., d], side="right"), 0,
+                   STRIKE_BINS - 1) for d in range(4)]
+    return np.stack(out, axis=-1).astype(np.int64)
+
+
+def strike_bin_value(idx: np.ndarray, u: np.ndarray | None = None) -> np.ndarray:
+    """(..., 4) bin indices -> values at fraction u in [0, 1) of each bin (default the centre)."""
+    edges = strike_edges()
+    lo = np.stack([edges[d][idx[..., d]] for d in range(4)], axis=-1)
+    hi = np.stack([edges[d][idx[..., d] + 1] for d in range(4)], axis=-1)
+    return lo + (0.5 if u is None else u) * (hi - lo)
+
+
+def _gravity_drag(v: np.ndarray) -> np.ndarray:
+    acc = -DRAG_PER_M * np.linalg.norm(v, axis=-1, keepdims=True) * v
+    acc[..., 2] -= GRAVITY_MPS2
+    return acc
+
+
+def _lift_direction(v: np.ndarray) -> np.ndarray:
+    """Across the flight in its vertical plane, |v| long (as `centre._lift_direction`)."""
+    vu = np.linalg.norm(v[..., :2], axis=-1, keepdims=True)
+    u_hat = v[..., :2] / np.maximum(vu, 1e-6)
+    return np.concatenate([-v[..., 2:3] * u_hat, vu], axis=-1)
+
+
+def _launch(contact_m: np.ndarray, v_mps: np.ndarray, lift_per_s: np.ndarray, fps: float,
+            n_frames: int = 3) -> np.ndarray:
+    """(N, n_frames, 3) the first frames after a contact at `contact_m` with velocity `v_mps`
+    and lift `lift_per_s` (constant across the flight, per m/s): `1 - CONTACT_FRACTION` of a
+    frame to the first, whole frames after it."""
+    out = np.empty((len(contact_m), n_frames, 3))
+    p, v = contact_m.astype(float).copy(), v_mps.astype(float).copy()
+    lift = np.asarray(lift_per_s, dtype=float)[:, None]
+    for k in range(n_frames):
+        dt = ((1.0 - CONTACT_FRACTION) if k == 0 else 1.0) / fps
+        a = _gravity_drag(v) + lift * _lift_direction(v)
+        p = p + v * dt + a * dt * dt
+        v = v + a * dt
+        out[:, k] = p
+    return out
+
+
+def _turned_lift(lift: np.ndarray, prev_v: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """`centre.turned_lift_mps2` in numpy (a test holds the two equal)."""
+    mid = 0.5 * (prev_v + v)
+    mid2 = np.maximum((mid * mid).sum(-1, keepdims=True), 1e-6)
+    lift = lift - (lift * mid).sum(-1, keepdims=True) / mid2 * mid
+    v2_prev = np.maximum((prev_v * prev_v).sum(-1, keepdims=True), 1e-6)
+    d_prev = _lift_direction(prev_v)
+    across = (lift * d_prev).sum(-1, keepdims=True) / v2_prev
+    return lift - across * d_prev + across * _lift_direction(v)
+
+
+def _centre_acceleration(v: np.ndarray, prev_v: np.ndarray, fps: float) -> np.ndarray:
+    """`centre.ball_acceleration_mps2` in numpy: the physics centre's step in a flight."""
+    base = _gravity_drag(v)
+    track = (v - prev_v) * fps
+    limit = np.minimum(MAX_LIFT_PER_M * (v * v).sum(-1, keepdims=True), MAX_LIFT_MPS2)
+    flight = np.linalg.norm(track - base, axis=-1, keepdims=True) <= limit
+    lift = track - _gravity_drag(0.5 * (prev_v + v))
+    at_t = _gravity_drag(1.5 * v - 0.5 * prev_v)
+    return np.where(flight, at_t + _turned_lift(lift, prev_v, v), base)
+
+
+def fly_on(frames_m: np.ndarray, fps: float, n_frames: int = MAX_FLIGHT_FRAMES) -> np.ndarray:
+    """(N, >= 3, 3) a flight's frames so far -> (N, n_frames, 3) the frames after them as the
+    physics centre steps them (a rollout whose ball stays in the centre bins), the ground
+    ignored."""
+    p = frames_m[:, -1].astype(float)
+    v = (frames_m[:, -1] - frames_m[:, -2]) * fps
+    prev = (frames_m[:, -2] - frames_m[:, -3]) * fps
+    out = np.empty((len(p), n_frames, 3))
+    for k in range(n_frames):
+        nxt = p + v / fps + _centre_acceleration(v, prev, fps) / (fps * fps)
+        prev, v, p = v, (nxt - p) * fps, nxt
+        out[:, k] = p
+    return out
+
+
+def flight_outcome(track_m: np.ndarray, side: np.ndarray) -> np.ndarray:
+    """(N, T, 3) flights of balls struck from the `side` (N,) +-1 half -> (N, 3) depth beyond
+    the net, lateral and height at the net (NaN where the flight does not cross the net or
+    land within T frames). The landing is where the ball's centre comes down to its radius."""
+    n = len(track_m)
+    out = np.full((n, 3), np.nan)
+    s = np.asarray(side, dtype=float)[:, None]
+    x_rel = track_m[..., 0] * s                    # > 0 on the hitter's half
+    crossed = (x_rel[:, :-1] > 0) & (x_rel[:, 1:] <= 0)
+    down = (track_m[:, :-1, 2] >= BALL_RADIUS_M) & (track_m[:, 1:, 2] < BALL_RADIUS_M)
+    rows = np.arange(n)
+    has_net, has_land = crossed.any(1), down.any(1)
+    k_net, k_land = crossed.argmax(1), down.argmax(1)
+    a, b = track_m[rows, k_net], track_m[rows, k_net + 1]
+    f = a[:, 0] / np.where(a[:, 0] == b[:, 0], 1.0, a[:, 0] - b[:, 0])
+    out[:, 2] = np.where(has_net, a[:, 2] + f * (b[:, 2] - a[:, 2]), np.nan)
+    a, b = track_m[rows, k_land], track_m[rows, k_land + 1]
+    f = (a[:, 2] - BALL_RADIUS_M) / np.where(a[:, 2] == b[:, 2], 1.0, a[:, 2] - b[:, 2])
+    land = a[:, :2] + f[:, None] * (b[:, :2] - a[:, :2])
+    ok = has_land & has_net & (k_land >= k_net)
+    out[:, 0] = np.where(ok, -s[:, 0] * land[:, 0], np.nan)
+    out[:, 1] = np.where(ok, -s[:, 0] * land[:, 1], np.nan)
+    out[:, 2] = np.where(ok, out[:, 2], np.nan)
+    return out
+
+
+def strike_labels(after_m: np.ndarray, side: np.ndarray, fps: float) -> np.ndarray:
+    """(N, 3, 3) a strike's first three frames after the contact, struck from `side` (N,)
+    -> (N, 4) `STRIKE_DIMS`: the lift as `_launch` steps it, the rest where the physics
+    centre flies the ball on from those frames (`fly_on`). NaN where that flight does not
+    cross the net and land, or the first frame is already over the net."""
+    q1, q2, q3 = after_m[:, 0], after_m[:, 1], after_m[:, 2]
+    v2, v3 = (q2 - q1) * fps, (q3 - q2) * fps
+    lift = (v3 - v2) * fps - _gravity_drag(v2)
+    across = (lift * _lift_direction(v2)).sum(-1) / np.maximum((v2 * v2).sum(-1), 1e-6)
+    track = np.concatenate([after_m, fly_on(after_m, fps)], axis=1)
+    out = np.concatenate([flight_outcome(track, side), across[:, None]], axis=1)
+    out[q1[:, 0] * np.asarray(side) <= 0] = np.nan
+    return out
+
+
+def _initial_launch(contact_m: np.ndarray, target_xy: np.ndarray, net_height_m: np.ndarray,
+                    lift_per_s: np.ndarray) -> np.ndarray:
+    """Newton's starting point: a parabola from the contact over the net's point at
+    `net_height_m` to the target, in the flight's time rather than its distance. Drag slows
+    the ball along its path (ds/dt = u0 e^(-k s), k the drag per metre), so a point s along
+    it is reached at t = (e^(k s) - 1) / (k u0); the spin's lift adds to gravity. Three rounds of
+    the speed it gives; a vacuum parabola landed rally balls 7-8 m short."""
+    d_xy = target_xy - contact_m[:, :2]
+    dist = np.maximum(np.linalg.norm(d_xy, axis=-1), 1.0)
+    u = d_xy / dist[:, None]
+    f = np.clip(np.abs(contact_m[:, 0]) / np.maximum(np.abs(d_xy[:, 0]), 1e-3), 0.05, 0.95)
+    r1, r2 = net_height_m - contact_m[:, 2], BALL_RADIUS_M - contact_m[:, 2]
+    speed = np.full(len(dist), 25.0)
+    k = DRAG_PER_M
+    for _ in range(3):
+        e1, e2 = np.expm1(k * f * dist) / k, np.expm1(k * dist) / k
+        g = GRAVITY_MPS2 - np.minimum(lift_per_s, 0.0) * speed
+        # r = a E - b E^2 through both points; b = g / (2 u0^2), a = vz / u0.
+        b = -(r1 / e1 - r2 / e2) / (e1 - e2)
+        a = r1 / e1 + b * e1
+        speed_h = np.clip(np.sqrt(g / (2.0 * np.maximum(b, 1e-4))), 5.0, 50.0)
+        speed = np.hypot(speed_h, a * speed_h)
+    return np.concatenate([u * speed_h[:, None], (a * speed_h)[:, None]], axis=-1)
+
+
+def contact_point_m(pos_m: np.ndarray, vel_mps: np.ndarray, fps: float) -> np.ndarray:
+    """The ball at the contact: `CONTACT_FRACTION` of a frame on from the struck frame."""
+    return pos_m + CONTACT_FRACTION * vel_mps / fps
+
+
+def _outcome_of_launch(contact_m, v, lift, side, fps) -> np.ndarray:
+    """Where the flight of each launch lands (N, 3), flown a second at a time until every
+    ball has come down (a rollout's single strike would otherwise pay for the highest lob)."""
+    track = np.concatenate([contact_m[:, None], _launch(contact_m, v, lift, fps)], axis=1)
+    chunk = int(round(fps))
+    while track.shape[1] < MAX_FLIGHT_FRAMES:
+        track = np.concatenate([track, fly_on(track[:, -3:], fps, chunk)], axis=1)
+        if (track[:, -1, 2] < BALL_RADIUS_M).all():
+            break
+    return flight_outcome(track, side)
+
+
+def solve_launch(contact_m: np.ndarray, side: np.ndarray, strike: np.ndarray, fps: float,
+                 iterations: int = 8, tol_m: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
+    """The velocity at the contact (N, 3) that flies a ball struck at `contact_m` (N, 3) from
+    `side` (N,) to `strike` (N, 4 `STRIKE_DIMS`) (`launch_frames`, then `fly_on`), and whether
+    it was found within `tol_m` on all three targets (N,)."""
+    s = np.asarray(side, dtype=float)
+    target = strike[:, :3]
+    lift = strike[:, 3]
+    xy = np.stack([-s * target[:, 0], -s * target[:, 1]], axis=-1)
+    v = _initial_launch(contact_m, xy, target[:, 2], lift)
+    n, eps = len(v), 0.05
+    ok = np.zeros(n, dtype=bool)
+    for _ in range(iterations):
+        probe = np.concatenate([v] + [v + eps * np.eye(3)[k] for k in range(3)])
+        out = _outcome_of_launch(np.tile(contact_m, (4, 1)), probe, np.tile(lift, 4),
+                                 np.tile(s, 4), fps).reshape(4, n, 3)
+        res = out[0] - target
+        ok = np.isfinite(res).all(-1) & (np.abs(res) < tol_m).all(-1)
+        if ok.all():
+            break
+        jac = (out[1:] - out[0][None]).transpose(1, 2, 0) / eps        # (n, 3 out, 3 in)
+        good = np.isfinite(jac).all((1, 2)) & np.isfinite(res).all(-1)
+        step = np.zeros_like(v)
+        if good.any():
+            det_ok = np.abs(np.linalg.det(jac[good])) > 1e-9
+            idx = np.flatnonzero(good)[det_ok]
+            step[idx] = np.linalg.solve(jac[idx], -res[idx][..., None])[..., 0]
+        # A launch that does not cross or land yet (no finite outcome) is pushed higher.
+        step[~good] = np.array([0.0, 0.0, 1.0])
+        step = np.where(ok[:, None], 0.0, step)
+        norm = np.linalg.norm(step, axis=-1, keepdims=True)
+        v = v + step * np.minimum(1.0, 10.0 / np.maximum(norm, 1e-9))
+        speed = np.linalg.norm(v, axis=-1, keepdims=True)
+        v = v * np.minimum(1.0, MAX_LAUNCH_MPS / np.maximum(speed, 1e-9))
+    return v, ok
+
+
+def launch_frames(contact_m: np.ndarray, v_mps: np.ndarray, lift_per_s: np.ndarray,
+                  fps: float) -> np.ndarray:
+    """The three frames (N, 3, 3) after the contact of the flight `solve_launch` found: what a
+    rollout puts there, so that the physics centre flies the ball on as solved."""
+    return _launch(contact_m, v_mps, lift_per_s, fps)
+
+
+def is_strike(pos_m: np.ndarray, vel_mps: np.ndarray, next_pos_m: np.ndarray,
+              fps: float) -> np.ndarray:
+    """(..., 3) the ball's position and backward velocity at a frame and its next position ->
+    (...) bool: a racket strike of a rally ball between them (the ball was coming to the
+    hitter's half and leaves toward the other; the serve, struck from a toss, is not one)."""
+    side = np.sign(pos_m[..., 0])
+    v_out = (next_pos_m[..., 0] - pos_m[..., 0]) * fps
+    return (side * vel_mps[..., 0] > MIN_INCOMING_MPS) & (side * v_out < -MIN_INCOMING_MPS)
