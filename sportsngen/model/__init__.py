@@ -12,7 +12,9 @@ One simulation step, as the simulator would run it (B rallies in a batch)::
                             prev_vel)                                   # (B, 3, 3)
 
 (`object_features` from `sportsngen.data.tokens`; velocities are backward differences,
-`prev_vel` those of the frame before, for the ball's physics centre.)
+`prev_vel` those of the frame before, for the ball's physics centre. A model with a strike head
+also redraws a sampled strike with `model.place_strikes` and puts the launch's next two frames
+down itself: `sportsngen.sim.rollout` does both.)
 """
 
 from sportsngen.model.config import ModelConfig
