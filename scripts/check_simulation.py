@@ -33,6 +33,7 @@ import torch
 from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.eval.physical import shot_quantities
 from sportsngen.eval.rules import analyse_rally_data
+from sportsngen.eval.shot_profile import format_profiles, shot_profile
 from sportsngen.eval.stats import rally_hazards, serve_stats
 from sportsngen.sim import Simulator
 from sportsngen.sim.assemble import realistic_points
@@ -176,6 +177,11 @@ def main() -> None:
     hz = {name: rally_hazards(pts["rally"], 6)["hazard"] for name, pts in points.items()}
     print("\npoints ending at rally length L of those reaching it (L = 1 .. 6), sim / truth: " +
           "  ".join(f"{L}: {hz['sim'][L]:.2f} / {hz['truth'][L]:.2f}" for L in range(1, 7)))
+    # How each shot is struck and ends over whole points (the strikes table reads one strike
+    # at a time from the record; here the rally's drift counts too).
+    profiles = {"sim": shot_profile(simd), "truth": shot_profile(truth)}
+    print("\nshot by shot after the serve (1 = the return), sim / truth:\n"
+          + format_profiles(profiles["sim"], profiles["truth"]))
     decided = r[(r["rules_winner"] >= 0)]
     agree_sim = float((decided["classifier_winner"] == decided["rules_winner"]).mean())
     sub = truth.subset(truth.rallies["rally_id"].iloc[:1000])
@@ -189,6 +195,8 @@ def main() -> None:
                        "outside_tolerance": misses,
                        "agreement_sim": agree_sim, "agreement_truth": agree_true,
                        "rally_hazards": {k: [float(v) for v in h] for k, h in hz.items()},
+                       "shot_profile": {k: p.reset_index().to_dict(orient="records")
+                                        for k, p in profiles.items()},
                        "simulate_s": sim_s, "top_p_player": sim.top_p_player,
                        "top_p_ball": sim.top_p_ball, "top_p_contact": sim.top_p_contact,
                        "strike_in_reach": sim.strike_in_reach,

@@ -1,0 +1,95 @@
+"""Whole points shot by shot: how each shot after the serve is struck and how it ends.
+
+The strikes table (`shot_branches.strike_shares`) strikes each recorded approach once, so it
+shows the model's strike given the record's state. Whole simulated points add the drift of a
+rally: a player a little out of place at the fourth shot strikes from there. `shot_profile`
+reads any points (simulated or recorded) the same way, so the two compare row by row: per
+shot, the share in play of those struck and answered of those in play (`shot_outcomes`), and
+what its strikes look like (the medians of `sportsngen.model.strike`'s description of each
+rally strike: depth beyond the net, distance from the centre line, height over the net,
+speed just after the racket).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from sportsngen.data.tracking import RallyData
+from sportsngen.eval.rules import analyse_rally_data
+from sportsngen.eval.shot_branches import shot_outcomes
+from sportsngen.model import strike
+
+PROFILE_COLUMNS = ("n", "in_play", "answered", "depth_m", "side_m", "net_height_m",
+                   "speed_mps")
+
+
+def _strike_rows(data: RallyData, rules: pd.DataFrame, max_shot: int) -> pd.DataFrame:
+    """One row per rally strike up to shot `max_shot` whose three next frames exist: its shot,
+    its `strike.strike_labels` and its speed."""
+    ball = data.frames[data.frames["object"] == "ball"].sort_values(["rally_id", "frame"])
+    rows = []
+    for rid, g in ball.groupby("rally_id", sort=False):
+        if rid not in rules.index:
+            continue
+        b = g[["x", "y", "z"]].to_numpy(float)
+        for shot, t in enumerate(rules.loc[rid, "contact_frames"]):
+            if shot == 0:
+                continue          # the serve, struck from a toss
+            if shot > max_shot:
+                break
+            # The rules put a contact on the nearer frame of its step; the strike is read on
+            # the last frame whose step still comes in.
+            for tt in (t - 1, t, t + 1):
+                if tt < 1 or tt + 4 > len(b):
+                    continue
+                v = (b[tt] - b[tt - 1]) * data.fps
+                if strike.is_strike(b[tt], v, b[tt + 1], data.fps):
+                    rows.append((shot, b[tt + 1:tt + 4], np.sign(b[tt, 0]),
+                                 float(np.linalg.norm(b[tt + 2] - b[tt + 1]) * data.fps)))
+                    break
+    if not rows:
+        return pd.DataFrame(columns=["shot", "depth_m", "side_m", "net_height_m", "speed_mps"])
+    shots, after, side, speed = zip(*rows)
+    lab = strike.strike_labels(np.stack(after), np.array(side), data.fps)
+    return pd.DataFrame({"shot": shots, "depth_m": lab[:, 0], "side_m": np.abs(lab[:, 1]),
+                         "net_height_m": lab[:, 2], "speed_mps": speed})
+
+
+def shot_profile(data: RallyData, max_shot: int = 6,
+                 rules: pd.DataFrame | None = None) -> pd.DataFrame:
+    """Per shot after the serve (1 the return) up to `max_shot`, indexed by shot: `n`
+    rallies that struck it, `in_play` of those, `answered` of those in play, and the medians of
+    its strikes' `depth_m`, `side_m`, `net_height_m` and `speed_mps`."""
+    if max_shot < 1:
+        raise ValueError(f"max_shot counts shots after the serve (>= 1), got {max_shot}")
+    rules = analyse_rally_data(data) if rules is None else rules
+    strikes = _strike_rows(data, rules, max_shot)
+    out = []
+    for shot in range(1, max_shot + 1):
+        o = shot_outcomes(data, shot, rules)
+        o = o[o["struck"]]
+        live = o["in_play"].astype(bool)
+        s = strikes[strikes["shot"] == shot]
+        out.append({"shot": shot, "n": len(o),
+                    "in_play": float(live.mean()) if len(o) else np.nan,
+                    "answered": float(o.loc[live, "answered"].mean()) if live.any() else np.nan,
+                    **{c: float(s[c].median()) if len(s) else np.nan
+                       for c in ("depth_m", "side_m", "net_height_m", "speed_mps")}})
+    return pd.DataFrame(out).set_index("shot")[list(PROFILE_COLUMNS)]
+
+
+def format_profiles(sim: pd.DataFrame, truth: pd.DataFrame) -> str:
+    """Two `shot_profile` tables side by side, "sim / truth" in every cell."""
+    fmt = {"n": "{:.0f}", "in_play": "{:.2f}", "answered": "{:.2f}", "depth_m": "{:.1f}",
+           "side_m": "{:.2f}", "net_height_m": "{:.2f}", "speed_mps": "{:.1f}"}
+    cols = list(PROFILE_COLUMNS)
+    lines = ["shot " + " ".join(f"{c:>13}" for c in cols)]
+    for shot in sim.index.union(truth.index):
+        cells = []
+        for c in cols:
+            a = sim[c].get(shot, np.nan)
+            b = truth[c].get(shot, np.nan)
+            cells.append(f"{fmt[c].format(a)} / {fmt[c].format(b)}")
+        lines.append(f"{shot:>4} " + " ".join(f"{x:>13}" for x in cells))
+    return "\n".join(lines)

@@ -1,0 +1,53 @@
+"""Whole points shot by shot (`sportsngen.eval.shot_profile`)."""
+
+import numpy as np
+import pytest
+
+from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
+from sportsngen.eval.rules import analyse_rally_data
+from sportsngen.eval.shot_branches import shot_outcomes
+from sportsngen.eval.shot_profile import PROFILE_COLUMNS, format_profiles, shot_profile
+
+
+@pytest.fixture(scope="module")
+def truth():
+    data = truth_points(DiagnosticsSetup(n_points=120, seed=5))
+    return data, analyse_rally_data(data)
+
+
+def test_the_profile_counts_each_shot_as_the_outcomes_do(truth):
+    data, rules = truth
+    prof = shot_profile(data, max_shot=4, rules=rules)
+    assert list(prof.index) == [1, 2, 3, 4] and list(prof.columns) == list(PROFILE_COLUMNS)
+    for shot in (1, 3):
+        o = shot_outcomes(data, shot, rules)
+        o = o[o["struck"]]
+        assert prof.loc[shot, "n"] == len(o)
+        assert prof.loc[shot, "in_play"] == pytest.approx(o["in_play"].mean())
+        assert prof.loc[shot, "answered"] == pytest.approx(o.loc[o["in_play"], "answered"].mean())
+    # Fewer rallies reach each later shot.
+    assert (np.diff(prof["n"].to_numpy()) < 0).all()
+
+
+def test_the_profile_reads_the_generators_strikes(truth):
+    data, rules = truth
+    prof = shot_profile(data, max_shot=3, rules=rules)
+    # Returns are slower than the server's rally balls; every strike clears the net on the
+    # median and lands between the service line and the baseline.
+    assert prof.loc[1, "speed_mps"] < prof.loc[2, "speed_mps"]
+    assert (prof["net_height_m"] > 1.0).all() and (prof["net_height_m"] < 2.5).all()
+    assert (prof["depth_m"] > 6.4).all() and (prof["depth_m"] < 11.885).all()
+    assert (prof["side_m"] > 0.5).all() and (prof["side_m"] < 3.0).all()
+    # The generator's own recorded shot table says the same speeds, to a few m/s.
+    shots = data.shots[data.shots["shot_index"] == 1]
+    assert prof.loc[1, "speed_mps"] == pytest.approx(shots["speed_mps"].median(), abs=3.0)
+
+
+def test_two_profiles_print_side_by_side(truth):
+    data, rules = truth
+    prof = shot_profile(data, max_shot=2, rules=rules)
+    text = format_profiles(prof, prof).splitlines()
+    assert len(text) == 3 and text[0].split()[0] == "shot"
+    assert text[1].split()[:4] == ["1", f"{prof.loc[1, 'n']:.0f}", "/", f"{prof.loc[1, 'n']:.0f}"]
+    with pytest.raises(ValueError, match="max_shot"):
+        shot_profile(data, max_shot=0, rules=rules)
