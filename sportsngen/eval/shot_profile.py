@@ -7,7 +7,7 @@ reads any points (simulated or recorded) the same way, so the two compare row by
 shot, the share in play of those struck and answered of those in play (`shot_outcomes`), and
 what its strikes look like (the medians of `sportsngen.model.strike`'s description of each
 rally strike: depth beyond the net, distance from the centre line, height over the net,
-speed just after the racket).
+speed just after the racket; and how far behind his baseline its hitter stood).
 """
 
 from __future__ import annotations
@@ -19,20 +19,27 @@ from sportsngen.data.tracking import RallyData
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.eval.shot_branches import shot_outcomes
 from sportsngen.model import strike
+from sportsngen.tennis.court import BASELINE_X_M
 
 PROFILE_COLUMNS = ("n", "in_play", "answered", "depth_m", "side_m", "net_height_m",
-                   "speed_mps")
+                   "speed_mps", "hitter_behind_m")
 
 
 def _strike_rows(data: RallyData, rules: pd.DataFrame, max_shot: int) -> pd.DataFrame:
     """One row per rally strike up to shot `max_shot` whose three next frames exist: its shot,
-    its `strike.strike_labels` and its speed."""
-    ball = data.frames[data.frames["object"] == "ball"].sort_values(["rally_id", "frame"])
+    its `strike.strike_labels`, its speed, and how far behind his baseline the hitter (the
+    player on the ball's half) stood."""
+    f = data.frames.sort_values(["rally_id", "frame"])
+    is_ball = (f["object"] == "ball").to_numpy()
+    balls = dict(tuple(f[is_ball].groupby("rally_id", sort=False)))
+    players = dict(tuple(f[~is_ball].groupby("rally_id", sort=False)))
     rows = []
-    for rid, g in ball.groupby("rally_id", sort=False):
-        if rid not in rules.index:
+    for rid, g in balls.items():
+        if rid not in rules.index or rid not in players:
             continue
         b = g[["x", "y", "z"]].to_numpy(float)
+        first = int(g["frame"].iloc[0])
+        pl = players[rid]
         for shot, t in enumerate(rules.loc[rid, "contact_frames"]):
             if shot == 0:
                 continue          # the serve, struck from a toss
@@ -45,22 +52,28 @@ def _strike_rows(data: RallyData, rules: pd.DataFrame, max_shot: int) -> pd.Data
                     continue
                 v = (b[tt] - b[tt - 1]) * data.fps
                 if strike.is_strike(b[tt], v, b[tt + 1], data.fps):
-                    rows.append((shot, b[tt + 1:tt + 4], np.sign(b[tt, 0]),
-                                 float(np.linalg.norm(b[tt + 2] - b[tt + 1]) * data.fps)))
+                    side = float(np.sign(b[tt, 0]))
+                    xs = pl.loc[pl["frame"] == first + tt, "x"].to_numpy(float)
+                    mine = xs[np.sign(xs) == side]
+                    behind = side * mine[0] - BASELINE_X_M if len(mine) else np.nan
+                    rows.append((shot, b[tt + 1:tt + 4], side,
+                                 float(np.linalg.norm(b[tt + 2] - b[tt + 1]) * data.fps), behind))
                     break
     if not rows:
-        return pd.DataFrame(columns=["shot", "depth_m", "side_m", "net_height_m", "speed_mps"])
-    shots, after, side, speed = zip(*rows)
+        return pd.DataFrame(columns=["shot", *PROFILE_COLUMNS[3:]])
+    shots, after, side, speed, behind = zip(*rows)
     lab = strike.strike_labels(np.stack(after), np.array(side), data.fps)
     return pd.DataFrame({"shot": shots, "depth_m": lab[:, 0], "side_m": np.abs(lab[:, 1]),
-                         "net_height_m": lab[:, 2], "speed_mps": speed})
+                         "net_height_m": lab[:, 2], "speed_mps": speed,
+                         "hitter_behind_m": behind})
 
 
 def shot_profile(data: RallyData, max_shot: int = 6,
                  rules: pd.DataFrame | None = None) -> pd.DataFrame:
     """Per shot after the serve (1 the return) up to `max_shot`, indexed by shot: `n`
     rallies that struck it, `in_play` of those, `answered` of those in play, and the medians of
-    its strikes' `depth_m`, `side_m`, `net_height_m` and `speed_mps`."""
+    its strikes' `depth_m`, `side_m`, `net_height_m`, `speed_mps` and `hitter_behind_m` (how
+    far behind his baseline the hitter stood)."""
     if max_shot < 1:
         raise ValueError(f"max_shot counts shots after the serve (>= 1), got {max_shot}")
     rules = analyse_rally_data(data) if rules is None else rules
@@ -75,14 +88,15 @@ def shot_profile(data: RallyData, max_shot: int = 6,
                     "in_play": float(live.mean()) if len(o) else np.nan,
                     "answered": float(o.loc[live, "answered"].mean()) if live.any() else np.nan,
                     **{c: float(s[c].median()) if len(s) else np.nan
-                       for c in ("depth_m", "side_m", "net_height_m", "speed_mps")}})
+                       for c in PROFILE_COLUMNS[3:]}})
     return pd.DataFrame(out).set_index("shot")[list(PROFILE_COLUMNS)]
 
 
 def format_profiles(sim: pd.DataFrame, truth: pd.DataFrame) -> str:
     """Two `shot_profile` tables side by side, "sim / truth" in every cell."""
     fmt = {"n": "{:.0f}", "in_play": "{:.2f}", "answered": "{:.2f}", "depth_m": "{:.1f}",
-           "side_m": "{:.2f}", "net_height_m": "{:.2f}", "speed_mps": "{:.1f}"}
+           "side_m": "{:.2f}", "net_height_m": "{:.2f}", "speed_mps": "{:.1f}",
+           "hitter_behind_m": "{:.2f}"}
     cols = list(PROFILE_COLUMNS)
     lines = ["shot " + " ".join(f"{c:>13}" for c in cols)]
     for shot in sim.index.union(truth.index):
