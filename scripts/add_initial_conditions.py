@@ -4,8 +4,9 @@
         --data synthetic_small [--frames 10] [--per-key 100]
 
 `train.py` already stores them in every model it exports; this is for model files exported
-before that, or to rebuild the pool from other data (`--data` is a conf/data/*.yaml name or a
-RallyData folder).
+before that, to rebuild the pool from other data (`--data` is a conf/data/*.yaml name or a
+RallyData folder), or to rebuild a pool stored before pools recorded their receivers (a
+simulated point then starts with its own receiver's stance, `sportsngen.sim.initial`).
 """
 
 from __future__ import annotations

@@ -38,9 +38,9 @@ def test_the_profile_reads_the_generators_strikes(truth):
     assert (prof["net_height_m"] > 1.0).all() and (prof["net_height_m"] < 2.5).all()
     assert (prof["depth_m"] > 6.4).all() and (prof["depth_m"] < 11.885).all()
     assert (prof["side_m"] > 0.5).all() and (prof["side_m"] < 3.0).all()
-    # Nadal returns from far behind the baseline (Hawk-Eye: 3.9 m on clay), the server's first rally ball
-    # from near it (he serves 0.5 m inside and recovers 0.3 m behind).
-    assert 1.5 < prof.loc[1, "hitter_behind_m"] < 4.0    # Nadal returning, deep
+    # Nadal returns far behind the baseline (Hawk-Eye: 3.9 m on clay); the server strikes his
+    # first rally ball near it (he serves 0.5 m inside and recovers 0.3 m behind).
+    assert 1.5 < prof.loc[1, "hitter_behind_m"] < 4.0
     assert abs(prof.loc[2, "hitter_behind_m"]) < 0.6
     # The generator's own recorded shot table says the same speeds, to a few m/s.
     shots = data.shots[data.shots["shot_index"] == 1]

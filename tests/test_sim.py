@@ -123,6 +123,36 @@ def test_initial_conditions_draw_rotate_and_round_trip():
         ic.draw(s, n, "middle", e, rng)
 
 
+def test_initial_conditions_put_the_receiver_at_his_own_stance():
+    data = make_toy_rallies(40, seed=3)
+    ic = InitialConditions.from_rally_data(data, n_frames=4, max_per_key=50)
+    assert ic.receiver is not None and len(set(ic.receiver)) >= 2
+    i = 0
+    s, n, side, e = ic.server[i], int(ic.serve_number[i]), ic.side[i], int(ic.server_end[i])
+    rcv = ic.receiver[i]
+    for seed in range(10):
+        got = ic.draw(s, n, side, e, np.random.default_rng(seed), receiver=rcv)
+        own = (ic.receiver == rcv) & (ic.serve_number == n) & (ic.side == side)
+        # The receiver's frames are one of his own examples', turned to this end; the server
+        # and the ball one of the server's.
+        turned = [p if int(ic.server_end[j]) == e else flip_xy(p)
+                  for j, p in zip(np.flatnonzero(own), ic.pos_m[own])]
+        assert any(np.array_equal(got[:, 1], p[:, 1]) for p in turned)
+        mine = (ic.server == s) & (ic.serve_number == n) & (ic.side == side)
+        turned = [p if int(ic.server_end[j]) == e else flip_xy(p)
+                  for j, p in zip(np.flatnonzero(mine), ic.pos_m[mine])]
+        assert any(np.array_equal(got[:, [0, 2]], p[:, [0, 2]]) for p in turned)
+    # A pool stored without receivers (older model files) draws as before.
+    old = InitialConditions.from_dict({**ic.to_dict(), "receiver": None})
+    assert old.receiver is None
+    np.testing.assert_array_equal(
+        old.draw(s, n, side, e, np.random.default_rng(4), receiver=rcv),
+        ic.draw(s, n, side, e, np.random.default_rng(4)))
+    back = InitialConditions.from_dict(ic.to_dict())
+    assert back.receiver.tolist() == ic.receiver.tolist()
+    assert ic.merged(old).receiver is None and len(ic.merged(ic).receiver) == 2 * len(ic)
+
+
 def test_simulator_bad_input(tiny_model_file, tmp_path):
     with pytest.raises(ValueError, match="top_p_ball"):
         _sim(tiny_model_file, top_p_ball=0.0)

@@ -156,9 +156,10 @@ class Simulator:
     def _inputs(self, plan: pd.DataFrame, rng: np.random.Generator,
                 init_pos_m: np.ndarray | None = None) -> RolloutInputs:
         init = init_pos_m if init_pos_m is not None else np.stack(
-            [self.initial.draw(s, int(n), side, int(e), rng, surface=surf)
-             for s, n, side, e, surf in zip(plan["server"], plan["serve_number"], plan["side"],
-                                            plan["server_end"], plan["surface"])])
+            [self.initial.draw(s, int(n), side, int(e), rng, surface=surf, receiver=rcv)
+             for s, n, side, e, surf, rcv in zip(plan["server"], plan["serve_number"],
+                                                 plan["side"], plan["server_end"],
+                                                 plan["surface"], plan["receiver"])])
         v = self.vocab
         ids = {p: self._player_index(p) for p in set(plan["server"]) | set(plan["receiver"])}
         ident = np.stack([plan["server"].map(ids), plan["receiver"].map(ids),
