@@ -11,7 +11,7 @@ from sportsngen.eval.shot_profile import PROFILE_COLUMNS, format_profiles, shot_
 
 @pytest.fixture(scope="module")
 def truth():
-    data = truth_points(DiagnosticsSetup(n_points=120, seed=5))
+    data = truth_points(DiagnosticsSetup(n_points=80, seed=5))
     return data, analyse_rally_data(data)
 
 

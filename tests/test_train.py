@@ -273,9 +273,10 @@ def test_a_head_added_to_a_trained_model_trains_alone(tmp_path, tiny_model_file,
         assert runs[3][3].strike_head
         # Toy rallies' balls are struck too; four dimensions of 96 bins, barely trained.
         assert 0 < s["decoder"]["val/strike_nll"] < 4 * math.log(96) + 1.0
-    with pytest.raises(ValueError, match="names no parameter"):
-        train_from_config(_compose([*fast, "trainer.max_steps=1", "train_only=nothing"]),
-                          tmp_path / "bad")
+    if head == "ball_sub_head":      # the same check for both heads: run it once
+        with pytest.raises(ValueError, match="names no parameter"):
+            train_from_config(_compose([*fast, "trainer.max_steps=1", "train_only=nothing"]),
+                              tmp_path / "bad")
 
 
 def test_same_seed_same_weights(tmp_path):
