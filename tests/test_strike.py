@@ -34,7 +34,7 @@ def test_the_numpy_flight_is_the_physics_centres_step():
     n = 200
     v = np.stack([rng.uniform(-35, 35, n), rng.uniform(-8, 8, n), rng.uniform(-8, 8, n)], -1)
     prev = v + rng.normal(0, 0.4, (n, 3))      # flights, and some reads that are no flight
-    prev[::5] += rng.normal(0, 8, (n // 5 + (n % 5 > 0), 3))[: len(prev[::5])]
+    prev[::5] += rng.normal(0, 8, prev[::5].shape)
     p = np.stack([rng.uniform(-11, 11, n), rng.uniform(-4, 4, n), rng.uniform(2, 4, n)], -1)
     frames = np.stack([p - (v + prev) / FPS, p - v / FPS, p], axis=1)
     ours = S.fly_on(frames, FPS, n_frames=4)

@@ -382,25 +382,29 @@ class SportsNGEN(nn.Module):
     @torch.no_grad()
     def place_strikes(self, h: torch.Tensor, pos_m: torch.Tensor, vel_mps: torch.Tensor,
                       nxt: torch.Tensor, generator: torch.Generator | None = None,
-                      top_p: float = 1.0) -> tuple[torch.Tensor, torch.Tensor]:
-        """Where the sampled next frames `nxt` (B, 3, 3) hold a rally strike, the strike head's
-        draw instead: its bins (nucleus `top_p`), uniform inside them, the launch solved and
-        its first frame put in `nxt`. Returns (nxt, the launch's next two frames (B, 2, 3),
-        NaN for rows without a strike or whose launch was not found)."""
+                      top_p: float = 1.0,
+                      allowed: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+        """Where the sampled next frames `nxt` (B, 3, 3) hold a rally strike (in the rows
+        `allowed`, (B,) bool, default all), the strike head's draw instead: its bins (nucleus
+        `top_p`), uniform inside them, the launch solved and its first frame put in `nxt`.
+        Returns (nxt, the launch's next two frames (B, 2, 3), NaN for rows without a strike or
+        whose launch was not found)."""
         plan = torch.full((len(nxt), 2, 3), float("nan"), device=nxt.device)
         if self.strike_head is None:
             return nxt, plan
         ball = pos_m[:, BALL].double().cpu().numpy()
         vel = vel_mps[:, BALL].double().cpu().numpy()
-        rows = np.flatnonzero(strike.is_strike(
-            ball, vel, nxt[:, BALL].double().cpu().numpy(), self.cfg.fps))
+        struck = strike.is_strike(ball, vel, nxt[:, BALL].double().cpu().numpy(), self.cfg.fps)
+        if allowed is not None:
+            struck &= allowed.cpu().numpy()
+        rows = np.flatnonzero(struck)
         if len(rows) == 0:
             return nxt, plan
         r = torch.as_tensor(rows, device=h.device)
         idx = self.strike_head.sample(h[r, BALL], top_p, generator)
         u = uniform_in_bin(idx.shape, h.device, generator)
         values = strike.strike_bin_value(idx.cpu().numpy(), u.double().cpu().numpy())
-        contact = strike.contact_point_m(ball[rows], vel[rows], self.cfg.fps)
+        contact = ball[rows]                  # the contact is taken on the struck frame
         side = np.sign(ball[rows, 0])
         v0, found = strike.solve_launch(contact, side, values, self.cfg.fps)
         frames = strike.launch_frames(contact, v0, values[:, 3], self.cfg.fps)

@@ -17,21 +17,19 @@ A strike's first three frames are stepped with its lift (`launch_frames`); after
 flight is the physics centre's own step (`fly_on`: gravity, drag and the lift read from the
 track, turned), so a strike placed in a rollout flies on as it was solved. `strike_labels`
 reads the four numbers from a recorded strike's first three frames; `solve_launch` finds the
-velocity at the contact that gives them (Newton's method on the flight). Pure numpy: no model,
-no torch.
+velocity at the contact that gives them (Newton's method on the flight). The flight is stepped
+in numpy, not with the centre's torch functions: a solve is hundreds of steps on a few rows,
+where a library call's fixed cost is most of the work; `tests/test_strike.py` holds the two
+steps equal.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from sportsngen.model.centre import DRAG_PER_M, GRAVITY_MPS2, MAX_LIFT_MPS2, MAX_LIFT_PER_M
 from sportsngen.tennis.court import BALL_RADIUS_M, BASELINE_X_M, SINGLES_HALF_WIDTH_M
 
-# The physics centre's values (`sportsngen.model.centre`), here without torch.
-GRAVITY_MPS2 = 9.81
-DRAG_PER_M = 0.0206
-MAX_LIFT_MPS2 = 30.0
-MAX_LIFT_PER_M = DRAG_PER_M / 0.55 / 2.0
 STRIKE_DIMS = ("depth_m", "lateral_m", "net_height_m", "lift_per_s")
 STRIKE_BINS = 96
 # Each dimension's range, split into STRIKE_BINS equal bins. Depth and lateral edges fall on
@@ -43,21 +41,20 @@ STRIKE_RANGES = ((BASELINE_X_M - 48 * _DEPTH_W, BASELINE_X_M + 48 * _DEPTH_W),
 MAX_FLIGHT_FRAMES = 150                              # 6 s at 25 Hz: the highest lob lands
 MAX_LAUNCH_MPS = 75.0
 MIN_INCOMING_MPS = 2.0   # a strike meets a ball coming to the hitter's side this fast along x
-# Where inside the frame after the struck one the contact falls. The generator's contacts
-# mostly fall on the struck frame itself: recorded strikes' first three frames re-solved from
-# a contact this far on lie a median 0.05 / 0.42 / 0.63 m from the record at 0 / 0.25 / 0.5.
-CONTACT_FRACTION = 0.0
 
 
 def strike_edges() -> np.ndarray:
     """(4, STRIKE_BINS + 1) the bins' edges of each strike dimension."""
-    u = np.linspace(0.0, 1.0, STRIKE_BINS + 1)
-    return np.stack([lo + u * (hi - lo) for lo, hi in STRIKE_RANGES])
+    return _EDGES.copy()
+
+
+_EDGES = np.stack([lo + np.linspace(0.0, 1.0, STRIKE_BINS + 1) * (hi - lo)
+                   for lo, hi in STRIKE_RANGES])
 
 
 def strike_bin_index(values: np.ndarray) -> np.ndarray:
     """(..., 4) strike values -> (..., 4) int64 bin indices (clamped to the outer bins)."""
-    edges = strike_edges()
+    edges = _EDGES
     out = [np.clip(np.searchsorted(edges[d, 1:-1], values[..., d], side="right"), 0,
                    STRIKE_BINS - 1) for d in range(4)]
     return np.stack(out, axis=-1).astype(np.int64)
@@ -65,7 +62,7 @@ def strike_bin_index(values: np.ndarray) -> np.ndarray:
 
 def strike_bin_value(idx: np.ndarray, u: np.ndarray | None = None) -> np.ndarray:
     """(..., 4) bin indices -> values at fraction u in [0, 1) of each bin (default the centre)."""
-    edges = strike_edges()
+    edges = _EDGES
     lo = np.stack([edges[d][idx[..., d]] for d in range(4)], axis=-1)
     hi = np.stack([edges[d][idx[..., d] + 1] for d in range(4)], axis=-1)
     return lo + (0.5 if u is None else u) * (hi - lo)
@@ -87,13 +84,14 @@ def _lift_direction(v: np.ndarray) -> np.ndarray:
 def _launch(contact_m: np.ndarray, v_mps: np.ndarray, lift_per_s: np.ndarray, fps: float,
             n_frames: int = 3) -> np.ndarray:
     """(N, n_frames, 3) the first frames after a contact at `contact_m` with velocity `v_mps`
-    and lift `lift_per_s` (constant across the flight, per m/s): `1 - CONTACT_FRACTION` of a
-    frame to the first, whole frames after it."""
+    and lift `lift_per_s` (constant across the flight, per m/s). The contact is taken on the
+    struck frame itself: recorded strikes solved so lie a median 0.05 m from the record's next
+    frames, against 0.42 m with the contact a quarter frame later and 0.63 m at half."""
     out = np.empty((len(contact_m), n_frames, 3))
     p, v = contact_m.astype(float).copy(), v_mps.astype(float).copy()
     lift = np.asarray(lift_per_s, dtype=float)[:, None]
     for k in range(n_frames):
-        dt = ((1.0 - CONTACT_FRACTION) if k == 0 else 1.0) / fps
+        dt = 1.0 / fps
         a = _gravity_drag(v) + lift * _lift_direction(v)
         p = p + v * dt + a * dt * dt
         v = v + a * dt
@@ -202,11 +200,6 @@ def _initial_launch(contact_m: np.ndarray, target_xy: np.ndarray, net_height_m: 
         speed_h = np.clip(np.sqrt(g / (2.0 * np.maximum(b, 1e-4))), 5.0, 50.0)
         speed = np.hypot(speed_h, a * speed_h)
     return np.concatenate([u * speed_h[:, None], (a * speed_h)[:, None]], axis=-1)
-
-
-def contact_point_m(pos_m: np.ndarray, vel_mps: np.ndarray, fps: float) -> np.ndarray:
-    """The ball at the contact: `CONTACT_FRACTION` of a frame on from the struck frame."""
-    return pos_m + CONTACT_FRACTION * vel_mps / fps
 
 
 def _outcome_of_launch(contact_m, v, lift, side, fps) -> np.ndarray:

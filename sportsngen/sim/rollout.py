@@ -151,13 +151,8 @@ def _follow_strikes(model: SportsNGEN, h: torch.Tensor, pos: torch.Tensor, vel: 
         nxt = nxt.clone()
         nxt[planned, BALL] = plan[planned, 0]
     plan = torch.cat([plan[:, 1:], torch.full_like(plan[:, :1], float("nan"))], dim=1)
-    free = torch.nonzero(~planned).squeeze(1)
-    if len(free):
-        placed, new = model.place_strikes(h[free], pos[free], vel[free], nxt[free], generator)
-        nxt = nxt.clone()
-        nxt[free] = placed
-        plan[free] = torch.where(torch.isnan(new[:, :1, :1]), plan[free], new)
-    return nxt, plan
+    nxt, new = model.place_strikes(h, pos, vel, nxt, generator, allowed=~planned)
+    return nxt, torch.where(torch.isnan(new[:, :1, :1]), plan, new)
 
 
 class _NoTracker:
