@@ -7,6 +7,13 @@ Branches of the data's training split (the split `train.py` makes with the same 
 and `--split-seed`) are rolled out by the model at its stored sampling, and the generator's
 players play each rally on from the model's state (`sportsngen.train.expert`). Train on them
 with `python train.py init=<the same model> expert.path=<out> ...`.
+
+    .venv/bin/python scripts/expert_data.py --model M --out X.npz --from-sims FOLDER [FOLDER ...]
+        [--shots 2 3 4 5 6] [--repeat 1]
+
+answers whole simulated points instead (`RallyData` folders, e.g. `check_simulation.py
+--save-sim`): every shot of `--shots` from 8 frames after the shot before it
+(`sportsngen.eval.expert_answers.simulated_expert_arrays`), each rally written `--repeat` times.
 """
 
 from __future__ import annotations
@@ -55,9 +62,19 @@ def main() -> None:
                     help="instead of the model's rollouts: recorded shots after the serve whose "
                          "ball flies on unstruck for one of these delays, answered by the "
                          "kernel (late_contact_arrays)")
+    ap.add_argument("--from-sims", nargs="+", default=None, metavar="FOLDER",
+                    help="answer whole simulated points of these RallyData folders instead")
+    ap.add_argument("--shots", type=int, nargs="+", default=[2, 3, 4, 5, 6],
+                    help="with --from-sims: the shots answered (default 2 3 4 5 6)")
+    ap.add_argument("--repeat", type=int, default=1,
+                    help="with --from-sims: write each rally this many times (its weight "
+                         "among the training windows)")
     args = ap.parse_args()
     if args.threads:
         torch.set_num_threads(args.threads)
+    if args.from_sims:
+        from_sims(args)
+        return
     cfg = OmegaConf.to_container(OmegaConf.load(CONF / f"{args.data}.yaml"), resolve=True)
     if cfg.get("source") != "synthetic":
         raise SystemExit(f"--data {args.data} is not generated: the expert is the generator, "
@@ -89,6 +106,30 @@ def main() -> None:
     counts["seconds"] = round(time.perf_counter() - t0, 1)
     print(json.dumps(counts))
     print(f"wrote {path}")
+
+def from_sims(args: argparse.Namespace) -> None:
+    """`--from-sims`: the kernel's answers on saved simulated points."""
+    from sportsngen.data.tokens import RallyArrays
+    from sportsngen.data.tracking import RallyData
+    from sportsngen.eval.expert_answers import simulated_expert_arrays
+
+    if not args.out or args.repeat < 1:
+        raise SystemExit("--out is required and --repeat must be >= 1")
+    t0 = time.perf_counter()
+    sim = Simulator.from_pretrained(args.model)
+    parts, counts = [], {}
+    for folder in args.from_sims:
+        data = RallyData.load(folder, validate=False)   # simulated: physics flagged, not refused
+        arr, c = simulated_expert_arrays(data, sim.vocab, tuple(args.shots), seed=args.seed)
+        parts += [arr] * args.repeat
+        counts[str(folder)] = c
+    out = RallyArrays.concat(parts)
+    path = save_expert(out, args.out)
+    counts["frames"] = int(out.length.sum())
+    counts["seconds"] = round(time.perf_counter() - t0, 1)
+    print(json.dumps(counts))
+    print(f"wrote {path}")
+
 
 if __name__ == "__main__":
     main()

@@ -10,6 +10,10 @@
         [--strike-in-reach-from N]
     python -m sportsngen.eval strikes [--model PATH] [--points 800] [--shots 1 2 3 4 5]
         [--after -1] [--seed 0] [--csv PATH] [sampling options as diagnose]
+    python -m sportsngen.eval movement [--model PATH] [--shot 2] [--points 600] [--server NAME]
+        [--seed 0] [--csv PATH] [sampling options as diagnose]
+    python -m sportsngen.eval expert [FOLDER] [--shot 3] [--after 8] [--unplayed]
+        [--points 1000] [--seed 0] [--csv PATH]
 
 Folders are `RallyData.save` folders, read without physics validation (simulated rallies may
 break physics and are flagged, not refused). `--ref-synthetic` generates the reference with
@@ -18,7 +22,11 @@ points). Real slam points of `--real-year` served by the same players form a thi
 the shared data is present; without it the report is written without them and a note says why.
 `diagnose` prints the rollout diagnostics of `sportsngen.eval.diagnostics` for a model file
 (default the bundled model); `strikes` the model's strikes of recorded approaches shot by shot
-(`sportsngen.eval.shot_branches.strike_shares`). `leaks` prints the AUC table of
+(`sportsngen.eval.shot_branches.strike_shares`); `movement` the hitter's run after his shot,
+teacher-forced and rolled out against the record (`sportsngen.eval.movement`); `expert` the
+generator's players on a folder's own rally states, their next shot beside the folder's
+(`sportsngen.eval.expert_answers`; without a folder, on generated points: the kernel's own
+fidelity). `leaks` prints the AUC table of
 `sportsngen.eval.leaks` (with `--paths` also the path-matched fault check of
 `sportsngen.eval.leak_paths`) and exits with status 1 when some AUC lies outside the band (a
 gate for CI).
@@ -173,60 +181,103 @@ def _simulator(args: argparse.Namespace):
         raise UsageError(f"--model: {exc}") from exc
 
 
-def _print_table(table, args: argparse.Namespace, t0: float, setup) -> None:
-    import time
-
+def _print_table(table, csv: Path | None, footer: str, notes: tuple[str, ...] = (),
+                 csv_table=None) -> None:
+    """Print `table`, any `notes` and the `footer`; write `csv_table` (default the table) to
+    `csv` when given."""
     import pandas as pd
 
     with pd.option_context("display.width", 160, "display.max_colwidth", 60):
         print(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
-    print(f"({time.perf_counter() - t0:.0f} s, {setup.n_points} points of "
-          f"{setup.server} serving to {setup.receiver} on {setup.surface}, seed {setup.seed})")
-    if args.csv is not None:
-        args.csv.parent.mkdir(parents=True, exist_ok=True)
-        table.to_csv(args.csv, index=False)
-        print(f"wrote {args.csv}")
+    for line in notes:
+        print(line)
+    print(footer)
+    if csv is not None:
+        csv.parent.mkdir(parents=True, exist_ok=True)
+        (table if csv_table is None else csv_table).to_csv(csv, index=False)
+        print(f"wrote {csv}")
+
+
+def _run_model_table(args: argparse.Namespace, name: str, compute, **setup_kw) -> int:
+    """A model's table over generated truth: the model file and sampling of `args`, the truth
+    of its matchup, `compute(sim, setup)` -> the table, printed (and written as CSV)."""
+    import time
+
+    from sportsngen.eval.diagnostics import DiagnosticsSetup
+
+    sim = _simulator(args)
+    t0 = time.perf_counter()
+    setup = DiagnosticsSetup(server=args.server, receiver=args.receiver, surface=args.surface,
+                             n_points=args.points, seed=args.seed, **setup_kw)
+    try:
+        table = compute(sim, setup)
+    except ValueError as exc:
+        raise UsageError(f"{name}: {exc}") from exc
+    _print_table(table, args.csv, f"({time.perf_counter() - t0:.0f} s, {setup.n_points} points "
+                 f"of {setup.server} serving to {setup.receiver} on {setup.surface}, seed "
+                 f"{setup.seed})")
+    return 0
 
 
 def run_diagnose(args: argparse.Namespace) -> int:
     """The rollout diagnostics of a model: prints the table (and writes the CSV)."""
-    import time
-
-    from sportsngen.eval.diagnostics import DiagnosticsSetup, run_diagnostics
+    from sportsngen.eval.diagnostics import run_diagnostics
 
     if args.boot < 0:
         raise UsageError(f"--boot must be >= 0, got {args.boot}")
-    sim = _simulator(args)
-    t0 = time.perf_counter()
-    setup = DiagnosticsSetup(server=args.server, receiver=args.receiver, surface=args.surface,
-                             n_points=args.points, seed=args.seed, leak_boot=args.boot)
-    try:
-        table = run_diagnostics(sim, setup)
-    except ValueError as exc:
-        raise UsageError(f"diagnose: {exc}") from exc
-    _print_table(table, args, t0, setup)
-    return 0
+    return _run_model_table(args, "diagnose", run_diagnostics, leak_boot=args.boot)
 
 
 def run_strikes(args: argparse.Namespace) -> int:
     """The model's strikes of recorded approaches, shot by shot: prints the table."""
-    import time
-
-    from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
+    from sportsngen.eval.diagnostics import truth_points
     from sportsngen.eval.shot_branches import strike_shares
 
     if not args.shots or min(args.shots) < 1:
         raise UsageError(f"--shots count contacts after the serve (>= 1), got {args.shots}")
-    sim = _simulator(args)
+    return _run_model_table(args, "strikes", lambda sim, setup: strike_shares(
+        sim, truth_points(setup), tuple(args.shots), after_frames=args.after, seed=args.seed))
+
+
+def run_movement(args: argparse.Namespace) -> int:
+    """The hitter's run after his shot, record / teacher-forced / rolled out: prints it."""
+    from sportsngen.eval.diagnostics import truth_points
+    from sportsngen.eval.movement import recovery_curves
+
+    if args.shot < 1:
+        raise UsageError(f"--shot counts contacts after the serve (>= 1), got {args.shot}")
+    return _run_model_table(args, "movement", lambda sim, setup: recovery_curves(
+        sim, truth_points(setup), shot=args.shot, seed=args.seed))
+
+
+def run_expert(args: argparse.Namespace) -> int:
+    """The kernel's next shot on a folder's (or generated points') own states: prints it."""
+    import time
+
+    from sportsngen.eval.expert_answers import expert_shots, summarise_expert_shots
+
     t0 = time.perf_counter()
-    setup = DiagnosticsSetup(server=args.server, receiver=args.receiver, surface=args.surface,
-                             n_points=args.points, seed=args.seed)
+    if args.folder is not None:
+        data, what = load_tracking(args.folder, "expert"), str(args.folder)
+    else:
+        from sportsngen.synth import generate_matches
+
+        if args.points < 20:
+            raise UsageError(f"--points must be >= 20, got {args.points}")
+        data = generate_matches([(args.server, args.receiver)], args.surface,
+                                n_points=args.points, seed=args.seed, workers=1)
+        what = f"{args.points} generated points of {args.server} v {args.receiver}"
     try:
-        table = strike_shares(sim, truth_points(setup), tuple(args.shots),
-                              after_frames=args.after, seed=args.seed)
+        rows = expert_shots(data, shot=args.shot, after_frames=args.after, seed=args.seed,
+                            unplayed=args.unplayed)
     except ValueError as exc:
-        raise UsageError(f"strikes: {exc}") from exc
-    _print_table(table, args, t0, setup)
+        raise UsageError(f"expert: {exc}") from exc
+    ends = rows.loc[rows["expert_end"] != "", "expert_end"].value_counts()
+    notes = ("the kernel struck nothing: " + ", ".join(f"{k} {v}" for k, v in ends.items()),
+             ) if len(ends) else ()
+    _print_table(summarise_expert_shots(rows), args.csv,
+                 f"({time.perf_counter() - t0:.0f} s, shot {args.shot} handed over "
+                 f"{args.after} frames after shot {args.shot - 1}, {what})", notes, rows)
     return 0
 
 
@@ -311,6 +362,33 @@ def build_parser() -> argparse.ArgumentParser:
     strikes.add_argument("--after", type=int, default=-1,
                          help="frames kept after the recorded contact (default -1: the model "
                               "strikes)")
+    move = sub.add_parser("movement", parents=[model_opts],
+                          help="the hitter's run after his shot: record, teacher-forced and "
+                               "rolled out")
+    move.add_argument("--points", type=int, default=600,
+                      help="ground-truth points generated (default 600)")
+    move.add_argument("--shot", type=int, default=2,
+                      help="the hitter's shot, counted after the serve (default 2: the "
+                           "server's first rally ball)")
+    expert = sub.add_parser("expert", help="the generator's players on a folder's own rally "
+                                           "states: their next shot beside the folder's")
+    expert.add_argument("folder", type=Path, nargs="?", default=None,
+                        help="RallyData folder (default: generated points, the kernel's "
+                             "fidelity)")
+    expert.add_argument("--shot", type=int, default=3,
+                        help="the shot answered, counted after the serve (default 3)")
+    expert.add_argument("--after", type=int, default=8,
+                        help="frames after the shot before it that the kernel takes over")
+    expert.add_argument("--unplayed", action="store_true",
+                        help="also the rallies whose shot never came (a ball let go or "
+                             "missed): would the kernel have struck it?")
+    expert.add_argument("--points", type=int, default=1000,
+                        help="generated points without a folder (default 1000)")
+    expert.add_argument("--seed", type=int, default=0)
+    expert.add_argument("--server", default="Roger Federer")
+    expert.add_argument("--receiver", default="Rafael Nadal")
+    expert.add_argument("--surface", default="hard", choices=["hard", "clay", "grass"])
+    expert.add_argument("--csv", type=Path, default=None, help="write the rows as CSV here")
     return ap
 
 
@@ -323,6 +401,10 @@ def main(argv: list[str] | None = None) -> int:
             return run_diagnose(args)
         if args.command == "strikes":
             return run_strikes(args)
+        if args.command == "movement":
+            return run_movement(args)
+        if args.command == "expert":
+            return run_expert(args)
         path = run_report(args)
     except UsageError as exc:
         print(f"error: {exc}", file=sys.stderr)

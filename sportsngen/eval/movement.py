@@ -1,0 +1,144 @@
+"""How a hitter moves after his own shot: teacher-forced and rolled out, against the record.
+
+After a rally ball the hitter runs back to where he waits for the next, each player to his own
+depth (in the generator, `synth.behaviour.rally_depth_m`: Nadal about 2.2 m behind his baseline
+on hard, Federer about 0.9 m). The run is a few tenths of a second of full acceleration and then
+braking, and when the braking starts is all that sets the depth he reaches, so a model that
+brakes a few frames early leaves its player a metre short, and he plays the next shots from
+there. `recovery_curves` lays three views of that run side by side, frame by frame after the
+contact of shot `shot` (1 the return):
+
+- the record: how far behind his baseline the hitter stands, his speed away from the net, and
+  the next frame's change of that speed;
+- teacher-forced: the model's expected change of that speed at the record's own states (the
+  mean over `draws` samples of its next frame), which shows a bias one frame at a time;
+- rolled out: the same depth and speed in the model's branches of the same recorded points,
+  rolled out from 3 frames after shot `shot - 1`, measured after the branch's own shot.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import torch
+from torch.utils.data import default_collate
+
+from sportsngen.data.tokens import Vocab, WindowDataset, rally_arrays
+from sportsngen.data.tracking import RallyData
+from sportsngen.eval.diagnostics import serve_branches
+from sportsngen.eval.rules import analyse_rally_data
+from sportsngen.eval.shot_branches import shot_branches, shot_outcomes
+from sportsngen.tennis.court import BASELINE_X_M
+from sportsngen.train.metrics import window_states
+
+RECOVERY_FRAMES = 45      # 1.8 s: the run back and the next ball's approach
+BIN_FRAMES = 5
+BRANCH_HORIZON_S = 4.0    # the next shot's flight and the run after it
+
+
+def _hitter_tracks(data: RallyData, rules: pd.DataFrame, shot: int, frames: int,
+                   ids=None) -> pd.DataFrame:
+    """Per rally that played shot `shot`: the hitter's distance behind his baseline and speed
+    away from the net at each of the `frames` frames from the contact (long form)."""
+    f = data.frames.merge(data.rallies[["rally_id", "server", "receiver"]], on="rally_id")
+    who = "server" if shot % 2 == 0 else "receiver"
+    f = f[f["object"] == f[who]].sort_values(["rally_id", "frame"])
+    rows = []
+    for rid, g in f.groupby("rally_id", sort=False):
+        if (ids is not None and rid not in ids) or rid not in rules.index:
+            continue
+        contacts = list(rules.loc[rid, "contact_frames"])
+        if len(contacts) <= shot:
+            continue
+        behind = np.abs(g["x"].to_numpy(float)) - BASELINE_X_M
+        c = int(contacts[shot])
+        k = np.arange(min(frames, len(behind) - 1 - c))
+        if len(k):
+            rows.append(pd.DataFrame({"rally_id": rid, "k": k, "behind_m": behind[c + k],
+                                      "speed_mps": (behind[c + k + 1] - behind[c + k])
+                                      * data.fps}))
+    if not rows:
+        return pd.DataFrame(columns=["rally_id", "k", "behind_m", "speed_mps"])
+    return pd.concat(rows, ignore_index=True)
+
+
+@torch.no_grad()
+def teacher_forced_recovery(model, vocab: Vocab, truth: RallyData, shot: int = 2,
+                            frames: int = RECOVERY_FRAMES, draws: int = 32, seed: int = 0,
+                            batch_size: int = 16, rules: pd.DataFrame | None = None
+                            ) -> pd.DataFrame:
+    """Per rally and frame k after the contact of shot `shot` (long form): the record's
+    change of the hitter's speed away from the net over the next frame (`dv_record`, m/s)
+    and the model's expected change at the same state (`dv_model`: the mean of `draws`
+    draws of its next frame). Each rally's window ends `frames` frames after the contact."""
+    rules = analyse_rally_data(truth) if rules is None else rules
+    arr = rally_arrays(truth, vocab, unknown="generic")
+    w = model.cfg.window_frames
+    ds = WindowDataset(arr, w)
+    items, contact = [], []
+    for ri, rid in enumerate(arr.rally_id):
+        contacts = list(rules.loc[rid, "contact_frames"]) if rid in rules.index else []
+        if len(contacts) <= shot or contacts[shot] + frames + 1 >= arr.length[ri]:
+            continue
+        s = max(0, int(contacts[shot]) + frames - w)
+        items.append((ri, s))
+        contact.append(int(contacts[shot]) - s)
+    if not items:
+        raise ValueError(f"no recorded rally played shot {shot} with {frames} frames after it")
+    ds.items = items
+    slot = shot % 2                   # the server (0) strikes the even shots
+    gen = torch.Generator().manual_seed(seed)
+    rows = []
+    for b0 in range(0, len(items), batch_size):
+        batch = default_collate([ds[i] for i in range(b0, min(b0 + batch_size, len(items)))])
+        h = window_states(model, batch)
+        pos, vel = batch["pos_m"], batch["vel_mps"]
+        x_next = torch.stack([model.sample_next(h, pos, vel, generator=gen)[..., slot, 0]
+                              for _ in range(draws)]).mean(0)
+        away = torch.sign(pos[..., slot, 0])
+        x = pos[..., slot, 0]
+        speed = vel[..., slot, 0] * away
+        fps = model.cfg.fps
+        dv_model = (x_next - x) * away * fps - speed
+        dv_record = (batch["next_pos_m"][..., slot, 0] - x) * away * fps - speed
+        for j in range(len(x)):
+            c = contact[b0 + j]
+            k = np.arange(frames)
+            rows.append(pd.DataFrame({"rally_id": int(arr.rally_id[items[b0 + j][0]]), "k": k,
+                                      "dv_record": dv_record[j, c + k].numpy(),
+                                      "dv_model": dv_model[j, c + k].numpy()}))
+    return pd.concat(rows, ignore_index=True)
+
+
+def recovery_curves(sim, truth: RallyData, shot: int = 2, frames: int = RECOVERY_FRAMES,
+                    bin_frames: int = BIN_FRAMES, draws: int = 32, seed: int = 0
+                    ) -> pd.DataFrame:
+    """The hitter's run after shot `shot` (module doc), in bins of `bin_frames` frames from
+    the contact: the record's `behind_m`, `speed_mps`, `dv_record`; the teacher-forced
+    `dv_model`; the branches' `branch_behind_m` and `branch_speed_mps`; and `n` / `n_branch`,
+    the rallies behind each."""
+    if shot < 1:
+        raise ValueError(f"shot counts contacts after the serve (>= 1), got {shot}")
+    if frames < bin_frames or bin_frames < 1:
+        raise ValueError(f"need frames >= bin_frames >= 1, got {frames}, {bin_frames}")
+    rules = analyse_rally_data(truth)
+    tf = teacher_forced_recovery(sim.model, sim.vocab, truth, shot, frames, draws, seed,
+                                 rules=rules)
+    rec = _hitter_tracks(truth, rules, shot, frames).merge(tf, on=["rally_id", "k"])
+    if shot == 1:
+        branches, _ = serve_branches(sim, truth, seed=seed, horizon_s=BRANCH_HORIZON_S)
+    else:
+        branches, _ = shot_branches(sim, truth, shot=shot - 1, seed=seed,
+                                    truth_out=shot_outcomes(truth, shot - 1, rules),
+                                    horizon_s=BRANCH_HORIZON_S)
+    br = _hitter_tracks(branches, analyse_rally_data(branches), shot, frames)
+    rec["bin"] = rec["k"] // bin_frames * bin_frames
+    br["bin"] = br["k"] // bin_frames * bin_frames
+    table = rec.groupby("bin").agg(n=("rally_id", "nunique"), behind_m=("behind_m", "mean"),
+                                   speed_mps=("speed_mps", "mean"),
+                                   dv_record=("dv_record", "mean"),
+                                   dv_model=("dv_model", "mean"))
+    table = table.join(br.groupby("bin").agg(n_branch=("rally_id", "nunique"),
+                                             branch_behind_m=("behind_m", "mean"),
+                                             branch_speed_mps=("speed_mps", "mean")))
+    return table.reset_index().rename(columns={"bin": "frames_after"})

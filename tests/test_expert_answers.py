@@ -1,0 +1,167 @@
+"""The generator's kernel on a rally's own states, the strike read from a track, the expert's
+flight read, and the hitter's run after his shot (teacher-forced and rolled out)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sportsngen.data.tokens import BALL, Vocab
+from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
+from sportsngen.eval.expert_answers import (
+    expert_shots,
+    first_strike,
+    lands_in,
+    simulated_expert_arrays,
+    summarise_expert_shots,
+)
+from sportsngen.synth import physics
+from sportsngen.synth.profiles import get_profile
+from sportsngen.synth.rally import play_rally
+from sportsngen.train.expert import rally_state
+
+FPS = 25.0
+
+
+def _played(seed: int, min_shots: int = 4):
+    fed, nad = get_profile("Roger Federer"), get_profile("Rafael Nadal")
+    rng = np.random.default_rng(seed)
+    while True:
+        r = play_rally(fed, nad, 1, "deuce", 1, "hard", rng)
+        if len(r.shots) >= min_shots:
+            pos = np.zeros((r.n_frames, 3, 3))
+            pos[:, BALL] = r.ball_m
+            pos[:, :BALL, :2] = np.transpose(r.players_m, (1, 0, 2))
+            return r, pos
+
+
+def test_lands_in_by_the_lines_and_the_net():
+    labels = np.array([[5.0, 0.0, 1.2, 0.0],       # deep enough, central, over the net
+                       [12.0, 0.0, 1.2, 0.0],      # long
+                       [5.0, -4.2, 1.2, 0.0],      # wide
+                       [5.0, 0.0, 0.93, 0.0],      # into the net (centre 0.914 + radius)
+                       [-0.5, 0.0, 1.2, 0.0],      # never crossed
+                       [11.885, 4.115, 0.95, 0.0],  # on both lines: in
+                       [np.nan, 0.0, 1.2, 0.0]])
+    assert lands_in(labels).tolist() == [True, False, False, False, False, True, False]
+
+
+def test_first_strike_finds_the_return_where_it_landed():
+    errors = []
+    for seed in range(6):
+        r, pos = _played(seed)
+        serve = int(round(r.shots[0].t_s * FPS))
+        got = first_strike(pos, serve + 2, FPS)
+        assert got is not None
+        frame, lab = got
+        assert -2.0 <= frame - r.shots[1].t_s * FPS <= 1.0   # the contact lies in [t, t + 2]
+        if r.shots[1].bounce_xy is not None:
+            side = np.sign(pos[frame, BALL, 0])
+            land = np.array([-side * lab[0], -side * lab[1]])   # back to the court's frame
+            errors.append(np.hypot(*(land - np.asarray(r.shots[1].bounce_xy))))
+    assert len(errors) >= 4 and max(errors) < 0.4
+    assert first_strike(pos, len(pos), FPS) is None
+
+
+def test_a_flight_handed_over_early_is_read_after_its_contact_frame():
+    # The contact frame before the racket (the rules' nearer frame may be): a fit through it
+    # put a rally ball's bounce metres off; read from the frames after it, within 0.3 m.
+    errors = []
+    for seed in range(8):
+        r, pos = _played(seed)
+        for si in range(1, len(r.shots) - 1):
+            if r.shots[si].bounce_xy is None:
+                continue
+            c = int(np.floor(r.shots[si].t_s * FPS))        # the last frame before the racket
+            state = rally_state(pos, c + 5, c, r.shots[si].hitter, si + 1, FPS)
+            if state is None or state.bounces:
+                continue
+            flight = physics.fly(state.ball_m, state.ball_vel_mps, state.ball_spin_mps, "hard",
+                                 3.0, max_bounces=1, net=False)
+            b = flight.first_bounce()
+            errors.append(np.hypot(*(b.pos_m[:2] - np.asarray(r.shots[si].bounce_xy))))
+    assert len(errors) >= 10
+    assert max(errors) < 0.3
+
+
+@pytest.fixture(scope="module")
+def generated():
+    return truth_points(DiagnosticsSetup(n_points=80, seed=2))
+
+
+def test_expert_shots_on_the_record_agree_with_it(generated):
+    rows = expert_shots(generated, shot=2, seed=0)
+    rally, expert = rows[rows["who"] == "rally"], rows[rows["who"] == "expert"]
+    assert len(rally) == len(expert) > 15
+    assert rally["struck"].all()                         # only rallies that played shot 2
+    assert expert["struck"].mean() > 0.8                 # the kernel answers the record's states
+    assert (expert.loc[~expert["struck"], "expert_end"] != "").all()
+    assert (rally["expert_end"] == "").all()
+    assert (rows.loc[~rows["struck"], "in_play"] == False).all()  # noqa: E712
+    table = summarise_expert_shots(rows)
+    assert set(table["who"]) == {"rally", "expert"}
+    assert table["n"].sum() == len(rows)
+    with pytest.raises(ValueError, match=">= 2"):
+        expert_shots(generated, shot=1)
+    with pytest.raises(ValueError, match="after_frames"):
+        expert_shots(generated, shot=2, after_frames=2)
+
+
+def test_simulated_expert_arrays_keep_the_point_up_to_the_hand_over(generated):
+    vocab = Vocab.from_data(generated)
+    arr, counts = simulated_expert_arrays(generated, vocab, (2, 3), keep_frames=20)
+    assert counts["answered"] == len(arr.length) > 15
+    assert counts["states"] >= counts["answered"]
+    from sportsngen.data.tokens import rally_arrays
+
+    src = rally_arrays(generated, vocab, unknown="generic")
+    for i in range(len(arr.length)):
+        h = int(arr.learn_from[i])
+        track = arr.pos_m[arr.start[i]:arr.start[i] + arr.length[i]]
+        assert arr.length[i] <= h + 1 + 20
+        # The context is one of the point's own tracks up to the hand-over.
+        matches = [k for k in range(len(src.length)) if src.length[k] > h
+                   and np.allclose(src.pos_m[src.start[k]:src.start[k] + h + 1], track[:h + 1])]
+        assert matches
+
+
+def test_recovery_curves_read_the_record_exactly_and_branch_the_model(tiny_model_file):
+    from sportsngen.eval.movement import _hitter_tracks, recovery_curves, teacher_forced_recovery
+    from sportsngen.eval.rules import analyse_rally_data
+    from sportsngen.sim import Simulator
+
+    sim = Simulator.from_pretrained(tiny_model_file, max_retries=0)
+    truth = truth_points(DiagnosticsSetup(n_points=30, seed=3))
+    rules = analyse_rally_data(truth)
+    tf = teacher_forced_recovery(sim.model, sim.vocab, truth, shot=2, frames=10, draws=2,
+                                 rules=rules)
+    rec = _hitter_tracks(truth, rules, 2, 10).merge(tf, on=["rally_id", "k"])
+    assert rec["rally_id"].nunique() >= 5 and np.isfinite(rec["dv_model"]).all()
+    # The record's change of speed is the next step's speed less this one's, both read from
+    # the server's own track (the model's input velocity is the backward difference).
+    for _, g in rec.groupby("rally_id"):
+        g = g.sort_values("k")
+        np.testing.assert_allclose(g["dv_record"].to_numpy()[1:],
+                                   np.diff(g["speed_mps"].to_numpy()), atol=2e-3)
+    table = recovery_curves(sim, truth, shot=2, frames=10, bin_frames=5, draws=2)
+    assert table["frames_after"].tolist() == [0, 5]
+    assert (table["n"] == rec["rally_id"].nunique()).all()
+    # The tiny model's branches seldom reach a shot of their own: its columns are there, empty
+    # where no branch struck shot 2, and never disagree with their count.
+    assert {"n_branch", "branch_behind_m", "branch_speed_mps"} <= set(table.columns)
+    assert (table["n_branch"].isna() == table["branch_behind_m"].isna()).all()
+    np.testing.assert_allclose(table["behind_m"].iloc[0],
+                               rec.loc[rec["k"] < 5, "behind_m"].mean(), rtol=1e-9)
+    with pytest.raises(ValueError, match="after the serve"):
+        recovery_curves(sim, truth, shot=0)
+
+
+def test_the_command_line_refuses_bad_shots(tmp_path, capsys):
+    from sportsngen.eval.__main__ import main
+
+    assert main(["movement", "--shot", "0"]) == 2
+    assert "--shot" in capsys.readouterr().err
+    assert main(["expert", str(tmp_path / "absent")]) == 2
+    assert "no tracking folder" in capsys.readouterr().err
+    assert main(["expert", "--points", "20", "--shot", "1"]) == 2
+    assert ">= 2" in capsys.readouterr().err
