@@ -107,6 +107,7 @@ def main() -> None:
     print(json.dumps(counts))
     print(f"wrote {path}")
 
+
 def from_sims(args: argparse.Namespace) -> None:
     """`--from-sims`: the kernel's answers on saved simulated points."""
     from sportsngen.data.tokens import RallyArrays

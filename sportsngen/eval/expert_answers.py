@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from sportsngen.data.tokens import BALL, Vocab, rally_arrays
+from sportsngen.data.tokens import BALL, RallyArrays, Vocab, rally_arrays
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.model import strike
@@ -83,14 +83,14 @@ def _shot_row(track_m: np.ndarray, from_frame: int, fps: float) -> dict:
 
 
 def kernel_answers(data: RallyData, shots: tuple[int, ...], after_frames: int = AFTER_FRAMES,
-                   seed: int = 0, profiles: dict | None = None, vocab: Vocab | None = None,
-                   counts: dict | None = None):
+                   seed: int = 0, profiles: dict | None = None,
+                   arrays: RallyArrays | None = None, counts: dict | None = None):
     """The kernel handed each rally of `data` `after_frames` frames after shot `j - 1`, for
     each `j` of `shots` (1 the return) the rally reached with its ball still in flight then,
     whether or not the rally went on to play shot `j`. Yields (rally position in the arrays,
     rally row, its contact frames, j, hand-over frame h, the rally's track (T, 3, 3), the
-    kernel's `RallyResult`) in rally order; the arrays are `rally_arrays(data, vocab)`
-    (default a vocabulary of the data). `profiles`: player name -> generator profile (default
+    kernel's `RallyResult`) in rally order; `arrays` are `rally_arrays(data, ...)` (default
+    with a vocabulary of the data). `profiles`: player name -> generator profile (default
     the named players'); rallies of other players, and states the kernel cannot read or
     refuses, are skipped and counted in `counts` (keys states, other_players, no_flight,
     kernel_refused, answered)."""
@@ -107,8 +107,8 @@ def kernel_answers(data: RallyData, shots: tuple[int, ...], after_frames: int = 
     for k in ("states", "other_players", "no_flight", "kernel_refused", "answered"):
         counts.setdefault(k, 0)
     rules = analyse_rally_data(data)
-    arr = rally_arrays(data, Vocab.from_data(data) if vocab is None else vocab,
-                       unknown="generic")
+    arr = rally_arrays(data, Vocab.from_data(data), unknown="generic") if arrays is None \
+        else arrays
     rallies = data.rallies.set_index("rally_id")
     rng = np.random.default_rng(seed)
     fps = float(data.fps)
@@ -189,7 +189,7 @@ def simulated_expert_arrays(data: RallyData, vocab: Vocab, shots: tuple[int, ...
     arr = rally_arrays(data, vocab, unknown="generic")
     kept = []
     for ri, _, _, _, h, track, res in kernel_answers(data, shots, after_frames, seed,
-                                                     profiles, vocab, counts):
+                                                     profiles, arr, counts):
         near = arr.near_contact[arr.start[ri]:arr.start[ri] + h + 1]
         kept.append((*_answered(track[:h + 1].astype(np.float32), res, keep_frames,
                                 float(data.fps), near), h, ri))
