@@ -10,11 +10,11 @@ from sportsngen.data.tokens import BALL, Vocab
 from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
 from sportsngen.eval.expert_answers import (
     expert_shots,
-    first_strike,
     lands_in,
     simulated_expert_arrays,
     summarise_expert_shots,
 )
+from sportsngen.eval.shot_profile import first_strike
 from sportsngen.synth import physics
 from sportsngen.synth.profiles import get_profile
 from sportsngen.synth.rally import play_rally
@@ -51,7 +51,7 @@ def test_first_strike_finds_the_return_where_it_landed():
     for seed in range(6):
         r, pos = _played(seed)
         serve = int(round(r.shots[0].t_s * FPS))
-        got = first_strike(pos, serve + 2, FPS)
+        got = first_strike(pos[:, BALL], serve + 2, FPS)
         assert got is not None
         frame, lab = got
         assert -2.0 <= frame - r.shots[1].t_s * FPS <= 1.0   # the contact lies in [t, t + 2]
@@ -60,7 +60,8 @@ def test_first_strike_finds_the_return_where_it_landed():
             land = np.array([-side * lab[0], -side * lab[1]])   # back to the court's frame
             errors.append(np.hypot(*(land - np.asarray(r.shots[1].bounce_xy))))
     assert len(errors) >= 4 and max(errors) < 0.4
-    assert first_strike(pos, len(pos), FPS) is None
+    assert first_strike(pos[:, BALL], len(pos), FPS) is None
+    assert first_strike(pos[:, BALL], serve + 2, FPS, last_frame=serve + 3) is None
 
 
 def test_a_flight_handed_over_early_is_read_after_its_contact_frame():

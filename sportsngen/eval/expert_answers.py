@@ -24,7 +24,7 @@ import pandas as pd
 from sportsngen.data.tokens import BALL, RallyArrays, Vocab, rally_arrays
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.rules import analyse_rally_data
-from sportsngen.model import strike
+from sportsngen.eval.shot_profile import first_strike, hitter_behind_m
 from sportsngen.tennis.court import (
     BALL_RADIUS_M,
     BASELINE_X_M,
@@ -46,40 +46,15 @@ def lands_in(labels: np.ndarray) -> np.ndarray:
                 & (labels[..., 2] > NET_HEIGHT_CENTRE_M + BALL_RADIUS_M))
 
 
-def first_strike(track_m: np.ndarray, from_frame: int, fps: float
-                 ) -> tuple[int, np.ndarray] | None:
-    """(T, 3 objects, 3) a rally's track -> (frame, its `strike.strike_labels`) of the first
-    rally strike at or after `from_frame` whose frames are there to read, or None. The strike
-    is looked for between a frame's incoming step and the step after the next one, and read
-    from the frames after that: a contact in the middle of a step mixes the ball's way in and
-    out, and that step alone may not show a strike."""
-    b = np.asarray(track_m[:, BALL], dtype=float)
-    lo = max(int(from_frame), 1)
-    hi = len(b) - 5
-    if hi < lo:
-        return None
-    t = np.arange(lo, hi + 1)
-    out_step = b[t + 2] - b[t + 1]
-    hit = strike.is_strike(b[t], (b[t] - b[t - 1]) * fps, b[t] + out_step, fps)
-    if not hit.any():
-        return None
-    k = int(t[np.argmax(hit)])
-    side = np.sign(b[k:k + 1, 0])
-    return k, strike.strike_labels(b[None, k + 2:k + 5], side, fps)[0]
-
-
 def _shot_row(track_m: np.ndarray, from_frame: int, fps: float) -> dict:
-    """`SHOT_COLUMNS` of the first strike at or after `from_frame` of a track."""
-    got = first_strike(track_m, from_frame, fps)
+    """`SHOT_COLUMNS` of the first strike at or after `from_frame` of a (T, 3, 3) track."""
+    got = first_strike(track_m[:, BALL], from_frame, fps)
     if got is None:
         return {"struck": False, "in_play": False, **{c: np.nan for c in SHOT_COLUMNS[2:]}}
     k, lab = got
-    side = np.sign(track_m[k, BALL, 0])
-    xs = np.asarray(track_m[k, :BALL, 0], dtype=float)
-    mine = xs[np.sign(xs) == side]
     return {"struck": True, "in_play": bool(lands_in(lab)), "net_height_m": float(lab[2]),
             "depth_m": float(lab[0]), "side_m": float(abs(lab[1])),
-            "hitter_behind_m": float(side * mine[0] - BASELINE_X_M) if len(mine) else np.nan}
+            "hitter_behind_m": hitter_behind_m(track_m[k, :BALL, 0], track_m[k, BALL, 0])}
 
 
 def kernel_answers(data: RallyData, shots: tuple[int, ...], after_frames: int = AFTER_FRAMES,

@@ -25,10 +25,39 @@ PROFILE_COLUMNS = ("n", "in_play", "answered", "depth_m", "side_m", "net_height_
                    "speed_mps", "hitter_behind_m")
 
 
+def first_strike(ball_m: np.ndarray, from_frame: int, fps: float,
+                 last_frame: int | None = None) -> tuple[int, np.ndarray] | None:
+    """(T, 3) a ball's track -> (frame t, the `strike.strike_labels` of its frames t + 2 ..
+    t + 4) of the first rally strike at a frame t from `from_frame` (to `last_frame`) whose
+    frames are there to read, or None. The strike is looked for between a frame's incoming
+    step and the step after the next one: a contact in the middle of a step mixes the ball's
+    way in and out, and that step alone may not show a strike."""
+    b = np.asarray(ball_m, dtype=float)
+    lo = max(int(from_frame), 1)
+    hi = len(b) - 5 if last_frame is None else min(int(last_frame), len(b) - 5)
+    if hi < lo:
+        return None
+    t = np.arange(lo, hi + 1)
+    hit = strike.is_strike(b[t], (b[t] - b[t - 1]) * fps, b[t] + (b[t + 2] - b[t + 1]), fps)
+    if not hit.any():
+        return None
+    k = int(t[np.argmax(hit)])
+    return k, strike.strike_labels(b[None, k + 2:k + 5], np.sign(b[k:k + 1, 0]), fps)[0]
+
+
+def hitter_behind_m(players_x_m: np.ndarray, ball_x_m: float) -> float:
+    """How far behind his baseline the player on the ball's half stands (m; NaN: nobody)."""
+    side = np.sign(ball_x_m)
+    xs = np.asarray(players_x_m, dtype=float)
+    mine = xs[np.sign(xs) == side]
+    return float(side * mine[0] - BASELINE_X_M) if len(mine) else np.nan
+
+
 def _strike_rows(data: RallyData, rules: pd.DataFrame, max_shot: int) -> pd.DataFrame:
-    """One row per rally strike up to shot `max_shot` whose three next frames exist: its shot,
-    its `strike.strike_labels`, its speed, and how far behind his baseline the hitter (the
-    player on the ball's half) stood."""
+    """One row per rally strike up to shot `max_shot` whose frames exist (`first_strike`
+    within two frames before and one after the rules' contact, which they put on the nearer
+    frame of its step): its shot, its `strike.strike_labels`, its speed, and how far behind his
+    baseline the hitter stood."""
     f = data.frames.sort_values(["rally_id", "frame"])
     is_ball = (f["object"] == "ball").to_numpy()
     balls = dict(tuple(f[is_ball].groupby("rally_id", sort=False)))
@@ -45,27 +74,19 @@ def _strike_rows(data: RallyData, rules: pd.DataFrame, max_shot: int) -> pd.Data
                 continue          # the serve, struck from a toss
             if shot > max_shot:
                 break
-            # The rules put a contact on the nearer frame of its step; the strike is read on
-            # the last frame whose step still comes in.
-            for tt in (t - 1, t, t + 1):
-                if tt < 1 or tt + 4 > len(b):
-                    continue
-                v = (b[tt] - b[tt - 1]) * data.fps
-                if strike.is_strike(b[tt], v, b[tt + 1], data.fps):
-                    side = float(np.sign(b[tt, 0]))
-                    xs = pl.loc[pl["frame"] == first + tt, "x"].to_numpy(float)
-                    mine = xs[np.sign(xs) == side]
-                    behind = side * mine[0] - BASELINE_X_M if len(mine) else np.nan
-                    rows.append((shot, b[tt + 1:tt + 4], side,
-                                 float(np.linalg.norm(b[tt + 2] - b[tt + 1]) * data.fps), behind))
-                    break
+            got = first_strike(b, t - 2, data.fps, last_frame=t + 1)
+            if got is None:
+                continue
+            k, lab = got
+            behind = hitter_behind_m(pl.loc[pl["frame"] == first + k, "x"].to_numpy(float),
+                                     b[k, 0])
+            rows.append((shot, *lab[:3], float(np.linalg.norm(b[k + 3] - b[k + 2]) * data.fps),
+                         behind))
     if not rows:
         return pd.DataFrame(columns=["shot", *PROFILE_COLUMNS[3:]])
-    shots, after, side, speed, behind = zip(*rows)
-    lab = strike.strike_labels(np.stack(after), np.array(side), data.fps)
-    return pd.DataFrame({"shot": shots, "depth_m": lab[:, 0], "side_m": np.abs(lab[:, 1]),
-                         "net_height_m": lab[:, 2], "speed_mps": speed,
-                         "hitter_behind_m": behind})
+    shot, depth, lateral, net, speed, behind = (np.array(c) for c in zip(*rows))
+    return pd.DataFrame({"shot": shot, "depth_m": depth, "side_m": np.abs(lateral),
+                         "net_height_m": net, "speed_mps": speed, "hitter_behind_m": behind})
 
 
 def shot_profile(data: RallyData, max_shot: int = 6,
