@@ -281,6 +281,39 @@ def run_expert(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_reach(args: argparse.Namespace) -> int:
+    """Who reaches the ball, by how far he had to go: prints a table per folder (or for
+    generated points)."""
+    import time
+
+    from sportsngen.eval.reach import answered_by_need, reach_rows, toward_speeds
+
+    sources = [(str(f), lambda f=f: load_tracking(f, "reach")) for f in args.folders]
+    if not sources:
+        from sportsngen.synth import generate_matches
+
+        if args.points < 20:
+            raise UsageError(f"--points must be >= 20, got {args.points}")
+        sources = [(f"{args.points} generated points of {args.server} v {args.receiver}",
+                    lambda: generate_matches([(args.server, args.receiver)], args.surface,
+                                             n_points=args.points, seed=args.seed, workers=1))]
+    for what, load in sources:
+        t0 = time.perf_counter()
+        rows = reach_rows(load())
+        try:
+            table = answered_by_need(rows)
+        except ValueError as exc:
+            raise UsageError(f"reach: {what}: {exc}") from exc
+        speeds = toward_speeds(rows)
+        fmt = {"index": False, "float_format": lambda v: f"{v:.3f}"}
+        notes = ("by the mean speed the ball asks for (its need over the time it gives):",
+                 answered_by_need(rows, by="need_speed_mps").to_string(**fmt),
+                 "mean speed toward the ball's nearest point (m/s), needs of 3-7 m:",
+                 speeds.to_string(index=False, float_format=lambda v: f"{v:.2f}"))
+        _print_table(table, None, f"({time.perf_counter() - t0:.0f} s, {what})", notes)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="python -m sportsngen.eval",
                                  description="Realism evaluation of simulated tennis tracking.")
@@ -370,8 +403,15 @@ def build_parser() -> argparse.ArgumentParser:
     move.add_argument("--shot", type=int, default=2,
                       help="the hitter's shot, counted after the serve (default 2: the "
                            "server's first rally ball)")
-    expert = sub.add_parser("expert", help="the generator's players on a folder's own rally "
-                                           "states: their next shot beside the folder's")
+    # Generated points where no folder is given (expert, reach).
+    generated = argparse.ArgumentParser(add_help=False)
+    generated.add_argument("--seed", type=int, default=0)
+    generated.add_argument("--server", default="Roger Federer")
+    generated.add_argument("--receiver", default="Rafael Nadal")
+    generated.add_argument("--surface", default="hard", choices=["hard", "clay", "grass"])
+    expert = sub.add_parser("expert", parents=[generated],
+                            help="the generator's players on a folder's own rally states: "
+                                 "their next shot beside the folder's")
     expert.add_argument("folder", type=Path, nargs="?", default=None,
                         help="RallyData folder (default: generated points, the kernel's "
                              "fidelity)")
@@ -384,11 +424,14 @@ def build_parser() -> argparse.ArgumentParser:
                              "missed): would the kernel have struck it?")
     expert.add_argument("--points", type=int, default=1000,
                         help="generated points without a folder (default 1000)")
-    expert.add_argument("--seed", type=int, default=0)
-    expert.add_argument("--server", default="Roger Federer")
-    expert.add_argument("--receiver", default="Rafael Nadal")
-    expert.add_argument("--surface", default="hard", choices=["hard", "clay", "grass"])
     expert.add_argument("--csv", type=Path, default=None, help="write the rows as CSV here")
+    reach = sub.add_parser("reach", parents=[generated],
+                           help="who reaches the ball: the good rally balls answered, by how "
+                                "far the player had to go and how fast")
+    reach.add_argument("folders", type=Path, nargs="*",
+                       help="RallyData folders (default: generated points)")
+    reach.add_argument("--points", type=int, default=500,
+                       help="generated points without a folder (default 500)")
     return ap
 
 
@@ -405,6 +448,8 @@ def main(argv: list[str] | None = None) -> int:
             return run_movement(args)
         if args.command == "expert":
             return run_expert(args)
+        if args.command == "reach":
+            return run_reach(args)
         path = run_report(args)
     except UsageError as exc:
         print(f"error: {exc}", file=sys.stderr)

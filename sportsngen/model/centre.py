@@ -59,6 +59,20 @@ def flight_acceleration_mps2(vel_mps: torch.Tensor) -> torch.Tensor:
     return acc
 
 
+def read_lift_mps2(vel_mps: torch.Tensor, prev_vel_mps: torch.Tensor,
+                   fps: float) -> tuple[torch.Tensor, torch.Tensor]:
+    """The lift (spin's acceleration) read from the track's second difference and carried to
+    the current frame (`turned_lift_mps2`), and (..., 1) bool where that reading is a flight
+    (module doc; elsewhere the lift means nothing)."""
+    base = flight_acceleration_mps2(vel_mps)
+    track = (vel_mps - prev_vel_mps) * fps
+    speed2 = (vel_mps * vel_mps).sum(dim=-1, keepdim=True)
+    limit = torch.clamp(MAX_LIFT_PER_M * speed2, max=MAX_LIFT_MPS2)
+    flight = torch.linalg.vector_norm(track - base, dim=-1, keepdim=True) <= limit
+    lift = track - flight_acceleration_mps2(0.5 * (prev_vel_mps + vel_mps))
+    return turned_lift_mps2(lift, prev_vel_mps, vel_mps), flight
+
+
 def ball_acceleration_mps2(vel_mps: torch.Tensor, prev_vel_mps: torch.Tensor | None,
                            fps: float) -> torch.Tensor:
     """The ball's acceleration over the next frame (..., 3): the track's second difference
@@ -66,18 +80,14 @@ def ball_acceleration_mps2(vel_mps: torch.Tensor, prev_vel_mps: torch.Tensor | N
     base = flight_acceleration_mps2(vel_mps)
     if prev_vel_mps is None:
         return base
-    track = (vel_mps - prev_vel_mps) * fps
-    speed2 = (vel_mps * vel_mps).sum(dim=-1, keepdim=True)
-    limit = torch.clamp(MAX_LIFT_PER_M * speed2, max=MAX_LIFT_MPS2)
-    flight = torch.linalg.vector_norm(track - base, dim=-1, keepdim=True) <= limit
     # The second difference is the acceleration at frame t - 1, where the velocity is the
     # mean of the two; the step (velocity at t - 1/2 to t + 1/2) needs it at frame t, one frame
     # later, by when drag has eased with the speed: uncorrected, a 30 m/s ball's step missed by
     # 1.1 mm, more than the centre bin's half-width (0.9 mm in x at 61 non-uniform bins);
     # corrected, by 0.3 mm.
-    lift = track - flight_acceleration_mps2(0.5 * (prev_vel_mps + vel_mps))
+    lift, flight = read_lift_mps2(vel_mps, prev_vel_mps, fps)
     at_t = flight_acceleration_mps2(1.5 * vel_mps - 0.5 * prev_vel_mps)
-    return torch.where(flight, at_t + turned_lift_mps2(lift, prev_vel_mps, vel_mps), base)
+    return torch.where(flight, at_t + lift, base)
 
 
 def _lift_direction(vel_mps: torch.Tensor) -> torch.Tensor:

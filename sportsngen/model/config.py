@@ -53,6 +53,12 @@ class ModelConfig:
     # relation the attention has to find between the ball's and the server's tokens
     # (docs/evaluation.md, eleventh part). Physics and the court are the same either way.
     frame: str = "world"
+    # The ball's flight forecast (`sportsngen.model.forecast`: where it will be 0.4 and 0.8 s
+    # on and where it will bounce, by gravity, drag and the spin read from the track) as extra
+    # input columns of each player's token, from where he stands, computed by the model from
+    # the ball's own features: the reading of a flight that a player runs on, given rather
+    # than learned.
+    ball_forecast: bool = False
     # Each ball bin split again into this many equal parts by a head of its own
     # (`heads.SubBinHead`, p(part | bins)), 0: none, uniform inside the bin. A strike's offset
     # lies where the bins are 10-17 cm wide, and a track drawn uniformly inside them puts

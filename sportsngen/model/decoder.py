@@ -31,6 +31,7 @@ from sportsngen.model.bins import Bins
 from sportsngen.model.centre import object_centres_m
 from sportsngen.model.config import FEATURE_GROUPS, ModelConfig
 from sportsngen.model.embedding import ContextEmbedding, ObjectEmbedding, run_mlp
+from sportsngen.model.forecast import FORECAST_FEATURES, forecast_columns
 from sportsngen.model.heads import FactorisedHead, SubBinHead, make_head
 from sportsngen.model.sampling import uniform_in_bin
 
@@ -139,6 +140,9 @@ class KVCache:
     n_ctx: int
     n_frames: int             # frames seen so far (the ring holds the last max_frames of them)
     max_frames: int
+    # The last frame's object features (B, 3, F), for the ball's forecast (its spin is read
+    # from two velocities); None before the first frame.
+    last_feats: torch.Tensor | None = None
 
     @property
     def n_keys(self) -> int:
@@ -148,7 +152,8 @@ class KVCache:
     def select(self, idx: torch.Tensor) -> KVCache:
         """The cache of the batch rows `idx` (the rollout compacts finished rallies away)."""
         return KVCache([k[idx] for k in self.k], [v[idx] for v in self.v], self.ident[idx],
-                       self.n_ctx, self.n_frames, self.max_frames)
+                       self.n_ctx, self.n_frames, self.max_frames,
+                       None if self.last_feats is None else self.last_feats[idx])
 
 
 def _empty_ring(ctx_kv: torch.Tensor, max_frames: int) -> torch.Tensor:
@@ -170,7 +175,7 @@ class SportsNGEN(nn.Module):
         super().__init__()
         self.cfg = cfg
         self._compiled_step = None      # `compile_step`
-        self.embed = ObjectEmbedding(cfg)
+        self.embed = ObjectEmbedding(cfg, n_extra=FORECAST_FEATURES if cfg.ball_forecast else 0)
         self.context = ContextEmbedding(cfg)
         self.blocks = nn.ModuleList(Block(cfg.d_model, cfg.n_heads, cfg.ff_mult, cfg.dropout,
                                           cfg.attn_dropout)
@@ -228,6 +233,22 @@ class SportsNGEN(nn.Module):
             return feats
         return torch.where(sign < 0, feats * self._turn.to(feats.dtype), feats)
 
+    def _embed(self, feats: torch.Tensor, ident: torch.Tensor,
+               before: torch.Tensor | None = None) -> torch.Tensor:
+        """Object features (B, T, 3, N_FEATURES) in the world (and the frame before the first's,
+        (B, 3, N_FEATURES) or None) -> token embeddings; with `ball_forecast`, the ball's flight
+        forecast in the players' tokens (`forecast.forecast_columns`), read in the model's
+        frame: flight is the same physics at either end."""
+        if not self.cfg.ball_forecast:
+            return self.embed(self._frame_features(feats), ident)
+        if before is None:
+            before = torch.full_like(feats[:, 0], float("nan"))
+        prev = torch.cat([before[:, None], feats[:, :-1]], dim=1)
+        feats = self._frame_features(feats)
+        # The frame before turned as its own frame: NaN rows stay NaN.
+        prev = torch.where(torch.isnan(prev), prev, self._frame_features(prev.nan_to_num()))
+        return self.embed(feats, ident, forecast_columns(feats, prev, self.cfg.fps))
+
     def context_tokens(self, surface, tournament, serve, score) -> torch.Tensor:
         return self.context(surface, tournament, serve, score)
 
@@ -238,8 +259,7 @@ class SportsNGEN(nn.Module):
         ctx (B, 4, d) context tokens -> h (B, T, 3, d) output states [, KVCache after them]."""
         b, t, k, _ = feats.shape
         ident = self._ident(ident)
-        feats = self._frame_features(feats)
-        x = torch.cat([ctx, self.embed(feats, ident).reshape(b, t * k, -1)], dim=1)
+        x = torch.cat([ctx, self._embed(feats, ident).reshape(b, t * k, -1)], dim=1)
         mask = baller2vec_mask(ctx.shape[1], t, k, device=x.device,
                                window_frames=self.cfg.window_frames)
         ks, vs = [], []
@@ -262,7 +282,7 @@ class SportsNGEN(nn.Module):
                 ring[:, :, slots] = m[:, :, src]
                 layer.append(ring)
             rings.append(layer)
-        return h, KVCache(rings[0], rings[1], ident, n_ctx, t, w)
+        return h, KVCache(rings[0], rings[1], ident, n_ctx, t, w, feats[:, -1])
 
     # --- incremental -----------------------------------------------------------------------
     def init_cache(self, ident: torch.Tensor, ctx: torch.Tensor) -> KVCache:
@@ -282,15 +302,19 @@ class SportsNGEN(nn.Module):
         lo = cache.n_ctx + N_OBJECTS * (cache.n_frames % cache.max_frames)
         cache.n_frames += 1
         step = self._compiled_step if self._compiled_step is not None else self.step_tokens
-        return step(new_frame_feats, cache.ident, cache.k, cache.v, lo, cache.n_keys), cache
+        h = step(new_frame_feats, cache.ident, cache.k, cache.v, lo, cache.n_keys,
+                 cache.last_feats)
+        cache.last_feats = new_frame_feats
+        return h, cache
 
     def step_tokens(self, new_frame_feats: torch.Tensor, ident: torch.Tensor,
                     k_rings: list[torch.Tensor], v_rings: list[torch.Tensor], lo: int,
-                    n_keys: int) -> torch.Tensor:
+                    n_keys: int, last_feats: torch.Tensor | None = None) -> torch.Tensor:
         """The cached step's computation (see `forward_step`): writes the frame's keys/values
-        into ring slots lo:lo+3 of every layer and returns the output states (B, 3, d)."""
+        into ring slots lo:lo+3 of every layer and returns the output states (B, 3, d).
+        `last_feats`: the frame before's features (the ball's forecast reads its spin)."""
         b = new_frame_feats.shape[0]
-        x = self.embed(self._frame_features(new_frame_feats[:, None]), ident)
+        x = self._embed(new_frame_feats[:, None], ident, last_feats)
         x = x.reshape(b, N_OBJECTS, -1)
         for blk, k_ring, v_ring in zip(self.blocks, k_rings, v_rings):
             x = blk.step(x, k_ring, v_ring, lo, n_keys)

@@ -56,19 +56,25 @@ class ObjectEmbedding(nn.Module):
     for `embed.identity` (fine-tuning) keeps working; nothing is concatenated then.
     """
 
-    def __init__(self, cfg: ModelConfig, with_identity: bool = True, d_model: int | None = None):
+    def __init__(self, cfg: ModelConfig, with_identity: bool = True, d_model: int | None = None,
+                 n_extra: int = 0):
         super().__init__()
         self.with_identity = with_identity
         d = d_model or cfg.d_model
         cols = feature_columns(cfg.features)
         # None keeps the full-feature path exactly the pre-ablation computation (no gather).
         self.columns = None if len(cols) == N_FEATURES else cols
-        in_dim = len(cols) + (cfg.id_dim if with_identity else 0)
+        # `n_extra` columns computed by the model from the features (the ball's forecast,
+        # `sportsngen.model.forecast`) come last, so a model given them later starts from the
+        # same function with zero weights on them (`widen_for_extra`).
+        in_dim = len(cols) + (cfg.id_dim if with_identity else 0) + n_extra
         self.identity = nn.Embedding(cfg.n_ids, cfg.id_dim) if with_identity else None
         self.mlp = mlp([in_dim, *cfg.embed_hidden, d], cfg.dropout)
 
-    def forward(self, feats: torch.Tensor, ident: torch.Tensor | None = None) -> torch.Tensor:
-        """(B, T, K, N_FEATURES) features, (B, K) identity indices -> (B, T, K, d)."""
+    def forward(self, feats: torch.Tensor, ident: torch.Tensor | None = None,
+                extra: torch.Tensor | None = None) -> torch.Tensor:
+        """(B, T, K, N_FEATURES) features, (B, K) identity indices, (B, T, K, n_extra) extra
+        columns or None -> (B, T, K, d)."""
         if self.columns is not None:
             feats = feats[..., self.columns]
         if self.identity is not None:
@@ -77,7 +83,17 @@ class ObjectEmbedding(nn.Module):
             if self.identity.embedding_dim > 0:
                 e = F.embedding(ident, self.identity.weight)[:, None]
                 feats = torch.cat([e.expand(*feats.shape[:-1], -1), feats], dim=-1)
+        if extra is not None:
+            feats = torch.cat([feats, extra.to(feats.dtype)], dim=-1)
         return run_mlp(self.mlp, feats)
+
+
+def widen_for_extra(state: dict, prefix: str, n_extra: int) -> dict:
+    """A state dict whose `ObjectEmbedding` at `prefix` (e.g. "embed.") takes `n_extra` more
+    input columns, with zero weights on them: the widened model computes what the old one did."""
+    key = f"{prefix}mlp.0.weight"
+    w = state[key]
+    return {**state, key: torch.cat([w, w.new_zeros(w.shape[0], n_extra)], dim=1)}
 
 
 class ContextEmbedding(nn.Module):

@@ -12,6 +12,7 @@ from sportsngen.data.tokens import BALL, Vocab, check_finite, object_features
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.model.event_classifier import EventClassifier
+from sportsngen.model.forecast import FORECAST_FEATURES
 from sportsngen.train.closed_loop import ClosedLoopConfig, mix_closed_loop
 from sportsngen.train.metrics import NextFrameMetrics, window_states
 
@@ -65,15 +66,45 @@ PLAYER_TOKEN_WEIGHTS = {"onset_weight": movement_onsets, "change_weight": moveme
 TOKEN_WEIGHTS = ("contact_weight", *PLAYER_TOKEN_WEIGHTS)
 
 
+# `train_only` name of the ball forecast's input weights alone (`model.ball_forecast`).
+FORECAST_ONLY = "forecast"
+
+
 def freeze_except(model: torch.nn.Module, prefix: str) -> None:
     """Freeze every parameter whose name does not start with `prefix` (`train_only`: e.g. a
-    new sub-bin head trained on a trained decoder, which stays as it was)."""
-    names = [n for n, _ in model.named_parameters() if n.startswith(prefix)]
-    if not names:
-        tops = sorted({n.split(".")[0] for n, _ in model.named_parameters()})
-        raise ValueError(f"train_only={prefix!r} names no parameter; the model's parts: {tops}")
-    for n, p in model.named_parameters():
-        p.requires_grad_(n.startswith(prefix))
+    new sub-bin head trained on a trained decoder, which stays as it was); several prefixes
+    joined by "+" (Hydra reads a comma as a sweep). `FORECAST_ONLY` stands for the object
+    embedding's weights on the ball forecast's columns alone (the rest of that layer's
+    gradient is masked; train them without weight decay, which would move the rest)."""
+    parts = [p.strip() for p in prefix.split("+") if p.strip()]
+    for p in model.parameters():
+        p.requires_grad_(False)
+    for part in parts:
+        if part == FORECAST_ONLY:
+            if not model.cfg.ball_forecast:
+                raise ValueError("train_only=forecast needs a model with model.ball_forecast "
+                                 "(init_ball_forecast=true)")
+            w = model.embed.mlp[0].weight
+            mask = torch.zeros_like(w)
+            mask[:, -FORECAST_FEATURES:] = 1.0
+            w.requires_grad_(True)
+            w.register_hook(lambda g, mask=mask: g * mask)
+            continue
+        names = [n for n, _ in model.named_parameters() if n.startswith(part)]
+        if not names:
+            tops = sorted({n.split(".")[0] for n, _ in model.named_parameters()})
+            raise ValueError(f"train_only={part!r} names no parameter; the model's parts: "
+                             f"{tops}")
+        for n, p in model.named_parameters():
+            if n.startswith(part):
+                p.requires_grad_(True)
+
+
+def training_parts(train_only: str) -> list[str]:
+    """The top-level modules that `train_only` trains, run in training mode (dropout) while
+    the frozen rest runs as at inference; the forecast's columns run with their layer."""
+    return [p.strip().split(".")[0] for p in train_only.split("+")
+            if p.strip() and p.strip() != FORECAST_ONLY]
 
 
 class DecoderModule(L.LightningModule):
@@ -194,7 +225,8 @@ class DecoderModule(L.LightningModule):
             # The frozen decoder runs as at inference (no dropout): the part that learns is
             # fitted to the states it will be given.
             self.model.eval()
-            self.model.get_submodule(self.hparams.train_only.split(".")[0]).train()
+            for part in training_parts(self.hparams.train_only):
+                self.model.get_submodule(part).train()
         if self._t0 is None and self.global_step >= 2:
             self._t0 = time.perf_counter()
             self._elapsed = 0.0

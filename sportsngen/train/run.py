@@ -20,7 +20,9 @@ from omegaconf import DictConfig, OmegaConf
 from sportsngen.data.tokens import Augment, RallyArrays, Vocab
 from sportsngen.errors import ModelFileError
 from sportsngen.model.config import ModelConfig
+from sportsngen.model.embedding import widen_for_extra
 from sportsngen.model.export import is_model_file, read_extra, save_model
+from sportsngen.model.forecast import FORECAST_FEATURES
 from sportsngen.sim.initial import InitialConditions
 from sportsngen.train.datamodule import TrackingDataModule, data_fingerprint, load_rally_data
 from sportsngen.train.expert import load_expert
@@ -167,8 +169,13 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
                                                "ball_sub_bins": int(cfg.init_ball_sub_bins)})
         if cfg.get("init_strike_head"):
             model_cfg = ModelConfig.from_dict({**model_cfg.to_dict(), "strike_head": True})
-        check_data_matches(model_cfg, vocab, data)
         init_state = model.state_dict()
+        if cfg.get("init_ball_forecast") and not model_cfg.ball_forecast:
+            # The forecast's columns join the object embedding with zero weights: training
+            # starts from the init's function and learns how much to use them.
+            model_cfg = ModelConfig.from_dict({**model_cfg.to_dict(), "ball_forecast": True})
+            init_state = widen_for_extra(init_state, "embed.", FORECAST_FEATURES)
+        check_data_matches(model_cfg, vocab, data)
     else:
         if cfg.get("player"):
             raise ValueError("player=... fine-tunes an existing model: also set init=<model "

@@ -1,0 +1,127 @@
+"""Who reaches the ball: each good rally ball's demand on the player due to play it, and whether
+he did.
+
+For every rally ball (a contact after the serve) whose first bounce is good, the player due to
+answer it is measured from the hitter's contact on:
+
+- ``need_m``: how close the ball comes, after its bounce and below `REACH_MAX_Z_M`, to where
+  that player stood at the contact (how far he had to go);
+- ``gap_m``: how close it came to him as he moved (0.8-1.2 m is a racket's reach);
+- ``answered``: whether the next contact came (his);
+- ``time_s`` and ``need_speed_mps``: the time from the contact to the ball's point nearest where
+  he stood, and the mean speed that asks of him (a fast ball gives less time for the same run);
+- ``toward_mps``: his mean speed toward the point where the ball came nearest to where he stood,
+  in bins of `BIN_FRAMES` frames from the contact.
+
+Read by `need_m`, the answered share says whether a model's players lose balls by where they
+stand (balls that come close are lost too) or by how they run (only the far ones): the
+generator's players answer 0.92-0.99 of the good balls at every need up to 5 m; the bundled
+model's lose the far ones (docs/evaluation.md, fifteenth part). Runs on any `RallyData`
+(a simulation's realistic rallies, or generated truth) in seconds.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from sportsngen.data.tracking import RallyData
+from sportsngen.tennis.court import BASELINE_X_M, SINGLES_HALF_WIDTH_M
+
+REACH_MAX_Z_M = 2.2          # a ball above this is not yet playable (the rules' reach: 2.3 m)
+BIN_FRAMES = 5
+TOWARD_FRAMES = 40
+NEED_BINS_M = (0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 7.0, 30.0)
+# Bins of the mean speed a ball asks for (need over the time it gives, m/s).
+NEED_SPEED_BINS_MPS = (0.0, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 100.0)
+
+
+def _xy_tracks(f: pd.DataFrame, names: tuple[str, str]):
+    """A rally's frames -> the ball (T, 3) and each named player's (T, 2) track."""
+    ball = f[f["object"] == "ball"].sort_values("frame")[["x", "y", "z"]].to_numpy(float)
+    players = {n: f[f["object"] == n].sort_values("frame")[["x", "y"]].to_numpy(float)
+               for n in names}
+    return ball, players
+
+
+def reach_rows(data: RallyData) -> pd.DataFrame:
+    """One row per good rally ball (module doc): rally_id, shot (1 the return), role of the
+    player due ("server" / "receiver"), answered, need_m, gap_m, toward_mps_k for bins k.
+    Rallies flagged not realistic (a simulation's) are left out."""
+    r = data.rallies.set_index("rally_id")
+    if "realistic" in r:
+        r = r[r["realistic"].astype(bool)]
+    frames = dict(tuple(data.frames[data.frames["rally_id"].isin(r.index)].groupby("rally_id")))
+    shots = data.shots[data.shots["rally_id"].isin(r.index)].sort_values(
+        ["rally_id", "shot_index"])
+    rows = []
+    for rid, s in shots.groupby("rally_id", sort=False):
+        names = (str(r.at[rid, "server"]), str(r.at[rid, "receiver"]))
+        ball, players = _xy_tracks(frames[rid], names)
+        contact = s["frame"].to_numpy(int)
+        hitter = s["hitter"].to_numpy(str)
+        bounce = s[["bounce_x", "bounce_y"]].to_numpy(float)
+        for k in range(1, len(s)):
+            bx, by = bounce[k]
+            a = contact[k]
+            if not np.isfinite(bx) or a + 2 >= len(ball):
+                continue
+            side = -np.sign(ball[a, 0])       # the half the ball is sent to
+            if (np.sign(bx) != side or abs(bx) > BASELINE_X_M
+                    or abs(by) > SINGLES_HALF_WIDTH_M):
+                continue
+            end = contact[k + 1] + 1 if k + 1 < len(s) else len(ball)
+            seg = np.arange(a + 2, min(end, len(ball)))
+            post = seg[(np.sign(ball[seg, 0]) == side) & (np.abs(ball[seg, 0]) >= abs(bx) - 0.01)
+                       & (ball[seg, 2] < REACH_MAX_Z_M)]
+            if len(post) == 0:
+                continue
+            due = names[1] if hitter[k] == names[0] else names[0]
+            p = players[due]
+            post = post[post < len(p)]
+            if len(post) == 0:
+                continue
+            from_start = np.linalg.norm(ball[post, :2] - p[a], axis=1)
+            nearest = post[int(np.argmin(from_start))]
+            target = ball[nearest, :2]
+            time_s = (nearest - a) / data.fps
+            heading = (target - p[a]) / max(float(np.linalg.norm(target - p[a])), 1e-6)
+            n = min(TOWARD_FRAMES, len(p) - 1 - a)
+            toward = (np.diff(p[a:a + n + 1], axis=0) * data.fps) @ heading
+            row = {"rally_id": rid, "shot": k, "role": "server" if due == names[0] else "receiver",
+                   "answered": k + 1 < len(s), "need_m": float(from_start.min()),
+                   "time_s": time_s, "need_speed_mps": float(from_start.min()) / time_s,
+                   "gap_m": float(np.linalg.norm(ball[post, :2] - p[post], axis=1).min())}
+            for j in range(0, TOWARD_FRAMES, BIN_FRAMES):
+                part = toward[j:j + BIN_FRAMES]
+                row[f"toward_mps_{j}"] = float(part.mean()) if len(part) == BIN_FRAMES else np.nan
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def answered_by_need(rows: pd.DataFrame, by: str = "need_m") -> pd.DataFrame:
+    """Share answered and count per bin of `by` ("need_m": `NEED_BINS_M`, "need_speed_mps":
+    `NEED_SPEED_BINS_MPS`) and role of the player due."""
+    if rows.empty:
+        raise ValueError("no good rally balls to read (no rally reached a second contact)")
+    bins = {"need_m": NEED_BINS_M, "need_speed_mps": NEED_SPEED_BINS_MPS}
+    if by not in bins:
+        raise ValueError(f"by must be one of {sorted(bins)}, got {by!r}")
+    need = pd.cut(rows[by], bins[by])
+    t = rows.groupby([need, "role"], observed=True)["answered"].agg(["mean", "count"])
+    t = t.unstack("role")
+    t["count"] = t["count"].fillna(0).astype(int)      # a role with no ball in a bin: 0
+    t.columns = [f"{'answered' if a == 'mean' else 'n'} ({b})" for a, b in t.columns]
+    t.index = [f"{iv.left:g}-{iv.right:g}" for iv in t.index]
+    return t.rename_axis("need (m)" if by == "need_m" else "need (m/s)").reset_index()
+
+
+def toward_speeds(rows: pd.DataFrame, need_m: tuple[float, float] = (3.0, 7.0)) -> pd.DataFrame:
+    """Mean speed toward the ball's nearest point (m/s) by role, frame bins from the contact,
+    over the balls whose need lies in `need_m`."""
+    cols = [c for c in rows.columns if c.startswith("toward_mps_")]
+    sel = rows[(rows["need_m"] > need_m[0]) & (rows["need_m"] <= need_m[1])]
+    out = sel.groupby("role")[cols].mean()
+    out.columns = [f"{c.rsplit('_', 1)[1]}-{int(c.rsplit('_', 1)[1]) + BIN_FRAMES - 1}"
+                   for c in cols]
+    return out.rename_axis("frames after the contact").reset_index()

@@ -1,0 +1,174 @@
+"""The ball's flight forecast (`sportsngen.model.forecast`) and a model given it."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import torch
+from hydra import compose, initialize_config_dir
+
+from sportsngen.data.tokens import object_features
+from sportsngen.model import SportsNGEN, load_model
+from sportsngen.model.centre import GRAVITY_MPS2
+from sportsngen.model.forecast import (
+    BOUNCE_KEEP_XY,
+    FORECAST_FEATURES,
+    ball_forecast,
+    forecast_columns,
+)
+from sportsngen.tennis.court import BALL_RADIUS_M
+from tests.conftest import REPO
+from tests.test_model import tiny_cfg
+
+
+def _fine_flight(pos, vel, t_end, dt=1e-4, drag=True):
+    """The same physics integrated finely (numpy reference)."""
+    from sportsngen.model.centre import DRAG_PER_M
+    p, v = np.array(pos, float), np.array(vel, float)
+    t = 0.0
+    while t < t_end - 1e-12:
+        a = -DRAG_PER_M * np.linalg.norm(v) * v if drag else np.zeros(3)
+        a[2] -= GRAVITY_MPS2
+        v = v + a * dt
+        p = p + v * dt
+        t += dt
+    return p
+
+
+def test_forecast_matches_a_fine_integration_before_the_bounce():
+    # A lob rising at 9 m/s from 1 m: in the air after 1.2 s. Its steps against a fine
+    # integration of the same gravity and drag: within 3 cm after 0.4 and 0.8 s.
+    pos, vel = [-11.0, 1.0, 1.0], [14.0, -1.0, 9.0]
+    out = ball_forecast(torch.tensor([pos]), torch.tensor([vel]))[0].numpy()
+    assert out.shape == (FORECAST_FEATURES,)
+    for i, t in enumerate((0.4, 0.8)):
+        ref = _fine_flight(pos, vel, t)
+        assert np.abs(out[3 * i:3 * i + 3] - ref).max() < 0.03, (t, out, ref)
+    assert out[8] == pytest.approx(1.2)        # no bounce within the horizon: the horizon
+    ref = _fine_flight(pos, vel, 1.2)
+    assert np.abs(out[6:8] - ref[:2]).max() < 0.05
+
+
+def test_forecast_bounce_without_drag_is_the_parabola():
+    # Without drag (a slow ball: drag is tiny) the bounce is where the parabola reaches one
+    # ball radius, within a frame's travel.
+    pos, vel = [0.0, 0.0, 2.0], [3.0, 0.5, 0.0]
+    t_b = math.sqrt(2 * (2.0 - BALL_RADIUS_M) / GRAVITY_MPS2)          # 0.63 s
+    out = ball_forecast(torch.tensor([pos]), torch.tensor([vel]))[0].numpy()
+    assert abs(out[8] - t_b) <= 1 / 25 + 1e-6
+    assert abs(out[6] - 3.0 * t_b) < 3.0 / 25 + 0.05 and abs(out[7] - 0.5 * t_b) < 0.05
+    # After the bounce the ball keeps 0.7 of its horizontal speed: 0.8 s on it is short of
+    # where a ball flying on unbounced would be.
+    assert 3.0 * t_b + BOUNCE_KEEP_XY * 3.0 * (0.8 - t_b) - 0.15 < out[3] < 3.0 * 0.8 - 0.1
+    assert out[5] >= BALL_RADIUS_M - 1e-6
+
+
+def test_forecast_is_batched_and_the_same_at_either_end():
+    # Turned 180 degrees about the net's vertical, the forecast turns with it.
+    pos = torch.tensor([[-11.0, 2.0, 1.0], [11.0, -2.0, 1.0]])
+    vel = torch.tensor([[25.0, -2.0, 3.0], [-25.0, 2.0, 3.0]])
+    a, b = ball_forecast(pos, vel)
+    turned = b.clone()
+    turned[[0, 1, 3, 4, 6, 7]] *= -1
+    torch.testing.assert_close(a, turned)
+    assert 0 < a[8] < 1.2 and 0 < a[6] < 11.9      # a groundstroke lands in the far half
+
+
+def test_a_model_given_the_forecast_starts_from_the_same_function():
+    torch.manual_seed(0)
+    base = SportsNGEN(tiny_cfg()).eval()
+    wide = SportsNGEN(tiny_cfg(ball_forecast=True)).eval()
+    from sportsngen.model.embedding import widen_for_extra
+    wide.load_state_dict(widen_for_extra(base.state_dict(), "embed.", FORECAST_FEATURES))
+    gen = torch.Generator().manual_seed(1)
+    pos = torch.randn(2, 6, 3, 3, generator=gen) * 3
+    vel = torch.randn(2, 6, 3, 3, generator=gen) * 5
+    t = torch.arange(6.0)[None].expand(2, -1) / 25
+    feats = object_features(pos, vel, t)
+    ident = torch.tensor([[2, 3, 1], [3, 4, 1]])
+    ctx = base.context_tokens(torch.tensor([0, 1]), torch.tensor([0, 1]), torch.tensor([0, 1]),
+                              torch.zeros(2, 7))
+    torch.testing.assert_close(wide(feats, ident, ctx), base(feats, ident, ctx))
+    # The new columns are read: a non-zero weight on them changes the output.
+    with torch.no_grad():
+        wide.embed.mlp[0].weight[:, -FORECAST_FEATURES:] = 0.5
+    assert not torch.allclose(wide(feats, ident, ctx), base(feats, ident, ctx))
+    # The players' tokens see the forecast from where they stand; the ball's token none.
+    extra = forecast_columns(feats, None, 25.0)
+    assert extra.shape == (2, 6, 3, FORECAST_FEATURES)
+    assert torch.equal(extra[..., 2, :], torch.zeros_like(extra[..., 2, :]))
+    torch.testing.assert_close(extra[..., 0, :8] - extra[..., 1, :8],
+                               (feats[..., 1, [0, 1, 2, 0, 1, 2, 0, 1]]
+                                - feats[..., 0, [0, 1, 2, 0, 1, 2, 0, 1]]))
+    # The cached step computes the same forecast as the full window.
+    h_full = wide(feats, ident, ctx)
+    cache = wide.init_cache(ident, ctx)
+    for k in range(6):
+        h, cache = wide.forward_step(feats[:, k], cache)
+    torch.testing.assert_close(h, h_full[:, -1], atol=1e-4, rtol=1e-4)
+
+
+def test_init_ball_forecast_widens_a_trained_model(tmp_path, tiny_model_file):
+    from sportsngen.train.run import train_from_config
+    over = ["experiment=tiny", "data=toy", "data.n_rallies=16", "trainer.val_check_interval=3",
+            "trainer.limit_val_batches=1", "trainer.enable_progress_bar=false",
+            "events.enabled=false", f"init={tiny_model_file}", "init_ball_forecast=true"]
+    base = load_model(tiny_model_file)[0].state_dict()
+    runs = {}
+    for steps in (0, 3):
+        with initialize_config_dir(config_dir=str(REPO / "conf"), version_base=None):
+            cfg = compose(config_name="train", overrides=[*over, f"trainer.max_steps={steps}"])
+        runs[steps] = load_model(train_from_config(cfg, tmp_path / f"s{steps}")["model_file"])
+    m0, cfg0 = runs[0][0].state_dict(), runs[0][3]
+    assert cfg0.ball_forecast
+    w = m0["embed.mlp.0.weight"]
+    assert w.shape[1] == base["embed.mlp.0.weight"].shape[1] + FORECAST_FEATURES
+    assert torch.equal(w[:, :-FORECAST_FEATURES], base["embed.mlp.0.weight"])
+    assert torch.equal(w[:, -FORECAST_FEATURES:], torch.zeros_like(w[:, -FORECAST_FEATURES:]))
+    # Trained, the forecast's weights move off zero.
+    w3 = runs[3][0].state_dict()["embed.mlp.0.weight"]
+    assert w3[:, -FORECAST_FEATURES:].abs().sum() > 0
+    # train_only=forecast: those weights alone learn (with the players' head: it too); the
+    # rest of the model as it was.
+    with initialize_config_dir(config_dir=str(REPO / "conf"), version_base=None):
+        cfg = compose(config_name="train", overrides=[*over, "trainer.max_steps=3",
+                                                      "train_only=forecast+player_head",
+                                                      "optim.weight_decay=0.0"])
+    only = load_model(train_from_config(cfg, tmp_path / "only")["model_file"])[0].state_dict()
+    for k, v in m0.items():
+        if k != "embed.mlp.0.weight" and not k.startswith("player_head."):
+            assert torch.equal(v, only[k]), k
+    assert not all(torch.equal(v, only[k]) for k, v in m0.items() if k.startswith("player_head."))
+    w = only["embed.mlp.0.weight"]
+    assert torch.equal(w[:, :-FORECAST_FEATURES], m0["embed.mlp.0.weight"][:, :-FORECAST_FEATURES])
+    assert w[:, -FORECAST_FEATURES:].abs().sum() > 0
+
+
+def test_the_spin_read_from_the_track_brings_the_bounce_to_the_generators():
+    # The generator's rally balls carry heavy topspin: flown on without it the forecast lands
+    # them metres long; with the lift read from the last three frames, within about a metre.
+    from sportsngen.synth import generate_matches
+
+    data = generate_matches([("Roger Federer", "Rafael Nadal")], "hard", n_points=40, seed=3,
+                            workers=1)
+    balls = data.frames[data.frames["object"] == "ball"].sort_values(["rally_id", "frame"])
+    tracks = {rid: g[["x", "y", "z"]].to_numpy() for rid, g in balls.groupby("rally_id")}
+    pos, vel, prev, bounce = [], [], [], []
+    for row in data.shots[data.shots["shot_index"] > 0].itertuples():
+        b, t = tracks[row.rally_id], int(row.frame) + 10
+        if not np.isfinite(row.bounce_x) or t + 1 >= len(b) or \
+                abs(b[t, 0] - row.contact_x) > abs(row.bounce_x - row.contact_x):
+            continue                                  # no bounce, or bounced by then
+        pos.append(b[t])
+        vel.append((b[t] - b[t - 1]) * 25.0)
+        prev.append((b[t - 1] - b[t - 2]) * 25.0)
+        bounce.append((row.bounce_x, row.bounce_y))
+    assert len(pos) > 40
+    pos, vel, prev = (torch.tensor(np.array(a)) for a in (pos, vel, prev))
+    err = {}
+    for name, pv in (("spin", prev), ("none", None)):
+        out = ball_forecast(pos, vel, pv).numpy()
+        err[name] = np.median(np.hypot(*(out[:, 6:8] - np.array(bounce)).T))
+    assert err["spin"] < 1.0 and err["spin"] < 0.5 * err["none"], err

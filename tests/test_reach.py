@@ -1,0 +1,74 @@
+"""Who reaches the ball (`sportsngen.eval.reach`) on generated points."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from sportsngen.data.tracking import RallyData
+from sportsngen.eval.__main__ import main
+from sportsngen.eval.reach import answered_by_need, reach_rows, toward_speeds
+from sportsngen.synth import generate_matches
+
+
+@pytest.fixture(scope="module")
+def points() -> RallyData:
+    return generate_matches([("Roger Federer", "Rafael Nadal")], "hard", n_points=80, seed=0,
+                            workers=1)
+
+
+def test_the_generators_players_answer_the_good_balls_they_can_reach(points):
+    rows = reach_rows(points)
+    assert set(rows["role"]) == {"server", "receiver"} and len(rows) > 100
+    assert (rows["need_m"] >= 0).all() and (rows["gap_m"] >= 0).all()
+    # They run to the ball (nearer to it than where they stood, but for balls that come at
+    # them, stepped around), and answer almost all of
+    # those within 5 m (0.92-0.99 over 500 points).
+    assert (rows["gap_m"] <= rows["need_m"] + 1e-9).mean() > 0.9
+    near = rows[rows["need_m"] <= 5.0]
+    assert near["answered"].mean() > 0.88
+    # An answered ball came within a racket's reach.
+    assert rows.loc[rows["answered"], "gap_m"].median() < 1.2
+    table = answered_by_need(rows)
+    assert list(table.columns) == ["need (m)", "answered (receiver)", "answered (server)",
+                                   "n (receiver)", "n (server)"]
+    assert table[["n (receiver)", "n (server)"]].sum().sum() == len(rows)
+    fast = answered_by_need(rows, by="need_speed_mps")
+    assert fast.columns[0] == "need (m/s)"
+    assert fast[["n (receiver)", "n (server)"]].sum().sum() == len(rows)
+    np.testing.assert_allclose(rows["need_speed_mps"] * rows["time_s"], rows["need_m"])
+    assert (rows["time_s"] > 0).all()
+    with pytest.raises(ValueError, match="by must be"):
+        answered_by_need(rows, by="gap_m")
+    speeds = toward_speeds(rows)
+    assert list(speeds["frames after the contact"]) == ["receiver", "server"]
+    # Running toward a ball 3-7 m away: at least 2 m/s half a second after the contact.
+    assert (speeds["10-14"] > 2.0).all()
+
+
+def test_a_player_who_never_moves_gets_no_closer_than_where_he_stood(points):
+    frames = points.frames.copy()
+    who = frames["object"] == "Rafael Nadal"
+    first = frames[who].groupby("rally_id")[["x", "y"]].transform("first")
+    frames.loc[who, ["x", "y"]] = first.to_numpy()
+    still = RallyData.from_tables(frames, points.rallies, points.shots, fps=points.fps,
+                                  validate=False)
+    rows = reach_rows(still)
+    nadal = rows[(rows["role"] == "receiver") == (
+        still.rallies.set_index("rally_id").loc[rows["rally_id"], "receiver"].to_numpy()
+        == "Rafael Nadal")]
+    assert len(nadal) > 20
+    np.testing.assert_allclose(nadal["gap_m"], nadal["need_m"])
+    cols = [c for c in rows.columns if c.startswith("toward_mps_")]
+    assert np.nanmax(np.abs(nadal[cols].to_numpy())) == 0.0
+
+
+def test_no_rally_ball_is_an_error_and_the_command_line_reads_a_folder(points, tmp_path, capsys):
+    with pytest.raises(ValueError, match="no good rally balls"):
+        answered_by_need(pd.DataFrame(columns=["need_m", "role", "answered"]))
+    points.save(tmp_path / "pts")
+    assert main(["reach", str(tmp_path / "pts")]) == 0
+    out = capsys.readouterr().out
+    assert "answered (server)" in out and "speed toward" in out
+    assert main(["reach", str(tmp_path / "missing")]) == 2
