@@ -437,19 +437,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    runners = {"leaks": run_leaks, "diagnose": run_diagnose, "strikes": run_strikes,
+               "movement": run_movement, "expert": run_expert, "reach": run_reach}
     try:
-        if args.command == "leaks":
-            return run_leaks(args)
-        if args.command == "diagnose":
-            return run_diagnose(args)
-        if args.command == "strikes":
-            return run_strikes(args)
-        if args.command == "movement":
-            return run_movement(args)
-        if args.command == "expert":
-            return run_expert(args)
-        if args.command == "reach":
-            return run_reach(args)
+        if args.command in runners:
+            return runners[args.command](args)
         path = run_report(args)
     except UsageError as exc:
         print(f"error: {exc}", file=sys.stderr)
