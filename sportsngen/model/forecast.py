@@ -37,6 +37,11 @@ HORIZON_S = 1.2               # the bounce searched for this far ahead
 # restitution 0.8 takes a 25 m/s groundstroke arriving at 12 degrees to 17-18 m/s).
 BOUNCE_KEEP_XY = 0.7
 FORECAST_FEATURES = 3 * len(HORIZONS_S) + 3
+# Made once, not on every rollout frame: what a bounce keeps of each velocity component, and
+# the scales of the columns (positions as the features' positions, the bounce's time over the
+# horizon).
+_BOUNCE_KEEP = torch.tensor([BOUNCE_KEEP_XY, BOUNCE_KEEP_XY, -BOUNCE_RESTITUTION])
+_COLUMN_SCALE = torch.tensor([*POS_SCALE_M * len(HORIZONS_S), *POS_SCALE_M[:2], HORIZON_S])
 
 
 def ball_forecast(pos_m: torch.Tensor, vel_mps: torch.Tensor,
@@ -58,8 +63,7 @@ def ball_forecast(pos_m: torch.Tensor, vel_mps: torch.Tensor,
     bounce_xy = torch.zeros_like(p[..., :2])
     bounce_t = torch.full_like(p[..., 0], HORIZON_S)
     found = torch.zeros_like(p[..., 0], dtype=torch.bool)
-    keep = torch.tensor([BOUNCE_KEEP_XY, BOUNCE_KEEP_XY, -BOUNCE_RESTITUTION], dtype=p.dtype,
-                        device=p.device)
+    keep = _BOUNCE_KEEP.to(device=p.device, dtype=p.dtype)
     ahead = [p] * len(HORIZONS_S)
     for k in range(1, n_steps + 1):
         v_new = v + (flight_acceleration_mps2(v) + lift) * dt
@@ -88,8 +92,7 @@ def forecast_columns(feats: torch.Tensor, prev_feats: torch.Tensor | None,
     there is none) -> the forecast as each player's token sees it (..., 3, FORECAST_FEATURES):
     the forecast positions less his own, scaled as the features' positions (the bounce's time
     over `HORIZON_S`); zeros on the ball's own token, whose bins follow its flight already."""
-    scale = torch.tensor([*POS_SCALE_M * len(HORIZONS_S), *POS_SCALE_M[:2], HORIZON_S],
-                         device=feats.device)
+    scale = _COLUMN_SCALE.to(feats.device)
     ball = feats[..., BALL, :].float()
     prev = None if prev_feats is None else prev_feats[..., BALL, 3:6].float() * VEL_SCALE_MPS
     ahead = ball_forecast(ball[..., 0:3] * scale[:3], ball[..., 3:6] * VEL_SCALE_MPS, prev,
