@@ -74,6 +74,16 @@ def test_forecast_is_batched_and_the_same_at_either_end():
     turned[[0, 1, 3, 4, 6, 7]] *= -1
     torch.testing.assert_close(a, turned)
     assert 0 < a[8] < 1.2 and 0 < a[6] < 11.9      # a groundstroke lands in the far half
+    # Each row is forecast as it would be alone, whatever the others do: the loop skips the
+    # lift's turning and the bounce's bookkeeping only on steps where no row needs them.
+    pos = torch.tensor([[-11.0, 2.0, 1.0], [5.0, 0.0, 6.0], [0.0, 1.0, 0.9], [-3.0, 0.0, 3.0]])
+    vel = torch.tensor([[25.0, -2.0, 3.0], [1.0, 0.0, 0.0], [-20.0, 3.0, -4.0], [8, 0, 12.0]])
+    prev = vel + torch.tensor([[0.1, 0.0, 0.35], [float("nan")] * 3, [0.0, 0.0, 0.4],
+                               [0.0, 0.0, 0.39]])
+    together = ball_forecast(pos, vel, prev)
+    for i in range(len(pos)):
+        assert torch.equal(together[i], ball_forecast(pos[i:i + 1], vel[i:i + 1],
+                                                      prev[i:i + 1])[0])
 
 
 def test_a_model_given_the_forecast_starts_from_the_same_function():
@@ -172,3 +182,30 @@ def test_the_spin_read_from_the_track_brings_the_bounce_to_the_generators():
         out = ball_forecast(pos, vel, pv).numpy()
         err[name] = np.median(np.hypot(*(out[:, 6:8] - np.array(bounce)).T))
     assert err["spin"] < 1.0 and err["spin"] < 0.5 * err["none"], err
+
+
+def test_graft_strike_head_joins_two_heads_trained_apart():
+    """The strike head of one fine-tune joins the forecast of another (`graft_strike_head`):
+    the result computes each part as its own file did; another decoder's head is refused."""
+    from sportsngen.model.embedding import widen_for_extra
+    from sportsngen.train.finetune import graft_strike_head
+    torch.manual_seed(0)
+    base = SportsNGEN(tiny_cfg(ball_centre="physics")).eval()
+    forecast = SportsNGEN(tiny_cfg(ball_centre="physics", ball_forecast=True)).eval()
+    forecast.load_state_dict(widen_for_extra(base.state_dict(), "embed.", FORECAST_FEATURES))
+    with torch.no_grad():
+        forecast.embed.mlp[0].weight[:, -FORECAST_FEATURES:] = 0.3
+    striker = SportsNGEN(tiny_cfg(ball_centre="physics", strike_head=True)).eval()
+    striker.load_state_dict({**striker.state_dict(), **base.state_dict()})
+    both = graft_strike_head(forecast, striker)
+    assert both.cfg.ball_forecast and both.cfg.strike_head and not forecast.cfg.strike_head
+    got, fc, st = both.state_dict(), forecast.state_dict(), striker.state_dict()
+    for k, v in got.items():
+        want = st[k] if k.startswith("strike_head.") else fc[k]
+        assert torch.equal(v, want), k
+    assert any(k.startswith("strike_head.") for k in got)
+    with pytest.raises(ValueError, match="no strike head"):
+        graft_strike_head(striker, forecast)
+    other = SportsNGEN(tiny_cfg(ball_centre="physics", strike_head=True)).eval()
+    with pytest.raises(ValueError, match="transformer blocks differ"):
+        graft_strike_head(forecast, other)

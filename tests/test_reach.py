@@ -19,7 +19,8 @@ def points() -> RallyData:
 
 
 def test_the_generators_players_answer_the_good_balls_they_can_reach(points):
-    rows = reach_rows(points)
+    every = reach_rows(points)
+    rows = every[every["shot"] >= 1]
     assert set(rows["role"]) == {"server", "receiver"} and len(rows) > 100
     assert (rows["need_m"] >= 0).all() and (rows["gap_m"] >= 0).all()
     # They run to the ball (nearer to it than where they stood, but for balls that come at
@@ -45,6 +46,20 @@ def test_the_generators_players_answer_the_good_balls_they_can_reach(points):
     assert list(speeds["frames after the contact"]) == ["receiver", "server"]
     # Running toward a ball 3-7 m away: at least 2 m/s half a second after the contact.
     assert (speeds["10-14"] > 2.0).all()
+    # Good serves are the receiver's: every one within 2 m is returned (1.00 over 500 points),
+    # and each serve row's bounce was in its box (faults are not the receiver's to answer).
+    serves = every[every["shot"] == 0]
+    assert len(serves) > 40 and set(serves["role"]) == {"receiver"}
+    assert serves.loc[serves["need_m"] <= 2.0, "answered"].mean() > 0.95
+    r = points.rallies.set_index("rally_id")
+    assert not r.loc[serves["rally_id"], "end_reason"].isin(["fault", "double_fault"]).any()
+    by_need = answered_by_need(every, shots="serve")
+    assert list(by_need.columns) == ["need (m)", "answered (receiver)", "n (receiver)"]
+    assert by_need["n (receiver)"].sum() == len(serves)
+    assert list(toward_speeds(every, (1.0, 7.0), shots="serve")["frames after the contact"]) \
+        == ["receiver"]
+    with pytest.raises(ValueError, match="shots must be"):
+        answered_by_need(every, shots="returns")
 
 
 def test_a_player_who_never_moves_gets_no_closer_than_where_he_stood(points):
@@ -70,5 +85,5 @@ def test_no_rally_ball_is_an_error_and_the_command_line_reads_a_folder(points, t
     points.save(tmp_path / "pts")
     assert main(["reach", str(tmp_path / "pts")]) == 0
     out = capsys.readouterr().out
-    assert "answered (server)" in out and "speed toward" in out
+    assert "answered (server)" in out and "speed toward" in out and "good serves" in out
     assert main(["reach", str(tmp_path / "missing")]) == 2

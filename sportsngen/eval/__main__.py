@@ -306,11 +306,17 @@ def run_reach(args: argparse.Namespace) -> int:
             raise UsageError(f"reach: {what}: {exc}") from exc
         speeds = toward_speeds(rows)
         fmt = {"index": False, "float_format": lambda v: f"{v:.3f}"}
-        notes = ("by the mean speed the ball asks for (its need over the time it gives):",
+        notes = ["by the mean speed the ball asks for (its need over the time it gives):",
                  answered_by_need(rows, by="need_speed_mps").to_string(**fmt),
                  "mean speed toward the ball's nearest point (m/s), needs of 3-7 m:",
-                 speeds.to_string(index=False, float_format=lambda v: f"{v:.2f}"))
-        _print_table(table, None, f"({time.perf_counter() - t0:.0f} s, {what})", notes)
+                 speeds.to_string(index=False, float_format=lambda v: f"{v:.2f}")]
+        if (rows["shot"] == 0).any():
+            serves = toward_speeds(rows, need_m=(1.0, 7.0), shots="serve")
+            notes += ["good serves, returned by need (a miss is an ace):",
+                      answered_by_need(rows, shots="serve").to_string(**fmt),
+                      "the receiver's speed toward the serve (m/s), needs of 1-7 m:",
+                      serves.to_string(index=False, float_format=lambda v: f"{v:.2f}")]
+        _print_table(table, None, f"({time.perf_counter() - t0:.0f} s, {what})", tuple(notes))
     return 0
 
 

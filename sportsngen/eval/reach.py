@@ -1,8 +1,9 @@
 """Who reaches the ball: each good rally ball's demand on the player due to play it, and whether
 he did.
 
-For every rally ball (a contact after the serve) whose first bounce is good, the player due to
-answer it is measured from the hitter's contact on:
+For every good ball, the player due to answer it is measured from the hitter's contact on: a
+rally ball (a contact after the serve, shot >= 1) whose first bounce is in the court, or a serve
+(shot 0, answered by the return) whose first bounce is in its service box:
 
 - ``need_m``: how close the ball comes, after its bounce and below `REACH_MAX_Z_M`, to where
   that player stood at the contact (how far he had to go);
@@ -16,7 +17,9 @@ answer it is measured from the hitter's contact on:
 Read by `need_m`, the answered share says whether a model's players lose balls by where they
 stand (balls that come close are lost too) or by how they run (only the far ones): the
 generator's players answer 0.92-0.99 of the good balls at every need up to 5 m; the bundled
-model's lose the far ones (docs/evaluation.md, fifteenth part). Runs on any `RallyData`
+model's lose the far ones (docs/evaluation.md, fifteenth part). The tables read rally balls
+or serves (`shots="rally"` / `"serve"`): a model whose receivers miss serves they could reach
+concedes aces (sixteenth part). Runs on any `RallyData`
 (a simulation's realistic rallies, or generated truth) in seconds.
 """
 
@@ -26,7 +29,12 @@ import numpy as np
 import pandas as pd
 
 from sportsngen.data.tracking import RallyData
-from sportsngen.tennis.court import BASELINE_X_M, SINGLES_HALF_WIDTH_M
+from sportsngen.tennis.court import (
+    BALL_RADIUS_M,
+    BASELINE_X_M,
+    SINGLES_HALF_WIDTH_M,
+    is_in_service_box,
+)
 
 REACH_MAX_Z_M = 2.2          # a ball above this is not yet playable (the rules' reach: 2.3 m)
 BIN_FRAMES = 5
@@ -34,6 +42,7 @@ TOWARD_FRAMES = 40
 NEED_BINS_M = (0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 7.0, 30.0)
 # Bins of the mean speed a ball asks for (need over the time it gives, m/s).
 NEED_SPEED_BINS_MPS = (0.0, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 100.0)
+SHOTS = {"rally": lambda shot: shot >= 1, "serve": lambda shot: shot == 0}
 
 
 def _xy_tracks(f: pd.DataFrame, names: tuple[str, str]):
@@ -45,8 +54,8 @@ def _xy_tracks(f: pd.DataFrame, names: tuple[str, str]):
 
 
 def reach_rows(data: RallyData) -> pd.DataFrame:
-    """One row per good rally ball (module doc): rally_id, shot (1 the return), role of the
-    player due ("server" / "receiver"), answered, need_m, gap_m, toward_mps_k for bins k.
+    """One row per good ball (module doc): rally_id, shot (0 the serve, 1 the return), role of
+    the player due ("server" / "receiver"), answered, need_m, gap_m, toward_mps_k for bins k.
     Rallies flagged not realistic (a simulation's) are left out."""
     r = data.rallies.set_index("rally_id")
     if "realistic" in r:
@@ -61,14 +70,19 @@ def reach_rows(data: RallyData) -> pd.DataFrame:
         contact = s["frame"].to_numpy(int)
         hitter = s["hitter"].to_numpy(str)
         bounce = s[["bounce_x", "bounce_y"]].to_numpy(float)
-        for k in range(1, len(s)):
+        for k in range(len(s)):
             bx, by = bounce[k]
             a = contact[k]
             if not np.isfinite(bx) or a + 2 >= len(ball):
                 continue
             side = -np.sign(ball[a, 0])       # the half the ball is sent to
-            if (np.sign(bx) != side or abs(bx) > BASELINE_X_M
-                    or abs(by) > SINGLES_HALF_WIDTH_M):
+            if k == 0:
+                good = bool(is_in_service_box(bx, by, int(r.at[rid, "server_end"]),
+                                              str(r.at[rid, "side"]), BALL_RADIUS_M))
+            else:
+                good = (np.sign(bx) == side and abs(bx) <= BASELINE_X_M
+                        and abs(by) <= SINGLES_HALF_WIDTH_M)
+            if not good:
                 continue
             end = contact[k + 1] + 1 if k + 1 < len(s) else len(ball)
             seg = np.arange(a + 2, min(end, len(ball)))
@@ -99,14 +113,23 @@ def reach_rows(data: RallyData) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def answered_by_need(rows: pd.DataFrame, by: str = "need_m") -> pd.DataFrame:
+def _pick(rows: pd.DataFrame, shots: str) -> pd.DataFrame:
+    if shots not in SHOTS:
+        raise ValueError(f"shots must be one of {sorted(SHOTS)}, got {shots!r}")
+    return rows[SHOTS[shots](rows["shot"])] if len(rows) else rows
+
+
+def answered_by_need(rows: pd.DataFrame, by: str = "need_m",
+                     shots: str = "rally") -> pd.DataFrame:
     """Share answered and count per bin of `by` ("need_m": `NEED_BINS_M`, "need_speed_mps":
-    `NEED_SPEED_BINS_MPS`) and role of the player due."""
-    if rows.empty:
-        raise ValueError("no good rally balls to read (no rally reached a second contact)")
+    `NEED_SPEED_BINS_MPS`) and role of the player due, over rally balls or serves (`shots`)."""
     bins = {"need_m": NEED_BINS_M, "need_speed_mps": NEED_SPEED_BINS_MPS}
     if by not in bins:
         raise ValueError(f"by must be one of {sorted(bins)}, got {by!r}")
+    rows = _pick(rows, shots)
+    if rows.empty:
+        raise ValueError(f"no good {'serves' if shots == 'serve' else 'rally balls'} to read "
+                         "(no rally reached a contact after them)")
     need = pd.cut(rows[by], bins[by])
     t = rows.groupby([need, "role"], observed=True)["answered"].agg(["mean", "count"])
     t = t.unstack("role")
@@ -116,9 +139,11 @@ def answered_by_need(rows: pd.DataFrame, by: str = "need_m") -> pd.DataFrame:
     return t.rename_axis("need (m)" if by == "need_m" else "need (m/s)").reset_index()
 
 
-def toward_speeds(rows: pd.DataFrame, need_m: tuple[float, float] = (3.0, 7.0)) -> pd.DataFrame:
+def toward_speeds(rows: pd.DataFrame, need_m: tuple[float, float] = (3.0, 7.0),
+                  shots: str = "rally") -> pd.DataFrame:
     """Mean speed toward the ball's nearest point (m/s) by role, frame bins from the contact,
-    over the balls whose need lies in `need_m`."""
+    over the rally balls or serves (`shots`) whose need lies in `need_m`."""
+    rows = _pick(rows, shots)
     cols = [c for c in rows.columns if c.startswith("toward_mps_")]
     sel = rows[(rows["need_m"] > need_m[0]) & (rows["need_m"] <= need_m[1])]
     out = sel.groupby("role")[cols].mean()

@@ -65,21 +65,30 @@ def ball_forecast(pos_m: torch.Tensor, vel_mps: torch.Tensor,
     found = torch.zeros_like(p[..., 0], dtype=torch.bool)
     keep = _BOUNCE_KEEP.to(device=p.device, dtype=p.dtype)
     ahead = [p] * len(HORIZONS_S)
+    # Rolled out one rally at a time this loop ran at every frame, as long as the decoder's
+    # step: the lift's turning and the bounce's bookkeeping are skipped on steps where no row
+    # needs them (a zero lift turns to zero; no row down, nothing to change), which keeps
+    # every value and halves its time.
+    spin = bool(lift.any())
     for k in range(1, n_steps + 1):
         v_new = v + (flight_acceleration_mps2(v) + lift) * dt
         p = p + 0.5 * (v + v_new) * dt     # the trapezoid: exact for constant acceleration
-        lift = turned_lift_mps2(lift, v, v_new)
+        if spin:
+            lift = turned_lift_mps2(lift, v, v_new)
         v = v_new
         down = (p[..., 2] < BALL_RADIUS_M) & (v[..., 2] < 0)
-        first = down & ~found
-        bounce_xy = torch.where(first[..., None], p[..., :2], bounce_xy)
-        bounce_t = torch.where(first, torch.full_like(bounce_t, k * dt), bounce_t)
-        found = found | down
-        v = torch.where(down[..., None], v * keep, v)
-        # A bounce changes the spin in ways the track has not shown yet: flown on without.
-        lift = torch.where(down[..., None], torch.zeros_like(lift), lift)
-        p = torch.cat([p[..., :2], torch.where(down, 2 * BALL_RADIUS_M - p[..., 2],
-                                               p[..., 2])[..., None]], dim=-1)
+        if bool(down.any()):
+            first = down & ~found
+            bounce_xy = torch.where(first[..., None], p[..., :2], bounce_xy)
+            bounce_t = torch.where(first, torch.full_like(bounce_t, k * dt), bounce_t)
+            found = found | down
+            v = torch.where(down[..., None], v * keep, v)
+            # A bounce changes the spin in ways the track has not shown yet: flown on without.
+            if spin:
+                lift = torch.where(down[..., None], torch.zeros_like(lift), lift)
+                spin = bool(lift.any())
+            p = torch.cat([p[..., :2], torch.where(down, 2 * BALL_RADIUS_M - p[..., 2],
+                                                   p[..., 2])[..., None]], dim=-1)
         if k in marks:
             ahead[marks[k]] = p
     bounce_xy = torch.where(found[..., None], bounce_xy, p[..., :2])

@@ -108,6 +108,27 @@ def average_generic_identity(model: SportsNGEN, vocab: Vocab) -> bool:
     return True
 
 
+@torch.no_grad()
+def graft_strike_head(model: SportsNGEN, donor: SportsNGEN) -> SportsNGEN:
+    """`model` with `donor`'s strike head (`model.strike_head`): for two files fine-tuned from
+    one base, each training other parts alone (`train_only`), so the strike head trained on
+    one joins the other's parts (e.g. the ball's forecast and the players' head). Their shared
+    trunk (the transformer blocks) must be identical, else the head was trained on another
+    decoder and `ValueError` says so. -> a new model; neither argument changes."""
+    if not donor.cfg.strike_head:
+        raise ValueError("the donor model has no strike head (model.strike_head is off)")
+    ours, theirs = model.state_dict(), donor.state_dict()
+    trunk = [k for k in theirs if k.startswith("blocks.")]
+    changed = [k for k in trunk if k not in ours or not torch.equal(ours[k], theirs[k])]
+    if changed:
+        raise ValueError(f"the two models' transformer blocks differ ({len(changed)} tensors, "
+                         f"e.g. {changed[0]}): the strike head belongs to another decoder")
+    new = SportsNGEN(dataclasses.replace(model.cfg, strike_head=True))
+    state = {**ours, **{k: v for k, v in theirs.items() if k.startswith("strike_head.")}}
+    new.load_state_dict(state)
+    return new.eval()
+
+
 def freeze_except_identity(model: SportsNGEN, rows: list[int]) -> None:
     """Freeze everything but the identity rows `rows` (gradients of other rows are zeroed)."""
     for p in model.parameters():
