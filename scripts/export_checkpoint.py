@@ -40,16 +40,15 @@ def main() -> None:
     events_from = args.events_from or args.source
     others = (args.source, events_from, *([args.strike_head_from] if args.strike_head_from
                                           else []))
-    for other in dict.fromkeys(others):
-        _, other_events, other_vocab, _ = load_model(other)
-        if other == events_from:
-            event_model = other_events
+    loaded = {other: load_model(other) for other in dict.fromkeys(others)}
+    for other, (_, _, other_vocab, _) in loaded.items():
         if vocab.to_dict() != other_vocab.to_dict():
             raise SystemExit(f"{args.checkpoint} and {other} have different vocabularies")
+    event_model = loaded[events_from][1]
     extra = read_extra(args.source)
     if args.strike_head_from:
         try:
-            model = graft_strike_head(model, load_model(args.strike_head_from)[0])
+            model = graft_strike_head(model, loaded[args.strike_head_from][0])
         except ValueError as exc:
             raise SystemExit(f"{args.strike_head_from}: {exc}") from exc
     if args.average_generic_identity:

