@@ -8,7 +8,13 @@ import pytest
 
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.__main__ import main
-from sportsngen.eval.reach import answered_by_need, reach_rows, toward_speeds
+from sportsngen.eval.reach import (
+    answered_by_need,
+    contact_rows,
+    contact_states,
+    reach_rows,
+    toward_speeds,
+)
 from sportsngen.synth import generate_matches
 
 
@@ -86,4 +92,44 @@ def test_no_rally_ball_is_an_error_and_the_command_line_reads_a_folder(points, t
     assert main(["reach", str(tmp_path / "pts")]) == 0
     out = capsys.readouterr().out
     assert "answered (server)" in out and "speed toward" in out and "good serves" in out
+    assert "where the ball is struck" in out
     assert main(["reach", str(tmp_path / "missing")]) == 2
+
+
+def test_the_generators_players_strike_from_behind_the_baseline_within_their_reach(points):
+    rows = contact_rows(points)
+    assert set(rows["role"]) == {"server", "receiver"} and (rows["shot"] >= 1).all()
+    # Odd shots are the receiver's.
+    assert ((rows["shot"] % 2 == 1) == (rows["role"] == "receiver")).all()
+    table = contact_states(rows)
+    ret = table[table["shot"] == 1].set_index("player")
+    # Nadal returns from deep (the generator's 500 points: 3.3 m behind his baseline on first
+    # serves, 2.1 on second), Federer from the baseline (0.1 and -1.3), off serves that arrive
+    # at about 21 m/s and leave at 27.
+    assert ret.at["Rafael Nadal", "behind_m"] > 1.5 > ret.at["Roger Federer", "behind_m"] + 0.5
+    assert ((15.0 < ret["in_mps"]) & (ret["in_mps"] < 30.0)).all()
+    assert ((20.0 < ret["out_mps"]) & (ret["out_mps"] < 35.0)).all()
+    # The generator's players strike within their reach (1.7-1.95 m, `synth.profiles`; read
+    # on the shots table's frame, which can be the frame beside the racket's), most of them
+    # squarely (a median 0.8 m from their centre over 500 points).
+    assert rows["gap_m"].max() < 2.2 and rows["gap_m"].quantile(0.9) < 1.3
+    assert 0.6 < rows["gap_m"].median() < 1.0
+    assert (rows["height_m"] > 0).all()
+    assert table["n"].sum() == int((rows["shot"] <= 4).sum())
+    with pytest.raises(ValueError, match="no rally contact"):
+        contact_states(rows[rows["shot"] > 99])
+
+
+def test_a_hitter_half_a_metre_beside_the_ball_is_measured_at_half_a_metre(points):
+    frames = points.frames.copy().sort_values(["rally_id", "frame"])
+    ball = frames[frames["object"] == "ball"].set_index(["rally_id", "frame"])
+    for name in ("Roger Federer", "Rafael Nadal"):
+        who = frames["object"] == name
+        at = ball.loc[list(zip(frames.loc[who, "rally_id"], frames.loc[who, "frame"]))]
+        frames.loc[who, "x"] = at["x"].to_numpy()
+        frames.loc[who, "y"] = at["y"].to_numpy() + 0.5
+    beside = RallyData.from_tables(frames, points.rallies, points.shots, fps=points.fps,
+                                   validate=False)
+    rows = contact_rows(beside)
+    assert len(rows) > 100
+    np.testing.assert_allclose(rows["gap_m"], 0.5, atol=1e-6)

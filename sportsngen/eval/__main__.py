@@ -286,7 +286,13 @@ def run_reach(args: argparse.Namespace) -> int:
     generated points)."""
     import time
 
-    from sportsngen.eval.reach import answered_by_need, reach_rows, toward_speeds
+    from sportsngen.eval.reach import (
+        answered_by_need,
+        contact_rows,
+        contact_states,
+        reach_rows,
+        toward_speeds,
+    )
 
     sources = [(str(f), lambda f=f: load_tracking(f, "reach")) for f in args.folders]
     if not sources:
@@ -299,7 +305,8 @@ def run_reach(args: argparse.Namespace) -> int:
                                              n_points=args.points, seed=args.seed, workers=1))]
     for what, load in sources:
         t0 = time.perf_counter()
-        rows = reach_rows(load())
+        data = load()
+        rows = reach_rows(data)
         try:
             table = answered_by_need(rows)
         except ValueError as exc:
@@ -316,6 +323,12 @@ def run_reach(args: argparse.Namespace) -> int:
                       answered_by_need(rows, shots="serve").to_string(**fmt),
                       "the receiver's speed toward the serve (m/s), needs of 1-7 m:",
                       serves.to_string(index=False, float_format=lambda v: f"{v:.2f}")]
+        contacts = contact_rows(data)
+        if len(contacts):
+            notes += ["where the ball is struck, medians by shot (behind the baseline, height, "
+                      "gap to the hitter in m; speed in and out in m/s):",
+                      contact_states(contacts).to_string(index=False,
+                                                         float_format=lambda v: f"{v:.2f}")]
         _print_table(table, None, f"({time.perf_counter() - t0:.0f} s, {what})", tuple(notes))
     return 0
 

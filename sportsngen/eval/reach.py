@@ -19,7 +19,9 @@ stand (balls that come close are lost too) or by how they run (only the far ones
 generator's players answer 0.92-0.99 of the good balls at every need up to 5 m; the bundled
 model's lose the far ones (docs/evaluation.md, fifteenth part). The tables read rally balls
 or serves (`shots="rally"` / `"serve"`): a model whose receivers miss serves they could reach
-concedes aces (sixteenth part). Runs on any `RallyData`
+concedes aces (sixteenth part). `contact_rows` and `contact_states` read where the balls that
+are answered get struck: how far behind the baseline, how high, how far from the hitter's
+centre, and how fast the ball comes and goes (seventeenth part). Runs on any `RallyData`
 (a simulation's realistic rallies, or generated truth) in seconds.
 """
 
@@ -150,3 +152,52 @@ def toward_speeds(rows: pd.DataFrame, need_m: tuple[float, float] = (3.0, 7.0),
     out.columns = [f"{c.rsplit('_', 1)[1]}-{int(c.rsplit('_', 1)[1]) + BIN_FRAMES - 1}"
                    for c in cols]
     return out.rename_axis("frames after the contact").reset_index()
+
+
+def contact_rows(data: RallyData) -> pd.DataFrame:
+    """One row per rally contact after the serve (shot >= 1) of the realistic rallies: rally_id,
+    shot, role of the hitter, `behind_m` (how far behind his baseline the ball was struck;
+    negative inside the court), `height_m`, `gap_m` (ball to the hitter's centre,
+    horizontally), `in_mps` and `out_mps` (the ball's speed over the frame before the contact's
+    frame and over the second frame after it). Where the players meet the ball: teacher-forced
+    on recorded states the bundled strike head draws the record's errors and speeds shot by
+    shot, so strikes that fly slower in rollouts come from the states (docs/evaluation.md,
+    seventeenth part)."""
+    r = data.rallies.set_index("rally_id")
+    if "realistic" in r:
+        r = r[r["realistic"].astype(bool)]
+    frames = dict(tuple(data.frames[data.frames["rally_id"].isin(r.index)].groupby("rally_id")))
+    shots = data.shots[data.shots["rally_id"].isin(r.index) & (data.shots["shot_index"] >= 1)]
+    rows = []
+    for rid, s in shots.groupby("rally_id", sort=False):
+        names = (str(r.at[rid, "server"]), str(r.at[rid, "receiver"]))
+        ball, players = _xy_tracks(frames[rid], names)
+        for k, a, hitter in zip(s["shot_index"], s["frame"].astype(int), s["hitter"].astype(str)):
+            if a < 2 or a + 3 > len(ball) or hitter not in players or a >= len(players[hitter]):
+                continue
+            rows.append({"rally_id": rid, "shot": int(k), "player": hitter,
+                         "role": "server" if hitter == names[0] else "receiver",
+                         "behind_m": abs(float(ball[a, 0])) - BASELINE_X_M,
+                         "height_m": float(ball[a, 2]),
+                         "gap_m": float(np.linalg.norm(ball[a, :2] - players[hitter][a])),
+                         "in_mps": float(np.linalg.norm(ball[a - 1] - ball[a - 2]) * data.fps),
+                         "out_mps": float(np.linalg.norm(ball[a + 2] - ball[a + 1]) * data.fps)})
+    return pd.DataFrame(rows, columns=["rally_id", "shot", "player", "role", *CONTACT_COLUMNS])
+
+
+CONTACT_COLUMNS = ("behind_m", "height_m", "gap_m", "in_mps", "out_mps")
+
+
+def contact_states(rows: pd.DataFrame, max_shot: int = 4) -> pd.DataFrame:
+    """Medians of `contact_rows` by shot (1 the return) up to `max_shot` and hitter, with the
+    hitter's role and the contacts counted. By player, not pooled: players differ by metres
+    (the generator's Nadal returns first serves from 3.3 m behind his baseline, Federer from
+    0.1 m), so a pooled median says who returned more often."""
+    rows = rows[rows["shot"] <= max_shot]
+    if rows.empty:
+        raise ValueError("no rally contact after the serve to read")
+    keys = ["shot", "player"]
+    t = rows.groupby(keys)[list(CONTACT_COLUMNS)].median()
+    t.insert(0, "n", rows.groupby(keys).size())
+    t.insert(0, "role", ["receiver" if k % 2 else "server" for k, _ in t.index])
+    return t.reset_index()
