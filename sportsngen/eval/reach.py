@@ -55,16 +55,23 @@ def _xy_tracks(f: pd.DataFrame, names: tuple[str, str]):
     return ball, players
 
 
-def reach_rows(data: RallyData) -> pd.DataFrame:
-    """One row per good ball (module doc): rally_id, shot (0 the serve, 1 the return), role of
-    the player due ("server" / "receiver"), answered, need_m, gap_m, toward_mps_k for bins k.
-    Rallies flagged not realistic (a simulation's) are left out."""
+def _realistic(data: RallyData) -> tuple[pd.DataFrame, dict, pd.DataFrame]:
+    """The rallies not flagged unrealistic (a simulation's flag; all of a recording's):
+    their table by rally_id, their frames by rally, and their shots in order."""
     r = data.rallies.set_index("rally_id")
     if "realistic" in r:
         r = r[r["realistic"].astype(bool)]
     frames = dict(tuple(data.frames[data.frames["rally_id"].isin(r.index)].groupby("rally_id")))
     shots = data.shots[data.shots["rally_id"].isin(r.index)].sort_values(
         ["rally_id", "shot_index"])
+    return r, frames, shots
+
+
+def reach_rows(data: RallyData) -> pd.DataFrame:
+    """One row per good ball (module doc): rally_id, shot (0 the serve, 1 the return), role of
+    the player due ("server" / "receiver"), answered, need_m, gap_m, toward_mps_k for bins k.
+    Rallies flagged not realistic (a simulation's) are left out."""
+    r, frames, shots = _realistic(data)
     rows = []
     for rid, s in shots.groupby("rally_id", sort=False):
         names = (str(r.at[rid, "server"]), str(r.at[rid, "receiver"]))
@@ -154,6 +161,9 @@ def toward_speeds(rows: pd.DataFrame, need_m: tuple[float, float] = (3.0, 7.0),
     return out.rename_axis("frames after the contact").reset_index()
 
 
+CONTACT_COLUMNS = ("behind_m", "height_m", "gap_m", "in_mps", "out_mps")
+
+
 def contact_rows(data: RallyData) -> pd.DataFrame:
     """One row per rally contact after the serve (shot >= 1) of the realistic rallies: rally_id,
     shot, role of the hitter, `behind_m` (how far behind his baseline the ball was struck;
@@ -163,11 +173,8 @@ def contact_rows(data: RallyData) -> pd.DataFrame:
     on recorded states the bundled strike head draws the record's errors and speeds shot by
     shot, so strikes that fly slower in rollouts come from the states (docs/evaluation.md,
     seventeenth part)."""
-    r = data.rallies.set_index("rally_id")
-    if "realistic" in r:
-        r = r[r["realistic"].astype(bool)]
-    frames = dict(tuple(data.frames[data.frames["rally_id"].isin(r.index)].groupby("rally_id")))
-    shots = data.shots[data.shots["rally_id"].isin(r.index) & (data.shots["shot_index"] >= 1)]
+    r, frames, shots = _realistic(data)
+    shots = shots[shots["shot_index"] >= 1]
     rows = []
     for rid, s in shots.groupby("rally_id", sort=False):
         names = (str(r.at[rid, "server"]), str(r.at[rid, "receiver"]))
@@ -183,9 +190,6 @@ def contact_rows(data: RallyData) -> pd.DataFrame:
                          "in_mps": float(np.linalg.norm(ball[a - 1] - ball[a - 2]) * data.fps),
                          "out_mps": float(np.linalg.norm(ball[a + 2] - ball[a + 1]) * data.fps)})
     return pd.DataFrame(rows, columns=["rally_id", "shot", "player", "role", *CONTACT_COLUMNS])
-
-
-CONTACT_COLUMNS = ("behind_m", "height_m", "gap_m", "in_mps", "out_mps")
 
 
 def contact_states(rows: pd.DataFrame, max_shot: int = 4) -> pd.DataFrame:
