@@ -169,7 +169,11 @@ def contact_rows(data: RallyData) -> pd.DataFrame:
     shot, role of the hitter, `behind_m` (how far behind his baseline the ball was struck;
     negative inside the court), `height_m`, `gap_m` (ball to the hitter's centre,
     horizontally), `in_mps` and `out_mps` (the ball's speed over the frame before the contact's
-    frame and over the second frame after it). Where the players meet the ball: teacher-forced
+    frame and over the second frame after it). Read off the tracks at the shots table's frame,
+    not its contact columns (the generator's exact contact, between frames), so simulated and
+    recorded points are measured alike. `shot_profile` describes the same strikes pooled over
+    both players (where they land, from the strike's first frames); this reads where they are
+    struck, player by player. Where the players meet the ball: teacher-forced
     on recorded states the bundled strike head draws the record's errors and speeds shot by
     shot, so strikes that fly slower in rollouts come from the states (docs/evaluation.md,
     seventeenth part)."""
