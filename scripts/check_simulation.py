@@ -2,7 +2,8 @@
 
     .venv/bin/python scripts/check_simulation.py [--model PATH] [--points 500] [--seed 0]
         [--top-p-player P] [--top-p-ball P] [--[no-]contact-odds] [--top-p-contact P]
-        [--[no-]strike-in-reach]
+        [--[no-]strike-in-reach] [--strike-in-reach-from N] [--[no-]strike-in-reach-force]
+        [--top-p-serve P]
         [--refresh-frames K] [--json out.json]
         [--players "Roger Federer,Rafael Nadal"] [--surface hard]
 
@@ -101,6 +102,12 @@ def main() -> None:
     ap.add_argument("--strike-in-reach-from", type=int, default=None,
                     help="with --strike-in-reach: from this contact on (1 the return, 2 the "
                          "server's first rally ball; default: the model file's, else 1)")
+    ap.add_argument("--top-p-serve", type=float, default=None,
+                    help="with a serve head, its nucleus (default: the model file's, else 1)")
+    ap.add_argument("--strike-in-reach-force", action=argparse.BooleanOptionalAction,
+                    default=None,
+                    help="with --strike-in-reach: where no draw keeps the ball in reach, the "
+                         "strike head strikes it (default: the model file's, else off)")
     ap.add_argument("--save-sim", type=Path, default=None,
                     help="write the simulated rallies (a RallyData folder) here")
     ap.add_argument("--no-physical-limits", action="store_true",
@@ -117,18 +124,24 @@ def main() -> None:
         kw["contact_odds"] = args.contact_odds
     if args.top_p_contact is not None:
         kw["top_p_contact"] = args.top_p_contact
+    if args.top_p_serve is not None:
+        kw["top_p_serve"] = args.top_p_serve
     if args.refresh_frames is not None:
         kw["refresh_frames"] = args.refresh_frames
     if args.strike_in_reach is not None:
         kw["strike_in_reach"] = args.strike_in_reach
     if args.strike_in_reach_from is not None:
         kw["strike_in_reach_from"] = args.strike_in_reach_from
+    if args.strike_in_reach_force is not None:
+        kw["strike_in_reach_force"] = args.strike_in_reach_force
     sim = Simulator.from_pretrained(args.model, physical_limits=not args.no_physical_limits,
                                     **kw)
     print(f"top-p player {sim.top_p_player}, ball {sim.top_p_ball}, "
           f"contact odds {sim.contact_odds}, contact {sim.top_p_contact}, "
+          f"serve {sim.top_p_serve}, "
           f"cache refresh {sim.refresh_frames}, strike in reach {sim.strike_in_reach}"
-          + (f" from shot {sim.strike_in_reach_from}" if sim.strike_in_reach else ""))
+          + (f" from shot {sim.strike_in_reach_from}" if sim.strike_in_reach else "")
+          + (", forced where it gives up" if sim.strike_in_reach_force else ""))
     t0 = time.perf_counter()
     simd = sim.simulate_both_serving(*players, args.surface, args.points, seed=args.seed)
     if args.save_sim is not None:
@@ -139,6 +152,9 @@ def main() -> None:
     unreal = float((~r["realistic"]).mean())
     print(f"simulated {len(r)} rallies ({2 * args.points} points) in {sim_s:.0f} s; "
           f"non-realistic {100 * unreal:.1f} %: {dict(failed.most_common())}")
+    if "forced_strikes" in r:
+        print(f"strikes forced where the rule for balls in reach gave up: "
+              f"{int(r['forced_strikes'].sum())}")
     t0 = time.perf_counter()
     truth = generate_matches([players], args.surface, args.truth_points, seed=args.seed,
                              workers=2)
@@ -199,8 +215,10 @@ def main() -> None:
                                         for k, p in profiles.items()},
                        "simulate_s": sim_s, "top_p_player": sim.top_p_player,
                        "top_p_ball": sim.top_p_ball, "top_p_contact": sim.top_p_contact,
+                       "top_p_serve": sim.top_p_serve,
                        "strike_in_reach": sim.strike_in_reach,
-                       "strike_in_reach_from": sim.strike_in_reach_from},
+                       "strike_in_reach_from": sim.strike_in_reach_from,
+                       "strike_in_reach_force": sim.strike_in_reach_force},
                       fh, indent=2)
 
 

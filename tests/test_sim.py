@@ -443,8 +443,61 @@ def test_strike_in_reach_rejects_a_good_ball_leaving_the_due_players_reach_unstr
         StrikeInReach(tracker, from_shot=0)
 
 
+def test_a_forced_strike_is_asked_for_only_where_the_rule_itself_gave_up():
+    from types import SimpleNamespace
+
+    from sportsngen.sim.constraints import AllOf, StrikeInReach
+    from sportsngen.sim.rollout import _constrain
+
+    n = 3     # every row: the receiver due to return a good serve
+    tracker = SimpleNamespace(ended=np.zeros(n, dtype=bool), hitter=np.zeros(n, dtype=np.int64),
+                              n_bounces=np.ones(n, dtype=np.int64), server_end=np.ones(n),
+                              n_shots=np.ones(n, dtype=np.int64))
+    pos = torch.zeros(n, 3, 3)
+    pos[:, 0, :2] = torch.tensor([11.0, 0.0])
+    pos[:, 1, :2] = torch.tensor([-11.0, 0.0])
+    pos[:, 2] = torch.tensor([-11.6, 0.6, 1.0])          # 0.85 m from the receiver
+    passed = pos.clone()
+    passed[:, 2, 0] -= 0.8                               # on past him, unstruck
+
+    class Other:                      # another rule, rejecting row 2 only
+        max_tries, offset = 1, 0
+
+        def __init__(self):
+            self.told = []
+
+        def accept(self, rows, frame, pos_m, next_pos_m, vel_mps=None):
+            return torch.as_tensor(np.asarray(rows) != 2)
+
+        def give_up(self, rows):
+            self.told += list(rows)
+
+    class Model:                      # every draw passes rows 0 and 2, keeps row 1 in reach
+        def sample_next(self, h, pos_m, *args):
+            out = passed[:len(h)].clone()
+            out[h[:, 0] == 1] = pos[:1]
+            return out
+
+    for force in (False, True):
+        rule, other = StrikeInReach(tracker, max_tries=1, force=force), Other()
+        con = AllOf(rule, other)
+        h = torch.zeros(n, 1)
+        h[1, 0] = 1
+        zero = torch.zeros_like(pos)
+        nxt, drawn, strike = _constrain(Model(), con, np.arange(n), 10, h, pos, zero, zero,
+                                        passed.clone(), 1.0, 1.0, None)
+        # Row 1 found a frame that keeps the ball in reach; rows 0 and 2 gave up, and each
+        # rule is told only the rows it rejected.
+        assert drawn.tolist() == [2, 1, 2] and torch.equal(nxt[1], pos[0])
+        assert rule.given_up == 2 and other.told == [2]
+        assert strike.tolist() == [force, False, force]
+    assert StrikeInReach(tracker).strike_rows(np.arange(n)).tolist() == [False] * n
+
+
 def test_strike_in_reach_runs_in_rollouts_and_changes_nothing_before_a_good_bounce(
         tiny_model_file):
+    from sportsngen.errors import ArgumentError
+
     kw = dict(max_duration_s=1.2, top_p_ball=0.6, contact_odds=True)
     a = _sim(tiny_model_file, **kw).simulate_points("Toy Alpha", "Toy Beta", "hard", 4, seed=0,
                                                     serve_number=1)
@@ -457,10 +510,23 @@ def test_strike_in_reach_runs_in_rollouts_and_changes_nothing_before_a_good_boun
     pd.testing.assert_frame_equal(fa, fb)
     # From the server's first rally ball on: nothing changes before the return's first bounce
     # either, and a contact number before the return is refused.
+    # The tiny model has no serve head: its nucleus changes nothing; a nucleus outside (0, 1]
+    # is refused.
+    fs = _sim(tiny_model_file, strike_in_reach=True, top_p_serve=0.5, **kw)
+    assert fs.top_p_serve == 0.5
+    pd.testing.assert_frame_equal(
+        b.frames, fs.simulate_points("Toy Alpha", "Toy Beta", "hard", 4, seed=0,
+                                     serve_number=1).frames)
+    with pytest.raises(ArgumentError, match="top_p_serve"):
+        _sim(tiny_model_file, top_p_serve=0.0)
+    # The tiny model has no strike head: forcing a strike where the rule gives up is a no-op.
+    f = _sim(tiny_model_file, strike_in_reach=True, strike_in_reach_force=True, **kw)
+    ff = f.simulate_points("Toy Alpha", "Toy Beta", "hard", 4, seed=0, serve_number=1)
+    pd.testing.assert_frame_equal(b.frames, ff.frames)
+    assert (ff.rallies["forced_strikes"] == 0).all() and (b.rallies["forced_strikes"] == 0).all()
     c = _sim(tiny_model_file, strike_in_reach=True, strike_in_reach_from=2, **kw)
     assert c.strike_in_reach_from == 2
     fc = c.simulate_points("Toy Alpha", "Toy Beta", "hard", 4, seed=0, serve_number=1).frames
     pd.testing.assert_frame_equal(fa, fc[fc["frame"] < 20].reset_index(drop=True))
-    from sportsngen.errors import ArgumentError
     with pytest.raises(ArgumentError, match="strike_in_reach_from"):
         _sim(tiny_model_file, strike_in_reach=True, strike_in_reach_from=0)

@@ -81,6 +81,45 @@ def test_a_strike_is_a_ball_turned_back_from_the_hitters_half_not_a_toss():
     assert S.is_strike(pos, vel, nxt, FPS).tolist() == [True, False, True, False]
 
 
+def test_a_serve_is_a_tossed_ball_sent_over_the_net_and_no_rally_strike_is_one():
+    pos = np.array([[11.4, 0.7, 2.9], [11.4, 0.7, 2.9], [-11.6, -0.5, 2.8], [11.0, 1.0, 1.0],
+                    [11.4, 0.7, 1.5], [6.0, 0.7, 2.9], [11.4, 0.7, 2.9]])
+    vel = np.array([[0.0, 0, -1.7], [0.0, 0, -1.7], [0.3, 0, -1.0], [25.0, 0, 0],
+                    [0.0, 0, -1.7], [0.0, 0, -1.7], [0.0, 0, -1.7]])
+    nxt = pos + np.array([[-1.9, -0.4, -0.2], [-0.15, 0, -0.07], [1.9, 0.2, -0.2],
+                          [-1.2, 0, 0.1], [-1.9, 0, 0], [-1.9, 0, 0], [0.0, 0, -0.07]])
+    # A serve; one struck late in the frame (its first frame a few metres a second); one at
+    # the other end; a return (a rally strike); a ball too low, too far in the court to be a
+    # serve; the toss still falling.
+    assert S.is_serve(pos, vel, nxt, FPS).tolist() == [True, True, True, False, False, False,
+                                                        False]
+    assert S.is_strike(pos, vel, nxt, FPS).tolist() == [False, False, False, True, False, False,
+                                                        False]
+
+
+def test_a_serve_is_solved_for_its_landing_and_speed_and_read_back():
+    contact = np.array([[11.4, 0.7, 2.9], [-11.5, -0.7, 2.8]])
+    side = np.sign(contact[:, 0])
+    # A flat first serve down the T (52 m/s) and a kicked second serve wide (36 m/s).
+    asked = np.array([[6.0, 0.3, 52.0, -0.06], [5.0, -3.6, 36.0, -0.3]])
+    v0, found = S.solve_serve(contact, side, asked, FPS)
+    assert found.all()
+    frames = S.launch_frames(contact, v0, asked[:, 3], FPS)
+    read = S.serve_labels(frames, side, FPS)
+    np.testing.assert_allclose(read[:, [0, 1, 3]], asked[:, [0, 1, 3]], atol=0.02)
+    # Struck on a frame, the serve's speed is read over its first two frames.
+    speed = np.linalg.norm(frames[:, 1] - frames[:, 0], axis=-1) * FPS
+    np.testing.assert_allclose(speed, asked[:, 2], atol=0.1)
+    # Both clear the net, the slower, spun serve higher.
+    net = S.strike_labels(frames, side, FPS)[:, 2]
+    assert 0.95 < net[0] < net[1]
+    # Serve bins: the speed's range holds every serve, and a bin is under 0.7 m/s wide.
+    edges = S.serve_edges()
+    assert edges[2, 0] <= 15.0 and edges[2, -1] >= 70.0 and np.diff(edges[2]).max() < 0.7
+    idx = S.strike_bin_index(asked, edges)
+    assert np.all(np.abs(S.strike_bin_value(idx, None, edges) - asked) <= np.diff(edges).max(1))
+
+
 @pytest.fixture(scope="module")
 def recorded_strikes():
     from sportsngen.data.tokens import Vocab, rally_arrays
@@ -193,3 +232,119 @@ def test_a_sampled_strike_is_placed_on_its_solved_flight(monkeypatch):
     assert torch.isnan(plan).all()
     read = S.strike_labels(np.array(frames)[None], np.array([1.0]), FPS)
     assert S.strike_bin_index(read).tolist() == want.tolist()
+
+
+def test_a_forced_strike_is_struck_from_where_the_ball_is(monkeypatch):
+    from sportsngen.sim.rollout import _follow_strikes
+
+    model = _struck_model()
+    asked = np.array([10.2, 2.1, 1.7, -0.12])
+    want = torch.as_tensor(S.strike_bin_index(asked[None]))
+    monkeypatch.setattr(model.strike_head, "sample", lambda h, top_p, gen: want.expand(len(h), 4))
+    monkeypatch.setattr("sportsngen.model.strike_heads.uniform_in_bin",    # bin centres: exact
+                        lambda shape, device, gen: torch.full(shape, 0.5, device=device))
+    ball = _incoming_then_launch(asked)
+    pos = torch.zeros(2, 3, 3)
+    pos[:, 2] = torch.as_tensor(ball[2], dtype=torch.float32)
+    vel = torch.zeros_like(pos)
+    vel[:, 2] = torch.as_tensor((ball[2] - ball[1]) * FPS, dtype=torch.float32)
+    nxt = pos.clone()
+    nxt[:, 2, 0] += 0.9                               # both draws: the ball flies on past
+    h = torch.randn(2, 3, model.cfg.d_model)
+    g = torch.Generator().manual_seed(0)
+    plan = torch.full((2, 2, 3), float("nan"))
+    out, plan = _follow_strikes(model, h, pos, vel, nxt, plan, g, np.array([False, True]))
+    # Row 0 keeps its pass; row 1 is struck from the current ball on the strike head's draw.
+    assert torch.equal(out[0], nxt[0]) and torch.isnan(plan[0]).all()
+    assert torch.equal(out[1, :2], nxt[1, :2])        # the players' draws stand
+    value = S.strike_bin_value(want.numpy(), np.full((1, 4), 0.5))
+    contact = ball[2][None].astype(np.float64)
+    v0, found = S.solve_launch(contact, np.array([1.0]), value, FPS)
+    assert found.all()
+    launch = S.launch_frames(contact, v0, value[:, 3], FPS)[0]
+    assert out[1, 2, 0] < pos[1, 2, 0]                # turned back toward the net
+    np.testing.assert_allclose(out[1, 2].numpy(), launch[0], atol=1e-5)
+    np.testing.assert_allclose(plan[1].numpy(), launch[1:], atol=1e-5)
+
+
+def test_recorded_serves_are_found_once_and_read_where_they_bounced():
+    from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
+
+    data = truth_points(DiagnosticsSetup(n_points=40, seed=4))
+    ball = data.frames[data.frames["object"] == "ball"].sort_values(["rally_id", "frame"])
+    serves = data.shots[data.shots["shot_index"] == 0].set_index("rally_id")
+    err, after, contact = [], [], []
+    for rid, g in ball.groupby("rally_id"):
+        p = g[["x", "y", "z"]].to_numpy(float)
+        v = np.zeros_like(p)
+        v[1:] = (p[1:] - p[:-1]) * data.fps
+        found = np.flatnonzero(S.is_serve(p[:-1], v[:-1], p[1:], data.fps))
+        # One serve a rally, found on the frame before the shots table's contact frame.
+        assert len(found) == 1
+        k = found[0]
+        assert g["frame"].iloc[k + 1] == serves.loc[rid, "frame"]
+        assert not S.is_strike(p[k:k + 1], v[k:k + 1], p[k + 1:k + 2], data.fps)[0]
+        label = S.strike_labels(p[None, k + 1:k + 4], np.sign(p[k:k + 1, 0]), data.fps)[0]
+        assert np.isfinite(label).all()
+        after.append(p[k + 1:k + 4])
+        contact.append(p[k])
+        bounce = serves.loc[rid, ["bounce_x", "bounce_y"]].to_numpy(float)
+        if np.isfinite(bounce).all():
+            side = np.sign(p[k, 0])
+            err.append(np.hypot(-side * label[0] - bounce[0], -side * label[1] - bounce[1]))
+    # The physics centre's flight from the serve's first frames lands where the generator's
+    # serve bounced, to millimetres (no spin model to read).
+    assert len(err) > 20 and np.median(err) < 0.01 and np.percentile(err, 90) < 0.05
+    # Solved for its landing and speed from the toss's frame, each serve flies as recorded:
+    # the same height over the net to 5 cm (its speed is the statistics' reading, a frame
+    # later than the launch's, so the solved serve is a frame's drag slower and 2-4 cm higher).
+    after, contact = np.array(after), np.array(contact)
+    side = np.sign(contact[:, 0])
+    labels = S.serve_labels(after, side, data.fps)
+    v0, found = S.solve_serve(contact, side, labels, data.fps)
+    assert found.all()
+    solved = S.launch_frames(contact, v0, labels[:, 3], data.fps)
+    net = S.strike_labels(solved, side, data.fps)[:, 2] - S.strike_labels(after, side,
+                                                                             data.fps)[:, 2]
+    assert np.abs(net).max() < 0.05
+    assert np.median(labels[:, 2]) > 40.0          # first and second serves, m/s
+
+
+def test_a_sampled_serve_is_placed_on_its_solved_flight_and_a_toss_is_left_alone(monkeypatch):
+    from sportsngen.model import SportsNGEN
+    from sportsngen.sim.rollout import _follow_strikes
+    from tests.test_model import tiny_cfg
+
+    torch.manual_seed(0)
+    model = SportsNGEN(tiny_cfg(strike_head=True, serve_head=True, ball_centre="physics")).eval()
+    asked = np.array([5.6, 0.4, 50.0, -0.06])
+    want = torch.as_tensor(S.strike_bin_index(asked[None], S.serve_edges()))
+    nuclei = []
+    monkeypatch.setattr(model.serve_head, "sample",
+                        lambda h, top_p, gen: nuclei.append(top_p) or want.expand(len(h), 4))
+    monkeypatch.setattr(model.strike_head, "sample",
+                        lambda h, top_p, gen: pytest.fail("a serve is not a rally strike"))
+    monkeypatch.setattr("sportsngen.model.strike_heads.uniform_in_bin",
+                        lambda shape, device, gen: torch.full(shape, 0.5, device=device))
+    pos = torch.zeros(2, 3, 3)
+    pos[:, 2] = torch.tensor([11.4, 0.7, 2.9])            # the toss at its top
+    vel = torch.zeros_like(pos)
+    vel[:, 2, 2] = -1.0
+    nxt = pos.clone()
+    nxt[0, 2] += torch.tensor([-1.9, -0.2, -0.1])           # the model's draw: a serve
+    nxt[1, 2, 2] -= 0.05                                    # the toss still falling
+    h = torch.randn(2, 3, model.cfg.d_model)
+    plan = torch.full((2, 2, 3), float("nan"))
+    out, plan = _follow_strikes(model, h, pos, vel, nxt, plan, torch.Generator().manual_seed(0),
+                                top_p_serve=0.8)
+    assert torch.equal(out[1], nxt[1]) and torch.isnan(plan[1]).all()
+    assert nuclei == [0.8]                                  # one draw, the serve's nucleus
+    value = S.strike_bin_value(want.numpy(), None, S.serve_edges())
+    contact = pos[:1, 2].double().numpy()
+    v0, found = S.solve_serve(contact, np.array([1.0]), value, FPS)
+    launch = S.launch_frames(contact, v0, value[:, 3], FPS)[0]
+    np.testing.assert_allclose(out[0, 2].numpy(), launch[0], atol=1e-5)
+    np.testing.assert_allclose(plan[0].numpy(), launch[1:], atol=1e-5)
+    read = S.serve_labels(launch[None], np.array([1.0]), FPS)[0]
+    assert abs(read[0] - value[0, 0]) < 0.02
+    assert abs(np.linalg.norm(launch[1] - launch[0]) * FPS - value[0, 2]) < 0.1

@@ -248,9 +248,10 @@ def test_train_py_through_hydra_resume_mismatch_and_finetune(tmp_path, monkeypat
                                     "init_ball_centre=spin"]), tmp_path / "rc2")
 
 
-@pytest.mark.parametrize("head", ["ball_sub_head", "strike_head"])
+@pytest.mark.parametrize("head", ["ball_sub_head", "strike_head", "serve_head"])
 def test_a_head_added_to_a_trained_model_trains_alone(tmp_path, tiny_model_file, head):
-    add = "init_ball_sub_bins=4" if head == "ball_sub_head" else "init_strike_head=true"
+    add = {"ball_sub_head": "init_ball_sub_bins=4", "strike_head": "init_strike_head=true",
+           "serve_head": "init_serve_head=true"}[head]
     fast = ["experiment=tiny", "data=toy", "data.n_rallies=16", "trainer.val_check_interval=3",
             "trainer.limit_val_batches=1", "trainer.enable_progress_bar=false",
             "events.enabled=false", f"init={tiny_model_file}", add]
@@ -269,10 +270,14 @@ def test_a_head_added_to_a_trained_model_trains_alone(tmp_path, tiny_model_file,
     if head == "ball_sub_head":
         assert runs[3][3].ball_sub_bins == 4
         assert 0 < s["decoder"]["val/sub_nll_ball_flight"] < 3 * math.log(4) + 1.0
-    else:
+    elif head == "strike_head":
         assert runs[3][3].strike_head
         # Toy rallies' balls are struck too; four dimensions of 96 bins, barely trained.
         assert 0 < s["decoder"]["val/strike_nll"] < 4 * math.log(96) + 1.0
+    else:
+        assert runs[3][3].serve_head and not runs[3][3].strike_head
+        # Toy rallies start with a toss and a serve (NaN if none were found).
+        assert 0 < s["decoder"]["val/serve_nll"] < 4 * math.log(96) + 1.0
     if head == "ball_sub_head":      # the same check for both heads: run it once
         with pytest.raises(ValueError, match="names no parameter"):
             train_from_config(_compose([*fast, "trainer.max_steps=1", "train_only=nothing"]),

@@ -7,7 +7,7 @@
         [--band 0.4 0.6] [--paths]
     python -m sportsngen.eval diagnose [--model PATH] [--points 400] [--seed 0] [--csv PATH]
         [--top-p-ball P] [--[no-]contact-odds] [--top-p-contact P] [--[no-]strike-in-reach]
-        [--strike-in-reach-from N]
+        [--strike-in-reach-from N] [--[no-]strike-in-reach-force] [--top-p-serve P]
     python -m sportsngen.eval strikes [--model PATH] [--points 800] [--shots 1 2 3 4 5]
         [--after -1] [--seed 0] [--csv PATH] [sampling options as diagnose]
     python -m sportsngen.eval movement [--model PATH] [--shot 2] [--points 600] [--server NAME]
@@ -171,10 +171,16 @@ def _simulator(args: argparse.Namespace):
             raise UsageError(f"--strike-in-reach-from counts contacts after the serve (>= 1), "
                              f"got {args.strike_in_reach_from}")
         kw["strike_in_reach_from"] = args.strike_in_reach_from
+    if args.strike_in_reach_force is not None:
+        kw["strike_in_reach_force"] = args.strike_in_reach_force
     if args.top_p_contact is not None:
         if not 0.0 < args.top_p_contact <= 1.0:
             raise UsageError(f"--top-p-contact must be in (0, 1], got {args.top_p_contact}")
         kw["top_p_contact"] = args.top_p_contact
+    if args.top_p_serve is not None:
+        if not 0.0 < args.top_p_serve <= 1.0:
+            raise UsageError(f"--top-p-serve must be in (0, 1], got {args.top_p_serve}")
+        kw["top_p_serve"] = args.top_p_serve
     try:
         return Simulator.from_pretrained(args.model, **kw)
     except FileNotFoundError as exc:
@@ -394,6 +400,14 @@ def build_parser() -> argparse.ArgumentParser:
                             help="with --strike-in-reach: from this contact on (1 the return, "
                                  "2 the server's first rally ball; default: the model file's, "
                                  "else 1)")
+    model_opts.add_argument("--top-p-serve", type=float, default=None,
+                            help="with a serve head, its nucleus (default: the model file's, "
+                                 "else 1)")
+    model_opts.add_argument("--strike-in-reach-force", action=argparse.BooleanOptionalAction,
+                            default=None,
+                            help="with --strike-in-reach: where no draw keeps the ball in reach, "
+                                 "the strike head strikes it (default: the model file's, else "
+                                 "off)")
     model_opts.add_argument("--top-p-contact", type=float, default=None,
                             help="with contact odds, the nucleus of a struck ball (default: the "
                                  "model file's, else the ball's)")

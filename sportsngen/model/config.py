@@ -70,6 +70,11 @@ class ModelConfig:
     # physics centre's own flight: the court's lines are edges of its bins, so a strike no
     # longer has to invert the flight to land in. False: strikes are drawn in the ball's bins.
     strike_head: bool = False
+    # A head of its own for the serve (`model.strike.is_serve`: struck from the toss) as where
+    # it lands, its speed and its spin, the launch solved as a strike's: its fault, its box and
+    # its speed come from a distribution over those, not from the ball's bins under a nucleus.
+    # False: serves are drawn in the ball's bins.
+    serve_head: bool = False
     player_max_speed_mps: float = 10.0   # bin range: offsets up to this speed over one frame
     ball_max_speed_mps: tuple[float, float, float] = (80.0, 40.0, 40.0)
     window_s: float = 6.0

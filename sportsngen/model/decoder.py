@@ -20,13 +20,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import nn
 
 from sportsngen.data.tokens import BALL, GENERIC_ID, N_FEATURES, N_OBJECTS, N_SPECIAL_IDS
-from sportsngen.model import strike
+from sportsngen.model import strike, strike_heads
 from sportsngen.model.bins import Bins
 from sportsngen.model.centre import object_centres_m
 from sportsngen.model.config import FEATURE_GROUPS, ModelConfig
@@ -196,6 +195,8 @@ class SportsNGEN(nn.Module):
                                         cfg.head_hidden) if cfg.ball_sub_bins else None
         self.strike_head = FactorisedHead(cfg.d_model, strike.STRIKE_BINS, 4, cfg.head_hidden) \
             if cfg.strike_head else None
+        self.serve_head = FactorisedHead(cfg.d_model, strike.STRIKE_BINS, 4, cfg.head_hidden) \
+            if cfg.serve_head else None
 
     # --- inputs -------------------------------------------------------------------------------
     def _ident(self, ident: torch.Tensor) -> torch.Tensor:
@@ -367,77 +368,40 @@ class SportsNGEN(nn.Module):
         return self.ball_sub_head.nll(h[..., BALL, :], ball_idx, sub)
 
     def strike_targets(self, pos_m: torch.Tensor, vel_mps: torch.Tensor,
-                       next_pos_m: torch.Tensor, has_next: torch.Tensor):
-        """Windows' rally strikes (`model.strike.is_strike`) whose three next frames are in the
-        window and whose flight crosses the net and lands: (B, T) bool, and their strike bins
-        (B, T, 4) (0 elsewhere). Positions (B, T, 3, 3), `has_next` (B, T)."""
-        b, t = has_next.shape
-        mask = torch.zeros(b, t, dtype=torch.bool, device=has_next.device)
-        bins = torch.zeros(b, t, 4, dtype=torch.long, device=has_next.device)
-        if t < 3:
-            return mask, bins
-        ball = pos_m[..., BALL, :].detach().double().cpu().numpy()
-        nxt = next_pos_m[..., BALL, :].detach().double().cpu().numpy()
-        vel = vel_mps[..., BALL, :].detach().double().cpu().numpy()
-        ok = has_next.bool().cpu().numpy()
-        cand = np.zeros((b, t), dtype=bool)
-        cand[:, :-2] = ok[:, :-2] & ok[:, 1:-1] & ok[:, 2:] & strike.is_strike(
-            ball[:, :-2], vel[:, :-2], nxt[:, :-2], self.cfg.fps)
-        rb, rt = np.nonzero(cand)
-        if len(rb) == 0:
-            return mask, bins
-        after = np.stack([nxt[rb, rt], nxt[rb, rt + 1], nxt[rb, rt + 2]], axis=1)
-        labels = strike.strike_labels(after, np.sign(ball[rb, rt, 0]), self.cfg.fps)
-        good = np.isfinite(labels).all(-1)
-        rb, rt = rb[good], rt[good]
-        mask[rb, rt] = True
-        bins[rb, rt] = torch.as_tensor(strike.strike_bin_index(labels[good]),
-                                       device=bins.device)
-        return mask, bins
+                       next_pos_m: torch.Tensor, has_next: torch.Tensor, serves: bool = False):
+        """`strike_heads.strike_targets` at this model's frame rate: the windows' rally strikes
+        (or `serves`) and their bins."""
+        return strike_heads.strike_targets(pos_m, vel_mps, next_pos_m, has_next, self.cfg.fps,
+                                           serves)
 
     def strike_nll(self, h: torch.Tensor, mask: torch.Tensor,
                    bins: torch.Tensor) -> torch.Tensor:
         """(B, T) -log p(strike bins | ball state) at the `strike_targets`, 0 elsewhere."""
+        return self._head_nll(self.strike_head, h, mask, bins)
+
+    def serve_nll(self, h: torch.Tensor, mask: torch.Tensor, bins: torch.Tensor) -> torch.Tensor:
+        """(B, T) -log p(serve bins | ball state) at the serves' `strike_targets`, 0 elsewhere."""
+        return self._head_nll(self.serve_head, h, mask, bins)
+
+    @staticmethod
+    def _head_nll(head, h: torch.Tensor, mask: torch.Tensor, bins: torch.Tensor) -> torch.Tensor:
         out = torch.zeros(mask.shape, device=h.device, dtype=h.dtype)
-        if self.strike_head is not None and bool(mask.any()):
-            out[mask] = self.strike_head.nll(h[..., BALL, :][mask], bins[mask])
+        if head is not None and bool(mask.any()):
+            out[mask] = head.nll(h[..., BALL, :][mask], bins[mask])
         return out
 
     @torch.no_grad()
     def place_strikes(self, h: torch.Tensor, pos_m: torch.Tensor, vel_mps: torch.Tensor,
                       nxt: torch.Tensor, generator: torch.Generator | None = None,
                       top_p: float = 1.0,
-                      allowed: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
-        """Where the sampled next frames `nxt` (B, 3, 3) hold a rally strike (in the rows
-        `allowed`, (B,) bool, default all), the strike head's draw instead: its bins (nucleus
-        `top_p`), uniform inside them, the launch solved and its first frame put in `nxt`.
-        Returns (nxt, the launch's next two frames (B, 2, 3), NaN for rows without a strike or
-        whose launch was not found)."""
-        plan = torch.full((len(nxt), 2, 3), float("nan"), device=nxt.device)
-        if self.strike_head is None:
-            return nxt, plan
-        ball = pos_m[:, BALL].double().cpu().numpy()
-        vel = vel_mps[:, BALL].double().cpu().numpy()
-        struck = strike.is_strike(ball, vel, nxt[:, BALL].double().cpu().numpy(), self.cfg.fps)
-        if allowed is not None:
-            struck &= allowed.cpu().numpy()
-        rows = np.flatnonzero(struck)
-        if len(rows) == 0:
-            return nxt, plan
-        r = torch.as_tensor(rows, device=h.device)
-        idx = self.strike_head.sample(h[r, BALL], top_p, generator)
-        u = uniform_in_bin(idx.shape, h.device, generator)
-        values = strike.strike_bin_value(idx.cpu().numpy(), u.double().cpu().numpy())
-        contact = ball[rows]                  # the contact is taken on the struck frame
-        side = np.sign(ball[rows, 0])
-        v0, found = strike.solve_launch(contact, side, values, self.cfg.fps)
-        frames = strike.launch_frames(contact, v0, values[:, 3], self.cfg.fps)
-        keep = torch.as_tensor(rows[found], device=h.device)
-        frames = torch.as_tensor(frames[found], dtype=nxt.dtype, device=nxt.device)
-        nxt = nxt.clone()
-        nxt[keep, BALL] = frames[:, 0]
-        plan[keep] = frames[:, 1:]
-        return nxt, plan
+                      allowed: torch.Tensor | None = None,
+                      forced: torch.Tensor | None = None,
+                      top_p_serve: float = 1.0) -> tuple[torch.Tensor, torch.Tensor]:
+        """This model's strike and serve heads' draws placed in the sampled frames `nxt`
+        (`strike_heads.place_strikes`). -> (nxt, the launches' next two frames (B, 2, 3))."""
+        return strike_heads.place_strikes(self.strike_head, self.serve_head, h, pos_m, vel_mps,
+                                          nxt, self.cfg.fps, generator, top_p, allowed, forced,
+                                          top_p_serve)
 
     def nll(self, h: torch.Tensor, player_idx: torch.Tensor, ball_idx: torch.Tensor):
         """Per-token NLL: players (..., 2), ball (...)."""

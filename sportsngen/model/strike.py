@@ -41,6 +41,20 @@ STRIKE_RANGES = ((BASELINE_X_M - 48 * _DEPTH_W, BASELINE_X_M + 48 * _DEPTH_W),
 MAX_FLIGHT_FRAMES = 150                              # 6 s at 25 Hz: the highest lob lands
 MAX_LAUNCH_MPS = 75.0
 MIN_INCOMING_MPS = 2.0   # a strike meets a ball coming to the hitter's side this fast along x
+# A serve: struck from a toss (barely moving along x) this high, this far back, sent this fast.
+SERVE_MIN_Z_M = 1.8
+SERVE_MIN_BACK_M = 9.0
+SERVE_MIN_OUT_MPS = 3.0
+# A serve is drawn by its speed instead of its height over the net: struck from 2.5-3 m, a
+# flat serve's landing and net height fix a near-straight line, and the speed that fits them
+# is ill-conditioned (landing 5.5 m beyond the net at 1.20 m over it: 188 km/h; 5.8 m at
+# 1.15 m: 254 km/h), so a bin of either would span tens of km/h. The speed is what the
+# serve-speed statistics read (`eval.physical`: over the frame after the shots table's contact
+# frame): a recorded serve is struck between frames and its contact frame is the first after
+# it, so it reads the third and second frames after the contact; a placed serve is struck on
+# its frame, so it reads the launch's first two frames (`serve_labels`, `solve_serve`).
+SERVE_DIMS = ("depth_m", "lateral_m", "speed_mps", "lift_per_s")
+SERVE_RANGES = (STRIKE_RANGES[0], STRIKE_RANGES[1], (10.0, 74.0), STRIKE_RANGES[3])
 
 
 def strike_edges() -> np.ndarray:
@@ -50,19 +64,29 @@ def strike_edges() -> np.ndarray:
 
 _EDGES = np.stack([lo + np.linspace(0.0, 1.0, STRIKE_BINS + 1) * (hi - lo)
                    for lo, hi in STRIKE_RANGES])
+_SERVE_EDGES = np.stack([lo + np.linspace(0.0, 1.0, STRIKE_BINS + 1) * (hi - lo)
+                         for lo, hi in SERVE_RANGES])
 
 
-def strike_bin_index(values: np.ndarray) -> np.ndarray:
-    """(..., 4) strike values -> (..., 4) int64 bin indices (clamped to the outer bins)."""
-    edges = _EDGES
+def serve_edges() -> np.ndarray:
+    """(4, STRIKE_BINS + 1) the bins' edges of each serve dimension (`SERVE_DIMS`)."""
+    return _SERVE_EDGES.copy()
+
+
+def strike_bin_index(values: np.ndarray, edges: np.ndarray | None = None) -> np.ndarray:
+    """(..., 4) strike values -> (..., 4) int64 bin indices (clamped to the outer bins);
+    `edges` (default the strike's) as `strike_edges` gives them (`serve_edges` for serves)."""
+    edges = _EDGES if edges is None else edges
     out = [np.clip(np.searchsorted(edges[d, 1:-1], values[..., d], side="right"), 0,
                    STRIKE_BINS - 1) for d in range(4)]
     return np.stack(out, axis=-1).astype(np.int64)
 
 
-def strike_bin_value(idx: np.ndarray, u: np.ndarray | None = None) -> np.ndarray:
-    """(..., 4) bin indices -> values at fraction u in [0, 1) of each bin (default the centre)."""
-    edges = _EDGES
+def strike_bin_value(idx: np.ndarray, u: np.ndarray | None = None,
+                     edges: np.ndarray | None = None) -> np.ndarray:
+    """(..., 4) bin indices -> values at fraction u in [0, 1) of each bin (default the centre);
+    `edges` as in `strike_bin_index`."""
+    edges = _EDGES if edges is None else edges
     lo = np.stack([edges[d][idx[..., d]] for d in range(4)], axis=-1)
     hi = np.stack([edges[d][idx[..., d] + 1] for d in range(4)], axis=-1)
     return lo + (0.5 if u is None else u) * (hi - lo)
@@ -266,3 +290,76 @@ def is_strike(pos_m: np.ndarray, vel_mps: np.ndarray, next_pos_m: np.ndarray,
     side = np.sign(pos_m[..., 0])
     v_out = (next_pos_m[..., 0] - pos_m[..., 0]) * fps
     return (side * vel_mps[..., 0] > MIN_INCOMING_MPS) & (side * v_out < -MIN_INCOMING_MPS)
+
+
+def is_serve(pos_m: np.ndarray, vel_mps: np.ndarray, next_pos_m: np.ndarray,
+             fps: float) -> np.ndarray:
+    """(..., 3) as `is_strike` -> (...) bool: a serve between them: a tossed ball (moving along
+    x slower than `MIN_INCOMING_MPS` either way), high above the hitter's baseline area,
+    sent toward the other half faster than `SERVE_MIN_OUT_MPS`."""
+    side = np.sign(pos_m[..., 0])
+    v_out = (next_pos_m[..., 0] - pos_m[..., 0]) * fps
+    return ((np.abs(vel_mps[..., 0]) < MIN_INCOMING_MPS) & (pos_m[..., 2] >= SERVE_MIN_Z_M)
+            & (np.abs(pos_m[..., 0]) >= SERVE_MIN_BACK_M) & (side * v_out < -SERVE_MIN_OUT_MPS))
+
+
+def serve_labels(after_m: np.ndarray, side: np.ndarray, fps: float) -> np.ndarray:
+    """(N, 3, 3) a recorded serve's first three frames after the contact, struck from `side`
+    (N,) -> (N, 4) `SERVE_DIMS`: `strike_labels` with the speed the statistics read (over the
+    third and second frames) in place of the height over the net."""
+    out = strike_labels(after_m, side, fps)
+    out[:, 2] = np.where(np.isfinite(out[:, 2]),
+                         np.linalg.norm(after_m[:, 2] - after_m[:, 1], axis=-1) * fps, np.nan)
+    return out
+
+
+def _serve_outcome(contact_m: np.ndarray, v: np.ndarray, lift: np.ndarray, side: np.ndarray,
+                   fps: float) -> np.ndarray:
+    """(N, 3): depth and lateral where each launch lands, and its speed over its first two
+    frames (`SERVE_DIMS` but the spin; the speed as the statistics read a placed serve's)."""
+    out = _outcome_of_launch(contact_m, v, lift, side, fps)
+    frames = _launch(contact_m, v, lift, fps)
+    out[:, 2] = np.linalg.norm(frames[:, 1] - frames[:, 0], axis=-1) * fps
+    return out
+
+
+def solve_serve(contact_m: np.ndarray, side: np.ndarray, serve: np.ndarray, fps: float,
+                iterations: int = 10, tol_m: float = 0.01,
+                tol_mps: float = 0.05) -> tuple[np.ndarray, np.ndarray]:
+    """The velocity at the contact (N, 3) of a serve struck at `contact_m` from `side` that
+    lands at `serve` (N, 4 `SERVE_DIMS`)'s depth and lateral at its speed, and whether it was
+    found within `tol_m` and `tol_mps` (N,). Newton's method from the straight line to the
+    landing point lifted for the fall over its time (the fast, flat solution, not the lob)."""
+    s = np.asarray(side, dtype=float)
+    lift = serve[:, 3]
+    target = np.stack([serve[:, 0], serve[:, 1], serve[:, 2]], axis=-1)
+    land = np.stack([-s * serve[:, 0], -s * serve[:, 1], np.zeros(len(s))], axis=-1)
+    d = land - contact_m
+    dist = np.linalg.norm(d, axis=-1, keepdims=True)
+    speed = np.clip(serve[:, 2:3], 5.0, MAX_LAUNCH_MPS)
+    v = d / dist * speed
+    v[:, 2] += 0.5 * GRAVITY_MPS2 * dist[:, 0] / speed[:, 0]
+    n, eps = len(v), 0.05
+    ok = np.zeros(n, dtype=bool)
+    scale = np.array([1.0, 1.0, tol_m / tol_mps])   # speeds weighed as landing metres
+    for _ in range(iterations):
+        probe = np.concatenate([v] + [v + eps * np.eye(3)[k] for k in range(3)])
+        out = _serve_outcome(np.tile(contact_m, (4, 1)), probe, np.tile(lift, 4),
+                             np.tile(s, 4), fps).reshape(4, n, 3)
+        res = out[0] - target
+        ok = np.isfinite(res).all(-1) & (np.abs(res * scale) < tol_m).all(-1)
+        if ok.all():
+            break
+        jac = (out[1:] - out[0][None]).transpose(1, 2, 0) / eps
+        good = np.isfinite(jac).all((1, 2)) & np.isfinite(res).all(-1) & ~ok
+        step = np.zeros_like(v)
+        if good.any():
+            det_ok = np.abs(np.linalg.det(jac[good])) > 1e-9
+            idx = np.flatnonzero(good)[det_ok]
+            step[idx] = np.linalg.solve(jac[idx], -res[idx][..., None])[..., 0]
+        step[~good & ~ok] = np.array([0.0, 0.0, 1.0])   # no landing yet: aim higher
+        norm = np.linalg.norm(step, axis=-1, keepdims=True)
+        v = v + step * np.minimum(1.0, 10.0 / np.maximum(norm, 1e-9))
+        v = v * np.minimum(1.0, MAX_LAUNCH_MPS / np.maximum(np.linalg.norm(v, axis=-1,
+                                                                           keepdims=True), 1e-9))
+    return v, ok

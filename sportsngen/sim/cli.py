@@ -133,8 +133,12 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
         kw["strike_in_reach"] = bool(cfg.strike_in_reach)
     if cfg.get("strike_in_reach_from") is not None:
         kw["strike_in_reach_from"] = int(cfg.strike_in_reach_from)
+    if cfg.get("strike_in_reach_force") is not None:
+        kw["strike_in_reach_force"] = bool(cfg.strike_in_reach_force)
     if cfg.get("top_p_contact") is not None:
         kw["top_p_contact"] = float(cfg.top_p_contact)
+    if cfg.get("top_p_serve") is not None:
+        kw["top_p_serve"] = float(cfg.top_p_serve)
     if cfg.get("refresh_frames") is not None:
         kw["refresh_frames"] = int(cfg.refresh_frames)
     sim = Simulator.from_pretrained(cfg.get("model_file"), **kw)

@@ -95,6 +95,7 @@ class Rollout:
     n_steps: int             # decoder steps taken (the longest rally's sampled frames)
     frames_simulated: int    # sampled frames summed over rallies
     resampled: np.ndarray | None = None  # (B,) frames drawn again (a constraint rejected them)
+    forced_strikes: np.ndarray | None = None  # (B,) strikes asked for where a constraint gave up
 
 
 class Constraint(Protocol):
@@ -102,7 +103,9 @@ class Constraint(Protocol):
     `rows` (indices into the batch as first given), the frame index being sampled, the current
     and the sampled positions and the current velocities (B, 3, 3) tensors. `max_tries`
     bounds the resampling of a frame; rows still rejected then keep their last sample
-    (`give_up(rows)` is told which)."""
+    (`give_up(rows)` is told which), unless an optional `strike_rows(rows) -> (rows,) bool`
+    asks for some of them to be struck anyway (the model's strike head places the strike:
+    `SportsNGEN.place_strikes`)."""
 
     max_tries: int
 
@@ -115,7 +118,8 @@ class Constraint(Protocol):
 def _constrain(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top_p_player,
                top_p_ball, generator, contact_odds=False, top_p_contact=None):
     """Resample the rows `constraint` rejects: up to its max_tries from the nucleus, then as
-    many from the whole distribution. -> (frames, redraws per live row)."""
+    many from the whole distribution. -> (frames, redraws per live row, (B,) bool: the rows
+    given up on whose ball the constraint wants struck anyway)."""
     bad = ~constraint.accept(alive, n, pos, nxt, vel)
     tries = 0
     drawn = np.zeros(len(alive), dtype=np.int64)
@@ -132,26 +136,36 @@ def _constrain(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top_p_pl
         ok = constraint.accept(alive[idx.cpu().numpy()], n, pos[idx], again, vel[idx])
         bad[idx] = ~ok
         tries += 1
+    strike = np.zeros(len(alive), dtype=bool)
     if bool(bad.any()):
         idx = torch.nonzero(bad).squeeze(1)
-        constraint.give_up(alive[idx.cpu().numpy()])
+        given = idx.cpu().numpy()
+        constraint.give_up(alive[given])
         if hasattr(constraint, "project"):       # e.g. the net stops a ball it cannot pass
             nxt[idx] = constraint.project(pos[idx], nxt[idx])
-    return nxt, drawn
+        if hasattr(constraint, "strike_rows"):
+            strike[given] = constraint.strike_rows(alive[given])
+    return nxt, drawn, strike
 
 
 def _follow_strikes(model: SportsNGEN, h: torch.Tensor, pos: torch.Tensor, vel: torch.Tensor,
-                    nxt: torch.Tensor, plan: torch.Tensor,
-                    generator: torch.Generator) -> tuple[torch.Tensor, torch.Tensor]:
+                    nxt: torch.Tensor, plan: torch.Tensor, generator: torch.Generator,
+                    forced: np.ndarray | None = None,
+                    top_p_serve: float = 1.0) -> tuple[torch.Tensor, torch.Tensor]:
     """With a strike head: a ball in the frames after its strike flies the launch solved at the
     strike (`plan`, (B, 2, 3), NaN where none), so the physics centre reads the strike's spin
-    from them; a new strike is drawn by the head (`SportsNGEN.place_strikes`)."""
+    from them; a new strike is drawn by the head (`SportsNGEN.place_strikes`), also in the
+    rows `forced` (B,) bool whatever the sampled frame; a serve by the serve head, with one
+    (nucleus `top_p_serve`)."""
     planned = ~torch.isnan(plan[:, 0, 0])
     if bool(planned.any()):
         nxt = nxt.clone()
         nxt[planned, BALL] = plan[planned, 0]
     plan = torch.cat([plan[:, 1:], torch.full_like(plan[:, :1], float("nan"))], dim=1)
-    nxt, new = model.place_strikes(h, pos, vel, nxt, generator, allowed=~planned)
+    force = None if forced is None or not forced.any() else torch.as_tensor(forced,
+                                                                           device=nxt.device)
+    nxt, new = model.place_strikes(h, pos, vel, nxt, generator, allowed=~planned, forced=force,
+                                   top_p_serve=top_p_serve)
     return nxt, torch.where(torch.isnan(new[:, :1, :1]), plan, new)
 
 
@@ -188,7 +202,7 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             generator: torch.Generator | None = None, mode: str = "cache",
             progress: bool = False, constraint: Constraint | None = None,
             contact_odds: bool = False, top_p_contact: float | None = None,
-            refresh_frames: int | None = None) -> Rollout:
+            refresh_frames: int | None = None, top_p_serve: float = 1.0) -> Rollout:
     """Roll `inputs` forward until the tracker ends each rally or it has `max_frames` frames.
 
     The tracker sees every frame of every rally in order, the initial ones included, and
@@ -202,7 +216,8 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
     model's window, every this many frames the cache is filled again from the last window
     alone, so the next tokens read the rally as training windows do; without it the band's
     lower layers reach back over the whole rally (`sportsngen.eval.long_rallies`). 1 is the
-    "window" mode's view at the cost of a window's pass a frame. Cached rollouts of up to
+    "window" mode's view at the cost of a window's pass a frame. `top_p_serve`: the serve head's
+    nucleus, with one (`SportsNGEN.place_strikes`). Cached rollouts of up to
     `SINGLE_THREAD_ROWS` rallies run on one CPU thread.
     """
     small = (mode == "cache" and len(inputs.init_pos_m) <= SINGLE_THREAD_ROWS
@@ -247,6 +262,7 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             h = hs[:, -1]
         n, steps, frames = t0, 0, 0
         resampled = np.zeros(b, dtype=np.int64)
+        forced_strikes = np.zeros(b, dtype=np.int64)
         plan = torch.full((b, 2, 3), float("nan"), device=dev)   # a struck ball's next frames
         bar = tqdm(total=max_frames - t0, desc="frames", disable=not progress, leave=False)
         while True:
@@ -278,13 +294,17 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             prev_vel = (prev - hist[:, n - 3]) * fps if n >= 3 else torch.zeros_like(vel)
             nxt = model.sample_next(h, pos, vel, top_p_player, top_p_ball, generator, prev_vel,
                                     contact_odds, top_p_contact)
+            forced = None
             if constraint is not None:
-                nxt, drawn = _constrain(model, constraint, alive, n, h, pos, vel, prev_vel, nxt,
-                                        top_p_player, top_p_ball, generator, contact_odds,
-                                        top_p_contact)
+                nxt, drawn, forced = _constrain(model, constraint, alive, n, h, pos, vel,
+                                                prev_vel, nxt, top_p_player, top_p_ball,
+                                                generator, contact_odds, top_p_contact)
                 resampled[alive] += drawn
-            if model.strike_head is not None:
-                nxt, plan = _follow_strikes(model, h, pos, vel, nxt, plan, generator)
+                if model.strike_head is not None:
+                    forced_strikes[alive] += forced
+            if model.strike_head is not None or model.serve_head is not None:
+                nxt, plan = _follow_strikes(model, h, pos, vel, nxt, plan, generator, forced,
+                                            top_p_serve)
             hist[:, n] = nxt
             nxt_np = nxt.cpu().numpy()
             out[alive, n] = nxt_np
@@ -298,4 +318,5 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             frames += len(alive)
             bar.update(1)
         bar.close()
-        return Rollout(out[:, :int(length.max())], length, ended, steps, frames, resampled)
+        return Rollout(out[:, :int(length.max())], length, ended, steps, frames, resampled,
+                       forced_strikes)

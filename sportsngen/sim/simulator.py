@@ -88,11 +88,13 @@ class Simulator:
                  physical_limits: bool = True, device: str | torch.device = "cpu",
                  contact_odds: bool = False, top_p_contact: float | None = None,
                  refresh_frames: int | None = None, strike_in_reach: bool = False,
-                 strike_in_reach_from: int = 1):
+                 strike_in_reach_from: int = 1, strike_in_reach_force: bool = False,
+                 top_p_serve: float = 1.0):
         if abs(initial.fps - model.cfg.fps) > 1e-6:
             raise ValueError(f"initial conditions at {initial.fps} Hz, model at {model.cfg.fps}")
         for name, p in (("top_p_player", top_p_player), ("top_p_ball", top_p_ball),
-                        ("top_p_contact", 1.0 if top_p_contact is None else top_p_contact)):
+                        ("top_p_contact", 1.0 if top_p_contact is None else top_p_contact),
+                        ("top_p_serve", top_p_serve)):
             if not 0.0 < p <= 1.0:
                 raise ArgumentError(f"{name} must be in (0, 1], got {p}")
         self.model = model.to(device).eval()
@@ -110,6 +112,8 @@ class Simulator:
         self.contact_odds = bool(contact_odds)
         # With contact_odds: the nucleus of a struck ball (None: top_p_ball).
         self.top_p_contact = None if top_p_contact is None else float(top_p_contact)
+        # The serve head's nucleus, where the model has one.
+        self.top_p_serve = float(top_p_serve)
         # Past the model's window, re-fill the cache from the last window every this many
         # frames (`rollout`): None keeps the band; 1 gives training's view on every frame.
         if refresh_frames is not None and int(refresh_frames) < 1:
@@ -123,6 +127,8 @@ class Simulator:
             raise ArgumentError(f"strike_in_reach_from counts contacts after the serve (>= 1), "
                                 f"got {strike_in_reach_from!r}")
         self.strike_in_reach_from = int(strike_in_reach_from)
+        # ... and where no draw strikes it or keeps it in reach, the strike head strikes it.
+        self.strike_in_reach_force = bool(strike_in_reach_force)
         self._warned: set[str] = set()    # unknown players already warned about
         # Raw rollout win probabilities -> observed frequencies, when the model file has one
         # (`scripts/rally_outcome_study.py --save-calibrator`).
@@ -208,7 +214,8 @@ class Simulator:
             tracker = RallyTracker(part["server_end"].to_numpy(), part["side"].to_numpy(),
                                    part["serve_number"].to_numpy(), self.fps, duration_s)
             limits = PhysicalLimits(fps=self.fps) if self.physical_limits else None
-            strike = StrikeInReach(tracker, fps=self.fps, from_shot=self.strike_in_reach_from) \
+            strike = StrikeInReach(tracker, fps=self.fps, from_shot=self.strike_in_reach_from,
+                                   force=self.strike_in_reach_force) \
                 if self.strike_in_reach else None
             con = AllOf(limits, strike, constraint) if (limits or strike or constraint) else None
             if con is not None:
@@ -220,11 +227,12 @@ class Simulator:
                            self.top_p_player, self.top_p_ball, generator=gen,
                            progress=progress, constraint=con, contact_odds=self.contact_odds,
                            top_p_contact=self.top_p_contact,
-                           refresh_frames=self.refresh_frames)
+                           refresh_frames=self.refresh_frames, top_p_serve=self.top_p_serve)
             labels = None if self.event_model is None else frame_labels(
                 self.event_model, roll.pos_m, roll.length, self.fps, self.model.cfg.window_frames)
             data = assemble(part, roll.pos_m, roll.length, tracker.results(), labels, self.fps)
             data.rallies["resampled_frames"] = roll.resampled
+            data.rallies["forced_strikes"] = roll.forced_strikes
             parts.append(data)
         return RallyData.concat(parts)
 

@@ -110,7 +110,8 @@ def average_generic_identity(model: SportsNGEN, vocab: Vocab) -> bool:
 
 @torch.no_grad()
 def graft_strike_head(model: SportsNGEN, donor: SportsNGEN) -> SportsNGEN:
-    """`model` with `donor`'s strike head (`model.strike_head`): for two files fine-tuned from
+    """`model` with `donor`'s strike head (`model.strike_head`, and its serve head where it
+    has one): for two files fine-tuned from
     one base, each training other parts alone (`train_only`), so the strike head trained on
     one joins the other's parts (e.g. the ball's forecast and the players' head). Their shared
     trunk (the transformer blocks) must be identical, else the head was trained on another
@@ -123,8 +124,11 @@ def graft_strike_head(model: SportsNGEN, donor: SportsNGEN) -> SportsNGEN:
     if changed:
         raise ValueError(f"the two models' transformer blocks differ ({len(changed)} tensors, "
                          f"e.g. {changed[0]}): the strike head belongs to another decoder")
-    new = SportsNGEN(dataclasses.replace(model.cfg, strike_head=True))
-    state = {**ours, **{k: v for k, v in theirs.items() if k.startswith("strike_head.")}}
+    # The donor's serve head, where it has one, comes with its strike head.
+    new = SportsNGEN(dataclasses.replace(model.cfg, strike_head=True,
+                                         serve_head=donor.cfg.serve_head or model.cfg.serve_head))
+    state = {**ours, **{k: v for k, v in theirs.items()
+                        if k.startswith(("strike_head.", "serve_head."))}}
     new.load_state_dict(state)
     return new.eval()
 

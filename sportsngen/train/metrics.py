@@ -52,7 +52,7 @@ class NextFrameMetrics:
             self.sums[f"cv_{p}"] = torch.zeros(len(CV_SIGMAS_M), _DIMS[p], dtype=torch.float64)
         for p in PARTS[1:]:     # the ball's sub-bin head, where the model has one
             self.sums[f"sub_{p}"] = torch.zeros((), dtype=torch.float64)
-        for k in ("n_strike", "nll_strike"):   # the strike head, where the model has one
+        for k in ("n_strike", "nll_strike", "n_serve", "nll_serve"):   # strike and serve heads
             self.sums[k] = torch.zeros((), dtype=torch.float64)
 
     def _add(self, part: str, nll: torch.Tensor, hit: torch.Tensor, cv_hit: torch.Tensor,
@@ -94,6 +94,10 @@ class NextFrameMetrics:
             s_mask, s_bins = model.strike_targets(pos, vel, nxt, batch["has_next"])
             self.sums["n_strike"] += float(s_mask.sum())
             self.sums["nll_strike"] += model.strike_nll(h, s_mask, s_bins).double().sum().cpu()
+        if model.serve_head is not None:
+            s_mask, s_bins = model.strike_targets(pos, vel, nxt, batch["has_next"], serves=True)
+            self.sums["n_serve"] += float(s_mask.sum())
+            self.sums["nll_serve"] += model.serve_nll(h, s_mask, s_bins).double().sum().cpu()
         for part, sel in (("flight", m & ~near), ("contact", m & near)):
             self.sums[f"sub_{part}"] += sub[sel].double().sum().cpu()
             b_cv = cv_mean[..., BALL, :][sel]
@@ -149,6 +153,8 @@ class NextFrameMetrics:
         # from `loss` like the sub-bin head's.
         out["strike_nll"] = ratio(s["nll_strike"], s["n_strike"])
         out["n_strikes"] = float(s["n_strike"])
+        out["serve_nll"] = ratio(s["nll_serve"], s["n_serve"])    # the serve head's, likewise
+        out["n_serves"] = float(s["n_serve"])
         out["cv_sigma_player_m"] = [float(CV_SIGMAS_M[i]) for i in best_p]
         out["cv_sigma_ball_m"] = [float(CV_SIGMAS_M[i]) for i in best_b[0]]
         out["loss"] = (2 * out["nll_player"] + out["nll_ball"]) / 3.0

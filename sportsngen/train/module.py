@@ -157,6 +157,11 @@ class DecoderModule(L.LightningModule):
             mask, bins = self.model.strike_targets(batch["pos_m"], batch["vel_mps"],
                                                    batch["next_pos_m"], batch["has_next"])
             b_nll = b_nll + self.model.strike_nll(h, mask, bins)
+        if self.model.serve_head is not None:
+            mask, bins = self.model.strike_targets(batch["pos_m"], batch["vel_mps"],
+                                                   batch["next_pos_m"], batch["has_next"],
+                                                   serves=True)
+            b_nll = b_nll + self.model.serve_nll(h, mask, bins)
         return h, p_idx, b_idx, p_nll, b_nll
 
     def loss(self, p_nll: torch.Tensor, b_nll: torch.Tensor, batch: dict) -> torch.Tensor:

@@ -126,11 +126,12 @@ def _expert_arrays(cfg: DictConfig, vocab: Vocab) -> RallyArrays | None:
 
 
 def _load_init(model: torch.nn.Module, state: dict) -> None:
-    """The `init` model's weights into `model`; only a sub-bin or strike head the init lacks
-    (added by `init_ball_sub_bins`, `init_strike_head`) may be missing, and nothing may be left
-    over."""
+    """The `init` model's weights into `model`; only a sub-bin, strike or serve head the init
+    lacks (added by `init_ball_sub_bins`, `init_strike_head`, `init_serve_head`) may be missing,
+    and nothing may be left over."""
     missing, unexpected = model.load_state_dict(state, strict=False)
-    bad = [k for k in missing if not k.startswith(("ball_sub_head.", "strike_head."))]
+    bad = [k for k in missing
+           if not k.startswith(("ball_sub_head.", "strike_head.", "serve_head."))]
     if bad or unexpected:
         raise ValueError(f"init weights do not fit this model: missing {bad}, unexpected "
                          f"{list(unexpected)}")
@@ -169,6 +170,8 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
                                                "ball_sub_bins": int(cfg.init_ball_sub_bins)})
         if cfg.get("init_strike_head"):
             model_cfg = ModelConfig.from_dict({**model_cfg.to_dict(), "strike_head": True})
+        if cfg.get("init_serve_head"):
+            model_cfg = ModelConfig.from_dict({**model_cfg.to_dict(), "serve_head": True})
         init_state = model.state_dict()
         if cfg.get("init_ball_forecast") and not model_cfg.ball_forecast:
             # The forecast's columns join the object embedding with zero weights: training

@@ -1,0 +1,101 @@
+"""The strike and serve heads' targets in training and their draws in rollouts.
+
+`model.strike` describes a strike as where its ball goes and solves the launch; here the
+decoder's windows are read for the strikes a head learns (`strike_targets`) and a rollout's
+sampled frames get the heads' draws in place of the ball's bins (`place_strikes`). Both work
+on the ball's track alone, so they take the heads as arguments (`SportsNGEN` calls them with
+its own).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from sportsngen.data.tokens import BALL
+from sportsngen.model import strike
+from sportsngen.model.sampling import uniform_in_bin
+
+
+def strike_targets(pos_m: torch.Tensor, vel_mps: torch.Tensor, next_pos_m: torch.Tensor,
+                   has_next: torch.Tensor, fps: float,
+                   serves: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
+    """Windows' rally strikes (`strike.is_strike`; `serves`: the serves, `strike.is_serve`,
+    read as `serve_labels`) whose three next frames are in the window and whose flight crosses
+    the net and lands: (B, T) bool, and their bins (B, T, 4) (0 elsewhere). Positions
+    (B, T, 3, 3), `has_next` (B, T)."""
+    found = strike.is_serve if serves else strike.is_strike
+    read = strike.serve_labels if serves else strike.strike_labels
+    edges = strike.serve_edges() if serves else None
+    b, t = has_next.shape
+    mask = torch.zeros(b, t, dtype=torch.bool, device=has_next.device)
+    bins = torch.zeros(b, t, 4, dtype=torch.long, device=has_next.device)
+    if t < 3:
+        return mask, bins
+    ball = pos_m[..., BALL, :].detach().double().cpu().numpy()
+    nxt = next_pos_m[..., BALL, :].detach().double().cpu().numpy()
+    vel = vel_mps[..., BALL, :].detach().double().cpu().numpy()
+    ok = has_next.bool().cpu().numpy()
+    cand = np.zeros((b, t), dtype=bool)
+    cand[:, :-2] = ok[:, :-2] & ok[:, 1:-1] & ok[:, 2:] & found(
+        ball[:, :-2], vel[:, :-2], nxt[:, :-2], fps)
+    rb, rt = np.nonzero(cand)
+    if len(rb) == 0:
+        return mask, bins
+    after = np.stack([nxt[rb, rt], nxt[rb, rt + 1], nxt[rb, rt + 2]], axis=1)
+    labels = read(after, np.sign(ball[rb, rt, 0]), fps)
+    good = np.isfinite(labels).all(-1)
+    rb, rt = rb[good], rt[good]
+    mask[rb, rt] = True
+    bins[rb, rt] = torch.as_tensor(strike.strike_bin_index(labels[good], edges),
+                                   device=bins.device)
+    return mask, bins
+
+
+@torch.no_grad()
+def place_strikes(strike_head, serve_head, h: torch.Tensor, pos_m: torch.Tensor,
+                  vel_mps: torch.Tensor, nxt: torch.Tensor, fps: float,
+                  generator: torch.Generator | None = None, top_p: float = 1.0,
+                  allowed: torch.Tensor | None = None, forced: torch.Tensor | None = None,
+                  top_p_serve: float = 1.0) -> tuple[torch.Tensor, torch.Tensor]:
+    """Where the sampled next frames `nxt` (B, 3, 3) hold a rally strike, or in the rows
+    `forced` (B,) bool whatever they hold (in the rows `allowed`, (B,) bool, default all),
+    `strike_head`'s draw from the decoder's states `h` (B, 3, D) instead: its bins (nucleus
+    `top_p`), uniform inside them, the launch solved from the current ball and its first frame
+    put in `nxt`; where they hold a serve, `serve_head`'s draw the same way (nucleus
+    `top_p_serve`; `strike.solve_serve`). Either head may be None. Returns (nxt, the launch's
+    next two frames (B, 2, 3), NaN for rows without a strike or whose launch was not found)."""
+    plan = torch.full((len(nxt), 2, 3), float("nan"), device=nxt.device)
+    if strike_head is None and serve_head is None:
+        return nxt, plan
+    ball = pos_m[:, BALL].double().cpu().numpy()
+    vel = vel_mps[:, BALL].double().cpu().numpy()
+    nxt_ball = nxt[:, BALL].double().cpu().numpy()
+    allow = np.ones(len(nxt), dtype=bool) if allowed is None else allowed.cpu().numpy()
+    parts = []
+    if strike_head is not None:
+        struck = strike.is_strike(ball, vel, nxt_ball, fps)
+        if forced is not None:
+            struck |= forced.cpu().numpy()
+        parts.append((struck & allow, strike_head, None, strike.solve_launch, top_p))
+    if serve_head is not None:
+        served = strike.is_serve(ball, vel, nxt_ball, fps) & allow
+        parts.append((served, serve_head, strike.serve_edges(), strike.solve_serve, top_p_serve))
+    for struck, head, edges, solve, p in parts:
+        rows = np.flatnonzero(struck)
+        if len(rows) == 0:
+            continue
+        r = torch.as_tensor(rows, device=h.device)
+        idx = head.sample(h[r, BALL], p, generator)
+        u = uniform_in_bin(idx.shape, h.device, generator)
+        values = strike.strike_bin_value(idx.cpu().numpy(), u.double().cpu().numpy(), edges)
+        contact = ball[rows]                  # the contact is taken on the struck frame
+        side = np.sign(ball[rows, 0])
+        v0, found = solve(contact, side, values, fps)
+        frames = strike.launch_frames(contact, v0, values[:, 3], fps)
+        keep = torch.as_tensor(rows[found], device=h.device)
+        frames = torch.as_tensor(frames[found], dtype=nxt.dtype, device=nxt.device)
+        nxt = nxt.clone()
+        nxt[keep, BALL] = frames[:, 0]
+        plan[keep] = frames[:, 1:]
+    return nxt, plan
