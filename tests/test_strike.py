@@ -201,9 +201,9 @@ def test_strike_targets_find_the_strike_and_its_bins():
     assert nll[0, 2] > 0 and (nll[0, [0, 1, 3, 4]] == 0).all()
 
 
-def test_a_sampled_strike_is_placed_on_its_solved_flight(monkeypatch):
-    from sportsngen.sim.rollout import _follow_strikes
-
+def _two_incoming_balls(monkeypatch):
+    """A struck model whose strike head always draws one strike, and two rows of a ball coming
+    to the +x half at 25 m/s: (model, the drawn bins, the ball's frames, pos, vel)."""
     model = _struck_model()
     asked = np.array([10.2, 2.1, 1.7, -0.12])
     want = torch.as_tensor(S.strike_bin_index(asked[None]))
@@ -213,6 +213,13 @@ def test_a_sampled_strike_is_placed_on_its_solved_flight(monkeypatch):
     pos[:, 2] = torch.as_tensor(ball[2], dtype=torch.float32)
     vel = torch.zeros_like(pos)
     vel[:, 2] = torch.as_tensor((ball[2] - ball[1]) * FPS, dtype=torch.float32)
+    return model, want, ball, pos, vel
+
+
+def test_a_sampled_strike_is_placed_on_its_solved_flight(monkeypatch):
+    from sportsngen.sim.rollout import _follow_strikes
+
+    model, want, ball, pos, vel = _two_incoming_balls(monkeypatch)
     nxt = pos.clone()
     nxt[0, 2] += torch.tensor([-1.1, 0.0, 0.1])      # the model's draw: a strike
     nxt[1, 2] += torch.tensor([-0.9, 0.0, 0.0])      # ... and one the ball flies on through
@@ -237,17 +244,9 @@ def test_a_sampled_strike_is_placed_on_its_solved_flight(monkeypatch):
 def test_a_forced_strike_is_struck_from_where_the_ball_is(monkeypatch):
     from sportsngen.sim.rollout import _follow_strikes
 
-    model = _struck_model()
-    asked = np.array([10.2, 2.1, 1.7, -0.12])
-    want = torch.as_tensor(S.strike_bin_index(asked[None]))
-    monkeypatch.setattr(model.strike_head, "sample", lambda h, top_p, gen: want.expand(len(h), 4))
+    model, want, ball, pos, vel = _two_incoming_balls(monkeypatch)
     monkeypatch.setattr("sportsngen.model.strike_heads.uniform_in_bin",    # bin centres: exact
                         lambda shape, device, gen: torch.full(shape, 0.5, device=device))
-    ball = _incoming_then_launch(asked)
-    pos = torch.zeros(2, 3, 3)
-    pos[:, 2] = torch.as_tensor(ball[2], dtype=torch.float32)
-    vel = torch.zeros_like(pos)
-    vel[:, 2] = torch.as_tensor((ball[2] - ball[1]) * FPS, dtype=torch.float32)
     nxt = pos.clone()
     nxt[:, 2, 0] += 0.9                               # both draws: the ball flies on past
     h = torch.randn(2, 3, model.cfg.d_model)
