@@ -32,8 +32,10 @@ import numpy as np
 import torch
 
 from sportsngen.data.tokens import Vocab, rally_arrays
+from sportsngen.errors import ArgumentError
 from sportsngen.eval.physical import shot_quantities
 from sportsngen.eval.rules import analyse_rally_data
+from sportsngen.eval.sampling_options import add_sampling_options, sampling_kwargs
 from sportsngen.eval.shot_profile import format_profiles, shot_profile
 from sportsngen.eval.stats import rally_hazards, serve_stats
 from sportsngen.sim import Simulator
@@ -82,13 +84,7 @@ def main() -> None:
     ap.add_argument("--truth-points", type=int, default=3000)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--top-p-player", type=float, default=None)
-    ap.add_argument("--top-p-ball", type=float, default=None)
     ap.add_argument("--threads", type=int, default=None)
-    ap.add_argument("--contact-odds", action=argparse.BooleanOptionalAction, default=None,
-                    help="the ball's nucleus keeps the model's odds of a racket contact "
-                         "(default: the model file's)")
-    ap.add_argument("--top-p-contact", type=float, default=None,
-                    help="with contact odds, the nucleus of a struck ball (default: the ball's)")
     ap.add_argument("--refresh-frames", type=int, default=None,
                     help="past the model's window, re-fill the rollout cache from the last "
                          "window every this many frames (1: training's view every frame)")
@@ -96,18 +92,7 @@ def main() -> None:
     ap.add_argument("--players", default=",".join(PLAYERS),
                     help="the two players, comma-separated")
     ap.add_argument("--surface", default="hard", choices=SURFACES)
-    ap.add_argument("--strike-in-reach", action=argparse.BooleanOptionalAction, default=None,
-                    help="a good ball passing within a player's reach is struck "
-                         "(default: the model file's, else off)")
-    ap.add_argument("--strike-in-reach-from", type=int, default=None,
-                    help="with --strike-in-reach: from this contact on (1 the return, 2 the "
-                         "server's first rally ball; default: the model file's, else 1)")
-    ap.add_argument("--top-p-serve", type=float, default=None,
-                    help="with a serve head, its nucleus (default: the model file's, else 1)")
-    ap.add_argument("--strike-in-reach-force", action=argparse.BooleanOptionalAction,
-                    default=None,
-                    help="with --strike-in-reach: where no draw keeps the ball in reach, the "
-                         "strike head strikes it (default: the model file's, else off)")
+    add_sampling_options(ap)
     ap.add_argument("--save-sim", type=Path, default=None,
                     help="write the simulated rallies (a RallyData folder) here")
     ap.add_argument("--no-physical-limits", action="store_true",
@@ -118,22 +103,14 @@ def main() -> None:
         ap.error(f"--players needs two names separated by a comma, got {args.players!r}")
     if args.threads:
         torch.set_num_threads(args.threads)
-    kw = {k: v for k, v in (("top_p_player", args.top_p_player),
-                            ("top_p_ball", args.top_p_ball)) if v is not None}
-    if args.contact_odds is not None:
-        kw["contact_odds"] = args.contact_odds
-    if args.top_p_contact is not None:
-        kw["top_p_contact"] = args.top_p_contact
-    if args.top_p_serve is not None:
-        kw["top_p_serve"] = args.top_p_serve
+    try:
+        kw = sampling_kwargs(args)
+    except ArgumentError as exc:
+        ap.error(str(exc))
+    if args.top_p_player is not None:
+        kw["top_p_player"] = args.top_p_player
     if args.refresh_frames is not None:
         kw["refresh_frames"] = args.refresh_frames
-    if args.strike_in_reach is not None:
-        kw["strike_in_reach"] = args.strike_in_reach
-    if args.strike_in_reach_from is not None:
-        kw["strike_in_reach_from"] = args.strike_in_reach_from
-    if args.strike_in_reach_force is not None:
-        kw["strike_in_reach_force"] = args.strike_in_reach_force
     sim = Simulator.from_pretrained(args.model, physical_limits=not args.no_physical_limits,
                                     **kw)
     print(f"top-p player {sim.top_p_player}, ball {sim.top_p_ball}, "

@@ -40,6 +40,8 @@ import sys
 from pathlib import Path
 
 from sportsngen.data.tracking import RallyData, TrackingDataError
+from sportsngen.errors import ArgumentError
+from sportsngen.eval.sampling_options import add_sampling_options, sampling_kwargs
 
 _TABLES = ("frames", "rallies", "shots")
 
@@ -159,28 +161,10 @@ def _simulator(args: argparse.Namespace):
     if args.points < 20 or args.seed < 0:
         raise UsageError(f"--points must be >= 20 and --seed >= 0, got {args.points}, "
                          f"{args.seed}")
-    if args.top_p_ball is not None and not 0.0 < args.top_p_ball <= 1.0:
-        raise UsageError(f"--top-p-ball must be in (0, 1], got {args.top_p_ball}")
-    kw = {} if args.top_p_ball is None else {"top_p_ball": args.top_p_ball}
-    if args.contact_odds is not None:
-        kw["contact_odds"] = args.contact_odds
-    if args.strike_in_reach is not None:
-        kw["strike_in_reach"] = args.strike_in_reach
-    if args.strike_in_reach_from is not None:
-        if args.strike_in_reach_from < 1:
-            raise UsageError(f"--strike-in-reach-from counts contacts after the serve (>= 1), "
-                             f"got {args.strike_in_reach_from}")
-        kw["strike_in_reach_from"] = args.strike_in_reach_from
-    if args.strike_in_reach_force is not None:
-        kw["strike_in_reach_force"] = args.strike_in_reach_force
-    if args.top_p_contact is not None:
-        if not 0.0 < args.top_p_contact <= 1.0:
-            raise UsageError(f"--top-p-contact must be in (0, 1], got {args.top_p_contact}")
-        kw["top_p_contact"] = args.top_p_contact
-    if args.top_p_serve is not None:
-        if not 0.0 < args.top_p_serve <= 1.0:
-            raise UsageError(f"--top-p-serve must be in (0, 1], got {args.top_p_serve}")
-        kw["top_p_serve"] = args.top_p_serve
+    try:
+        kw = sampling_kwargs(args)
+    except ArgumentError as exc:
+        raise UsageError(str(exc)) from exc
     try:
         return Simulator.from_pretrained(args.model, **kw)
     except FileNotFoundError as exc:
@@ -386,31 +370,7 @@ def build_parser() -> argparse.ArgumentParser:
     model_opts.add_argument("--receiver", default="Rafael Nadal")
     model_opts.add_argument("--surface", default="hard", choices=["hard", "clay", "grass"])
     model_opts.add_argument("--csv", type=Path, default=None, help="write the table as CSV here")
-    model_opts.add_argument("--top-p-ball", type=float, default=None,
-                            help="the ball's nucleus (default: the model file's, else 1)")
-    model_opts.add_argument("--contact-odds", action=argparse.BooleanOptionalAction,
-                            default=None,
-                            help="the ball's nucleus keeps the model's odds of a racket contact "
-                                 "(default: the model file's, else off)")
-    model_opts.add_argument("--strike-in-reach", action=argparse.BooleanOptionalAction,
-                            default=None,
-                            help="a good ball passing within a player's reach is struck "
-                                 "(default: the model file's, else off)")
-    model_opts.add_argument("--strike-in-reach-from", type=int, default=None,
-                            help="with --strike-in-reach: from this contact on (1 the return, "
-                                 "2 the server's first rally ball; default: the model file's, "
-                                 "else 1)")
-    model_opts.add_argument("--top-p-serve", type=float, default=None,
-                            help="with a serve head, its nucleus (default: the model file's, "
-                                 "else 1)")
-    model_opts.add_argument("--strike-in-reach-force", action=argparse.BooleanOptionalAction,
-                            default=None,
-                            help="with --strike-in-reach: where no draw keeps the ball in reach, "
-                                 "the strike head strikes it (default: the model file's, else "
-                                 "off)")
-    model_opts.add_argument("--top-p-contact", type=float, default=None,
-                            help="with contact odds, the nucleus of a struck ball (default: the "
-                                 "model file's, else the ball's)")
+    add_sampling_options(model_opts)
     diag = sub.add_parser("diagnose", parents=[model_opts],
                           help="rollout diagnostics of a model: branch return share, "
                                "free-flight residual, contact probability, receivers at the "

@@ -166,7 +166,6 @@ class StrikeInReach:
         self.offset = 0
         self.given_up = 0
         self.force = bool(force)
-        self._rejected = np.zeros(0, dtype=bool)   # by row: its last draw passed the ball
 
     def due(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(rows,) bool: the ball of these rallies has had its good bounce and is still to be
@@ -178,22 +177,15 @@ class StrikeInReach:
 
     def accept(self, rows: np.ndarray, frame: int, pos_m: torch.Tensor,
                next_pos_m: torch.Tensor, vel_mps: torch.Tensor | None = None) -> torch.Tensor:
-        rows = np.asarray(rows, dtype=np.int64)
+        rows = np.asarray(rows)
         due, role = self.due(rows)
         if not due.any():
-            ok = torch.ones(len(rows), dtype=torch.bool, device=pos_m.device)
-        else:
-            end = np.where(role == 0, 1, -1) * self.tracker.server_end[rows]
-            dev = pos_m.device
-            ok = ~(torch.as_tensor(due, device=dev) & self.passes(
-                pos_m, next_pos_m, torch.as_tensor(role, device=dev),
-                torch.as_tensor(end, device=dev, dtype=pos_m.dtype)))
-        if len(rows) and rows.max() >= len(self._rejected):
-            grown = np.zeros(int(rows.max()) + 1, dtype=bool)
-            grown[:len(self._rejected)] = self._rejected
-            self._rejected = grown
-        self._rejected[rows] = ~ok.cpu().numpy()
-        return ok
+            return torch.ones(len(rows), dtype=torch.bool, device=pos_m.device)
+        end = np.where(role == 0, 1, -1) * self.tracker.server_end[rows]
+        dev = pos_m.device
+        return ~(torch.as_tensor(due, device=dev) & self.passes(
+            pos_m, next_pos_m, torch.as_tensor(role, device=dev),
+            torch.as_tensor(end, device=dev, dtype=pos_m.dtype)))
 
     def passes(self, pos_m: torch.Tensor, next_pos_m: torch.Tensor, role: torch.Tensor,
                end: torch.Tensor) -> torch.Tensor:
@@ -214,13 +206,9 @@ class StrikeInReach:
         self.given_up += len(rows)
 
     def strike_rows(self, rows: np.ndarray) -> np.ndarray:
-        """(rows,) bool: of rows given up on, those whose ball is to be struck anyway (`force`
-        and this rule rejected their last draw)."""
-        rows = np.asarray(rows, dtype=np.int64)
-        if not self.force or len(rows) == 0:
-            return np.zeros(len(rows), dtype=bool)
-        seen = rows < len(self._rejected)
-        return seen & self._rejected[np.where(seen, rows, 0)]
+        """(rows,) bool: of the rows this rule gave up on (`give_up`'s), those whose ball is to
+        be struck anyway: all of them with `force`."""
+        return np.full(len(rows), self.force, dtype=bool)
 
 
 class AllOf:
@@ -231,7 +219,7 @@ class AllOf:
         self.parts = [c for c in constraints if c is not None]
         self.max_tries = max(c.max_tries for c in self.parts)
         self._last_rows = np.zeros(0, dtype=np.int64)
-        self._last_bad: list[np.ndarray] = []
+        self._last_ok: list[torch.Tensor] = []
 
     @property
     def offset(self) -> int:
@@ -247,31 +235,34 @@ class AllOf:
         # The rows given up on are always among the last draw's (the rollout redraws every
         # rejected row each time), so remembering the last verdicts is enough.
         self._last_rows = np.asarray(rows, dtype=np.int64)
-        self._last_bad = [~ok.cpu().numpy() for ok in oks]
+        self._last_ok = oks
         ok = oks[0]
         for o in oks[1:]:
             ok = ok & o
         return ok
 
-    def give_up(self, rows) -> None:
-        rows = np.asarray(rows, dtype=np.int64)
+    def _rejected_by(self, rows: np.ndarray) -> list[np.ndarray]:
+        """Per part, (rows,) bool: it rejected the row's last draw (every part, for a row this
+        object never judged)."""
         at = {r: i for i, r in enumerate(self._last_rows.tolist())}
         if not all(r in at for r in rows.tolist()):
-            for c in self.parts:         # rows this object never judged: tell every part
-                c.give_up(rows)
-            return
+            return [np.ones(len(rows), dtype=bool) for _ in self.parts]
         where = np.array([at[r] for r in rows.tolist()], dtype=np.int64)
-        for c, bad in zip(self.parts, self._last_bad):
-            mine = rows[bad[where]]
-            if len(mine):
-                c.give_up(mine)
+        return [~ok.cpu().numpy()[where] for ok in self._last_ok]
+
+    def give_up(self, rows) -> None:
+        rows = np.asarray(rows, dtype=np.int64)
+        for c, mine in zip(self.parts, self._rejected_by(rows)):
+            if mine.any():
+                c.give_up(rows[mine])
 
     def strike_rows(self, rows) -> np.ndarray:
-        """(rows,) bool: rows given up on whose ball some part wants struck anyway."""
+        """(rows,) bool: rows given up on whose ball a part that rejected it wants struck."""
+        rows = np.asarray(rows, dtype=np.int64)
         out = np.zeros(len(rows), dtype=bool)
-        for c in self.parts:
-            if hasattr(c, "strike_rows"):
-                out |= c.strike_rows(rows)
+        for c, mine in zip(self.parts, self._rejected_by(rows)):
+            if hasattr(c, "strike_rows") and mine.any():
+                out[mine] |= c.strike_rows(rows[mine])
         return out
 
     def project(self, pos_m, next_pos_m):

@@ -1,0 +1,57 @@
+"""The simulator's sampling options on a command line: one set of flags for every command that
+rolls a model out (`python -m sportsngen.eval ...`, `scripts/check_simulation.py`), each
+defaulting to the model file's `sim_defaults`."""
+
+from __future__ import annotations
+
+import argparse
+
+from sportsngen.errors import ArgumentError
+
+_NUCLEI = ("top_p_ball", "top_p_contact", "top_p_serve")
+_FLAGS = ("contact_odds", "strike_in_reach", "strike_in_reach_from", "strike_in_reach_force")
+
+
+def add_sampling_options(parser: argparse.ArgumentParser) -> None:
+    """Add the `Simulator` sampling flags to `parser` (every default None: the model file's)."""
+    parser.add_argument("--top-p-ball", type=float, default=None,
+                        help="the ball's nucleus (default: the model file's, else 1)")
+    parser.add_argument("--contact-odds", action=argparse.BooleanOptionalAction, default=None,
+                        help="the ball's nucleus keeps the model's odds of a racket contact "
+                             "(default: the model file's, else off)")
+    parser.add_argument("--top-p-contact", type=float, default=None,
+                        help="with contact odds, the nucleus of a struck ball (default: the "
+                             "model file's, else the ball's)")
+    parser.add_argument("--top-p-serve", type=float, default=None,
+                        help="with a serve head, its nucleus (default: the model file's, else 1)")
+    parser.add_argument("--strike-in-reach", action=argparse.BooleanOptionalAction,
+                        default=None,
+                        help="a good ball passing within a player's reach is struck "
+                             "(default: the model file's, else off)")
+    parser.add_argument("--strike-in-reach-from", type=int, default=None,
+                        help="with --strike-in-reach: from this contact on (1 the return, 2 the "
+                             "server's first rally ball; default: the model file's, else 1)")
+    parser.add_argument("--strike-in-reach-force", action=argparse.BooleanOptionalAction,
+                        default=None,
+                        help="with --strike-in-reach: where no draw keeps the ball in reach, "
+                             "the strike head strikes it (default: the model file's, else off)")
+
+
+def sampling_kwargs(args: argparse.Namespace) -> dict:
+    """The `Simulator` keyword arguments the flags of `add_sampling_options` set (those left
+    out keep the model file's); `ArgumentError` names a flag out of its range."""
+    kw = {}
+    for name in _NUCLEI:
+        value = getattr(args, name, None)
+        if value is not None:
+            if not 0.0 < value <= 1.0:
+                raise ArgumentError(f"--{name.replace('_', '-')} must be in (0, 1], got {value}")
+            kw[name] = value
+    for name in _FLAGS:
+        value = getattr(args, name, None)
+        if value is not None:
+            kw[name] = value
+    if kw.get("strike_in_reach_from", 1) < 1:
+        raise ArgumentError(f"--strike-in-reach-from counts contacts after the serve (>= 1), "
+                            f"got {kw['strike_in_reach_from']}")
+    return kw
