@@ -97,6 +97,22 @@ def test_a_serve_is_a_tossed_ball_sent_over_the_net_and_no_rally_strike_is_one()
                                                         False]
 
 
+@pytest.mark.parametrize("late", [0.01, 0.03, 0.05, 0.06, 0.08, 0.3, 0.7, 0.99])
+def test_of_a_toss_frame_and_the_next_exactly_one_is_the_serve(late):
+    # The racket meets the toss a fraction `late` of a frame's interval before the next frame
+    # (the serve flies 43 m/s along x): whatever the fraction, the serve is found once. With
+    # the old 3 m/s outgoing threshold a contact 5-7 % of the interval early was not found.
+    toss = np.array([11.38, 0.72, 2.96])
+    flight = np.array([-43.0, -10.0, -5.0])
+    first = toss + flight * late / FPS
+    frames = np.stack([toss, toss, first, first + flight / FPS, first + 2 * flight / FPS])
+    vel = np.zeros_like(frames)
+    vel[1:] = (frames[1:] - frames[:-1]) * FPS
+    found = S.is_serve(frames[:-1], vel[:-1], frames[1:], FPS)
+    assert found.sum() == 1
+    assert found[1] == (late * 43.0 >= S.MIN_INCOMING_MPS)
+
+
 def test_a_serve_is_solved_for_its_landing_and_speed_and_read_back():
     contact = np.array([[11.4, 0.7, 2.9], [-11.5, -0.7, 2.8]])
     side = np.sign(contact[:, 0])

@@ -44,7 +44,11 @@ MIN_INCOMING_MPS = 2.0   # a strike meets a ball coming to the hitter's side thi
 # A serve: struck from a toss (barely moving along x) this high, this far back, sent this fast.
 SERVE_MIN_Z_M = 1.8
 SERVE_MIN_BACK_M = 9.0
-SERVE_MIN_OUT_MPS = 3.0
+# Sent toward the net at least as fast as the toss may move along x: a serve struck late in
+# a frame's interval moves its first frame only a little (0.1 m, 2.75 m/s), and with a gap
+# between the two thresholds (2 and 3 m/s once) neither frame read as a serve: 62 % of the
+# training rallies of 14 population men went without one. Equal, exactly one of the two does.
+SERVE_MIN_OUT_MPS = MIN_INCOMING_MPS
 # A serve is drawn by its speed instead of its height over the net: struck from 2.5-3 m, a
 # flat serve's landing and net height fix a near-straight line, and the speed that fits them
 # is ill-conditioned (landing 5.5 m beyond the net at 1.20 m over it: 188 km/h; 5.8 m at
@@ -296,11 +300,12 @@ def is_serve(pos_m: np.ndarray, vel_mps: np.ndarray, next_pos_m: np.ndarray,
              fps: float) -> np.ndarray:
     """(..., 3) as `is_strike` -> (...) bool: a serve between them: a tossed ball (moving along
     x slower than `MIN_INCOMING_MPS` either way), high above the hitter's baseline area,
-    sent toward the other half faster than `SERVE_MIN_OUT_MPS`."""
+    sent toward the other half at least `SERVE_MIN_OUT_MPS` (the same speed: of a toss frame
+    and the frame after it, exactly one is a serve's)."""
     side = np.sign(pos_m[..., 0])
     v_out = (next_pos_m[..., 0] - pos_m[..., 0]) * fps
     return ((np.abs(vel_mps[..., 0]) < MIN_INCOMING_MPS) & (pos_m[..., 2] >= SERVE_MIN_Z_M)
-            & (np.abs(pos_m[..., 0]) >= SERVE_MIN_BACK_M) & (side * v_out < -SERVE_MIN_OUT_MPS))
+            & (np.abs(pos_m[..., 0]) >= SERVE_MIN_BACK_M) & (side * v_out <= -SERVE_MIN_OUT_MPS))
 
 
 def serve_labels(after_m: np.ndarray, side: np.ndarray, fps: float) -> np.ndarray:
