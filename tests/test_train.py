@@ -77,6 +77,23 @@ def test_a_few_steps_reduce_the_loss_on_a_fixed_batch(toy):
     assert losses[-1] < 0.6 * losses[0], losses
 
 
+def test_a_batch_with_nothing_for_the_part_trained_alone_is_skipped(toy):
+    # A serve head trained alone (train_only) on windows that hold no serve has nothing to
+    # learn: the step is skipped rather than backpropagating a loss without a gradient.
+    vocab = Vocab.from_data(toy)
+    cfg = build_model_config({**TINY, "serve_head": True, "ball_centre": "physics"}, toy.fps,
+                             vocab)
+    mod = DecoderModule(cfg.to_dict(), vocab.to_dict(), train_only="serve_head")
+    arrays = rally_arrays(toy, vocab)
+    batch = default_collate([WindowDataset(arrays, cfg.window_frames)[i] for i in range(8)])
+    no_targets = {**batch, "has_next": torch.zeros_like(batch["has_next"])}
+    assert mod.training_step(no_targets, 0) is None
+    loss = mod.training_step(batch, 0)       # the toy rallies' serves are in their first window
+    loss.backward()
+    grads = {n for n, p in mod.model.named_parameters() if p.grad is not None}
+    assert grads and all(n.startswith("serve_head.") for n in grads)
+
+
 def test_frozen_finetuning_changes_only_the_new_identity(toy):
     base, batch, vocab = module_and_batch(toy, generic=True)
     model, vocab2, row = add_player(base.model, vocab, "Toy Alpha")

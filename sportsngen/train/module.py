@@ -196,7 +196,7 @@ class DecoderModule(L.LightningModule):
         return (2.0 * _masked_mean(p_nll, tokens[..., :BALL])
                 + _masked_mean(b_nll, tokens[..., BALL])) / 3.0
 
-    def training_step(self, batch: dict, batch_idx: int) -> torch.Tensor:
+    def training_step(self, batch: dict, batch_idx: int) -> torch.Tensor | None:
         if self.closed_loop.fraction > 0:
             batch = self._closed_loop_batch(batch)
         _, _, _, p_nll, b_nll = self._forward(batch)
@@ -204,6 +204,10 @@ class DecoderModule(L.LightningModule):
         self.log("train/loss", loss, prog_bar=True)
         self._n_frames += int(batch["valid"].sum())
         self._n_tokens += int(batch["valid"].sum()) * 3 + 4 * batch["valid"].shape[0]
+        if not loss.requires_grad:
+            # Only a part trains (`train_only`) and this batch has nothing for it (a serve
+            # head's batch of windows cut after the serves): Lightning skips the step.
+            return None
         return loss
 
     def _closed_loop_batch(self, batch: dict) -> dict:
