@@ -1,0 +1,79 @@
+"""Fit a model file's serve (or strike) head alone on its frozen decoder's states, read once.
+
+    .venv/bin/python scripts/fit_head.py --model FILE --out FILE [--head serve|strike]
+        [--steps 4000] [--lr 1e-3] [--batch-size 256] [--seed 0] [--threads 2]
+        [--more-points N --more-seed S]
+
+The rallies are the file's own training data and split (`extra.split`: the data config, the
+validation fraction and seed), so the validation NLL is on the rallies its last stage held
+out, and with `--more-points N` also N points generated from the same config with another
+seed (training only); the head ends at its best validation NLL
+(`sportsngen.train.head_fit`). Everything else in the file (other weights, sampling defaults,
+calibrator) is copied unchanged.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import torch
+
+from sportsngen.data.tokens import rally_arrays
+from sportsngen.model.export import load_model, read_extra, save_model
+from sportsngen.sim.simulator import model_path
+from sportsngen.train.datamodule import load_rally_data, split_rallies
+from sportsngen.train.head_fit import HEADS, HeadStates, collect_head_states, fit_head
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--model", default=None, help="model file (default: the bundled one)")
+    ap.add_argument("--out", required=True, help="where to write the model file with the head")
+    ap.add_argument("--head", choices=HEADS, default="serve")
+    ap.add_argument("--steps", type=int, default=4000)
+    ap.add_argument("--lr", type=float, default=1e-3)
+    ap.add_argument("--batch-size", type=int, default=256)
+    ap.add_argument("--eval-every", type=int, default=250)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--more-points", type=int, default=0,
+                    help="also train on this many more points generated as the file's data "
+                         "with another seed (--more-seed): more serves of every player")
+    ap.add_argument("--more-seed", type=int, default=1000)
+    args = ap.parse_args()
+    torch.set_num_threads(args.threads)
+    path = model_path(args.model)
+    model, ec, vocab, _ = load_model(path)
+    extra = read_extra(path)
+    split = extra.get("split")
+    if not split or "data" not in split:
+        raise SystemExit(f"{path} records no training data split (extra.split): it cannot "
+                         "say which rallies it learnt from")
+    t0 = time.time()
+    arrays = rally_arrays(load_rally_data(split["data"]), vocab)
+    train, val = split_rallies(arrays, float(split["val_fraction"]), int(split["seed"]))
+    tr = collect_head_states(model, train, args.head)
+    if args.more_points > 0:
+        more = {**split["data"], "n_points": args.more_points, "seed": args.more_seed}
+        if int(more["seed"]) == int(split["data"].get("seed", 0)):
+            raise SystemExit("--more-seed must differ from the data's own seed")
+        extra_arrays = rally_arrays(load_rally_data(more), vocab)
+        tr = HeadStates.concat([tr, collect_head_states(model, extra_arrays, args.head)])
+    va = collect_head_states(model, val, args.head, progress=False)
+    print(f"{len(tr)} training and {len(va)} validation {args.head} targets from "
+          f"{len(train)} / {len(val)} rallies ({time.time() - t0:.0f} s)")
+    t0 = time.time()
+    history = fit_head(model, args.head, tr, va, steps=args.steps, lr=args.lr,
+                       batch_size=args.batch_size, eval_every=args.eval_every, seed=args.seed)
+    best = min(history, key=lambda r: r["val_nll"])
+    print(f"validation NLL {history[0]['val_nll']:.3f} -> {best['val_nll']:.3f} "
+          f"(step {best['step']}; {time.time() - t0:.0f} s)")
+    print(json.dumps(history))
+    save_model(args.out, model, vocab, ec, extra=extra)
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,150 @@
+"""A serve or strike head fitted alone on a frozen decoder, from the decoder's states read once.
+
+`train.py ... train_only=serve_head` runs the whole decoder forward every step to train a head
+of 0.1 M weights on the one or two serves a window holds: 4,000 steps (14 minutes on 2 cores)
+showed each recorded serve to the head about twice. With the decoder frozen its states at the
+serves do not change, so here they are read once (`collect_head_states`: one pass over the
+rallies' first windows, about a minute) and the head is fitted on them for as many passes as
+its validation loss keeps falling (`fit_head`: seconds a thousand steps), keeping the best
+state. The states are those the training windows give: windows from each rally's first frame,
+no augmentation (the flip is a turn about the net's centre, which the server's court frame
+undoes, so it would give the same states).
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+from torch.utils.data import DataLoader, Subset, default_collate
+from tqdm.auto import tqdm
+
+from sportsngen.data.tokens import BALL, RallyArrays, WindowDataset
+from sportsngen.model.decoder import SportsNGEN
+from sportsngen.train.metrics import window_states
+
+HEADS = ("serve", "strike")
+# The `WindowDataset` item's entries with a frame axis (second after the batch's).
+_PER_FRAME = ("pos_m", "vel_mps", "next_pos_m", "prev_vel_mps", "t_s", "valid", "has_next",
+              "labels", "near_contact")
+
+
+@dataclass
+class HeadStates:
+    """The ball token's output state at each target of a head, with the target's bins."""
+
+    h: torch.Tensor          # (N, d)
+    bins: torch.Tensor       # (N, 4) int64
+    rally_id: np.ndarray     # (N,)
+    serve: np.ndarray        # (N,) 0 first serve, 1 second serve (the rally's)
+
+    def __len__(self) -> int:
+        return len(self.bins)
+
+    @staticmethod
+    def concat(parts: list[HeadStates]) -> HeadStates:
+        return HeadStates(torch.cat([p.h for p in parts]), torch.cat([p.bins for p in parts]),
+                          np.concatenate([p.rally_id for p in parts]),
+                          np.concatenate([p.serve for p in parts]))
+
+
+def _head(model: SportsNGEN, which: str):
+    if which not in HEADS:
+        raise ValueError(f"head must be one of {HEADS}, got {which!r}")
+    head = model.serve_head if which == "serve" else model.strike_head
+    if head is None:
+        raise ValueError(f"the model has no {which} head (model.{which}_head is off)")
+    return head
+
+
+@torch.no_grad()
+def collect_head_states(model: SportsNGEN, arrays: RallyArrays, which: str = "serve",
+                        batch_size: int = 32, progress: bool = True) -> HeadStates:
+    """The decoder's states at every target of the `which` head ("serve": the serves, read
+    from each rally's first window; "strike": the rally strikes, from windows tiling each
+    rally) in `arrays`."""
+    _head(model, which)
+    was_training = model.training
+    model.eval()
+    ds = WindowDataset(arrays, model.cfg.window_frames, None)
+    if which == "serve":   # a rally's serve lies in its first window
+        ds = Subset(ds, [i for i, (_, start) in enumerate(ds.items) if start == 0])
+    loader = DataLoader(ds, batch_size=batch_size, shuffle=False, collate_fn=default_collate)
+    hs, bins, rid, srv = [], [], [], []
+    for batch in tqdm(loader, desc=f"{which} states", disable=not progress):
+        mask, b = model.strike_targets(batch["pos_m"], batch["vel_mps"], batch["next_pos_m"],
+                                       batch["has_next"], serves=which == "serve")
+        if not bool(mask.any()):
+            continue
+        # A frame's states see only the frames up to it: the decoder runs up to the last
+        # target (a serve comes within the first second or two of a 6 s window).
+        t = int(mask.nonzero()[:, 1].max()) + 1
+        cut = {k: v[:, :t] if k in _PER_FRAME else v for k, v in batch.items()}
+        h = window_states(model, cut)
+        hs.append(h[..., BALL, :][mask[:, :t]])
+        bins.append(b[mask])
+        rows = mask.nonzero()[:, 0]
+        rid.append(batch["rally_id"][rows].numpy())
+        srv.append(batch["serve"][rows].numpy())
+    model.train(was_training)
+    if not hs:
+        raise ValueError(f"no {which} targets in the {len(arrays)} rallies given")
+    return HeadStates(torch.cat(hs), torch.cat(bins), np.concatenate(rid), np.concatenate(srv))
+
+
+@torch.no_grad()
+def head_nll(head, states: HeadStates, batch_size: int = 4096) -> float:
+    """Mean -log p(bins | state) over `states` (nats a target)."""
+    total = 0.0
+    for i in range(0, len(states), batch_size):
+        total += float(head.nll(states.h[i:i + batch_size], states.bins[i:i + batch_size]).sum())
+    return total / max(len(states), 1)
+
+
+def fit_head(model: SportsNGEN, which: str, train: HeadStates, val: HeadStates,
+             steps: int = 3000, lr: float = 1e-3, batch_size: int = 256,
+             weight_decay: float = 0.01, warmup_steps: int = 50, eval_every: int = 250,
+             seed: int = 0, progress: bool = True) -> list[dict]:
+    """Fit `model`'s `which` head (in place) on `train` with AdamW, a linear warm-up and a
+    cosine decay; every `eval_every` steps the validation NLL, and at the end the head is left
+    at its best one. -> the history [{"step", "val_nll"}], step 0 the head as it came."""
+    if steps < 1 or batch_size < 1 or eval_every < 1:
+        raise ValueError("steps, batch_size and eval_every must be positive")
+    if len(train) == 0 or len(val) == 0:
+        raise ValueError("fit_head needs training and validation targets")
+    head = _head(model, which)
+    g = torch.Generator().manual_seed(seed)
+    opt = torch.optim.AdamW(head.parameters(), lr=lr, weight_decay=weight_decay)
+
+    def rate(step: int) -> float:
+        if step < warmup_steps:
+            return (step + 1) / warmup_steps
+        done = (step - warmup_steps) / max(steps - warmup_steps, 1)
+        return 0.5 * (1.0 + math.cos(math.pi * done))
+
+    sched = torch.optim.lr_scheduler.LambdaLR(opt, rate)
+    head.eval()
+    history = [{"step": 0, "val_nll": head_nll(head, val)}]
+    best = (history[0]["val_nll"], copy.deepcopy(head.state_dict()))
+    bar = tqdm(range(steps), desc=f"fit {which} head", disable=not progress)
+    for step in bar:
+        head.train()
+        idx = torch.randint(len(train), (batch_size,), generator=g)
+        loss = head.nll(train.h[idx], train.bins[idx]).mean()
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        opt.step()
+        sched.step()
+        if (step + 1) % eval_every == 0 or step + 1 == steps:
+            head.eval()
+            v = head_nll(head, val)
+            history.append({"step": step + 1, "val_nll": v})
+            if v < best[0]:
+                best = (v, copy.deepcopy(head.state_dict()))
+            bar.set_postfix(val_nll=f"{v:.3f}", best=f"{best[0]:.3f}")
+    head.load_state_dict(best[1])
+    head.eval()
+    return history

@@ -1,0 +1,80 @@
+"""A head fitted alone on a frozen decoder's states, read once (`sportsngen.train.head_fit`)."""
+
+import numpy as np
+import pytest
+import torch
+from torch.utils.data import default_collate
+
+from sportsngen.data.tokens import BALL, Vocab, WindowDataset, rally_arrays
+from sportsngen.model.config import ModelConfig
+from sportsngen.model.decoder import SportsNGEN
+from sportsngen.train.head_fit import collect_head_states, fit_head, head_nll
+from sportsngen.train.metrics import window_states
+
+
+def small_model(**kw) -> SportsNGEN:
+    torch.manual_seed(0)
+    cfg = dict(d_model=32, n_layers=2, n_heads=2, ff_mult=2, dropout=0.0, id_dim=8,
+               embed_hidden=(32,), score_hidden=16, n_bins=9, head="factorised",
+               head_hidden=16, window_s=4.0, fps=25.0, n_ids=40, n_tournaments=4,
+               event_d_model=16, event_layers=1, event_heads=2, ball_centre="physics",
+               serve_head=True, strike_head=True)
+    cfg.update(kw)
+    return SportsNGEN(ModelConfig(**cfg)).eval()
+
+
+@pytest.fixture(scope="module")
+def rallies():
+    from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
+
+    data = truth_points(DiagnosticsSetup(n_points=30, seed=5))
+    return rally_arrays(data, Vocab.from_data(data))
+
+
+def test_serve_states_are_the_decoders_states_at_each_rallys_serve(rallies):
+    model = small_model()
+    st = collect_head_states(model, rallies, "serve", batch_size=7, progress=False)
+    # One serve a rally (each lies in its rally's first 4 s window), every rally once.
+    assert sorted(st.rally_id.tolist()) == sorted(rallies.rally_id.tolist())
+    assert st.h.shape == (len(rallies), 32) and st.bins.shape == (len(rallies), 4)
+    assert set(st.serve.tolist()) <= {0, 1}
+    # The same state and bins as the training step computes on that rally's first window.
+    ds = WindowDataset(rallies, model.cfg.window_frames, None)
+    first = next(i for i, (ri, s) in enumerate(ds.items) if ri == 3 and s == 0)
+    batch = default_collate([ds[first]])
+    with torch.no_grad():
+        h = window_states(model, batch)
+    mask, bins = model.strike_targets(batch["pos_m"], batch["vel_mps"], batch["next_pos_m"],
+                                      batch["has_next"], serves=True)
+    row = int(np.flatnonzero(st.rally_id == rallies.rally_id[3])[0])
+    assert int(mask.sum()) == 1
+    torch.testing.assert_close(st.h[row], h[..., BALL, :][mask][0])
+    assert torch.equal(st.bins[row], bins[mask][0])
+
+
+def test_fitting_lowers_the_nll_and_keeps_the_best_head(rallies):
+    model = small_model()
+    st = collect_head_states(model, rallies, "serve", progress=False)
+    before = {k: v.clone() for k, v in model.state_dict().items()}
+    history = fit_head(model, "serve", st, st, steps=300, lr=3e-3, batch_size=32,
+                       eval_every=50, progress=False)
+    assert [r["step"] for r in history] == [0, 50, 100, 150, 200, 250, 300]
+    # A head of ~16 k weights on 23 serves: it learns them (from ~18 nats, 4 x log 96).
+    assert history[0]["val_nll"] > 17.0 and min(r["val_nll"] for r in history) < 12.0
+    assert head_nll(model.serve_head, st) == pytest.approx(min(r["val_nll"] for r in history))
+    # Only the serve head moved.
+    after = model.state_dict()
+    moved = {k for k in after if not torch.equal(after[k], before[k])}
+    assert moved and all(k.startswith("serve_head.") for k in moved)
+
+
+def test_strike_states_and_clear_errors(rallies):
+    model = small_model()
+    st = collect_head_states(model, rallies, "strike", progress=False)
+    assert len(st) > len(rallies)          # several rally strikes a point
+    with pytest.raises(ValueError, match="no serve head"):
+        collect_head_states(small_model(serve_head=False), rallies, "serve", progress=False)
+    with pytest.raises(ValueError, match="head must be one of"):
+        collect_head_states(model, rallies, "volley", progress=False)
+    with pytest.raises(ValueError, match="positive"):
+        fit_head(model, "strike", st, st, steps=0)
