@@ -229,6 +229,17 @@ def run_strikes(args: argparse.Namespace) -> int:
         sim, truth_points(setup), tuple(args.shots), after_frames=args.after, seed=args.seed))
 
 
+def run_serves(args: argparse.Namespace) -> int:
+    """The serve head teacher-forced at recorded serves, by serve number: prints the table."""
+    from sportsngen.eval.diagnostics import truth_points
+    from sportsngen.eval.serve_draws import serve_draw_table
+
+    if args.draws < 1:
+        raise UsageError(f"--draws must be >= 1, got {args.draws}")
+    return _run_model_table(args, "serves", lambda sim, setup: serve_draw_table(
+        sim, truth_points(setup), draws=args.draws, seed=args.seed))
+
+
 def run_movement(args: argparse.Namespace) -> int:
     """The hitter's run after his shot, record / teacher-forced / rolled out: prints it."""
     from sportsngen.eval.diagnostics import truth_points
@@ -396,6 +407,12 @@ def build_parser() -> argparse.ArgumentParser:
     move.add_argument("--shot", type=int, default=2,
                       help="the hitter's shot, counted after the serve (default 2: the "
                            "server's first rally ball)")
+    serves = sub.add_parser("serves", parents=[model_opts],
+                            help="the serve head teacher-forced at recorded serves: faults "
+                                 "(long, wide, net) and speed by serve, beside the record")
+    serves.add_argument("--points", type=int, default=600,
+                        help="ground-truth points generated (default 600)")
+    serves.add_argument("--draws", type=int, default=6, help="draws of the head a serve")
     # Generated points where no folder is given (expert, reach).
     generated = argparse.ArgumentParser(add_help=False)
     generated.add_argument("--seed", type=int, default=0)
@@ -431,7 +448,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     runners = {"leaks": run_leaks, "diagnose": run_diagnose, "strikes": run_strikes,
-               "movement": run_movement, "expert": run_expert, "reach": run_reach}
+               "movement": run_movement, "serves": run_serves, "expert": run_expert,
+               "reach": run_reach}
     try:
         if args.command in runners:
             return runners[args.command](args)
