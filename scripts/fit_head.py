@@ -2,7 +2,7 @@
 
     .venv/bin/python scripts/fit_head.py --model FILE --out FILE [--head serve|strike]
         [--steps 4000] [--lr 1e-3] [--batch-size 256] [--seed 0] [--threads 2]
-        [--more-points N --more-seed S]
+        [--more-points N --more-seed S] [--no-flip]
 
 The rallies are the file's own training data and split (`extra.split`: the data config, the
 validation fraction and seed), so the validation NLL is on the rallies its last stage held
@@ -42,6 +42,9 @@ def main() -> None:
                     help="also train on this many more points generated as the file's data "
                          "with another seed (--more-seed): more serves of every player")
     ap.add_argument("--more-seed", type=int, default=1000)
+    ap.add_argument("--no-flip", action="store_true",
+                    help="train on the windows as recorded only (default: also turned about "
+                         "the net's centre, as training's augmentation does)")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
     path = model_path(args.model)
@@ -54,13 +57,14 @@ def main() -> None:
     t0 = time.time()
     arrays = rally_arrays(load_rally_data(split["data"]), vocab)
     train, val = split_rallies(arrays, float(split["val_fraction"]), int(split["seed"]))
-    tr = collect_head_states(model, train, args.head)
+    tr = collect_head_states(model, train, args.head, flip=not args.no_flip)
     if args.more_points > 0:
         more = {**split["data"], "n_points": args.more_points, "seed": args.more_seed}
         if int(more["seed"]) == int(split["data"].get("seed", 0)):
             raise SystemExit("--more-seed must differ from the data's own seed")
         extra_arrays = rally_arrays(load_rally_data(more), vocab)
-        tr = HeadStates.concat([tr, collect_head_states(model, extra_arrays, args.head)])
+        tr = HeadStates.concat([tr, collect_head_states(model, extra_arrays, args.head,
+                                                        flip=not args.no_flip)])
     va = collect_head_states(model, val, args.head, progress=False)
     print(f"{len(tr)} training and {len(va)} validation {args.head} targets from "
           f"{len(train)} / {len(val)} rallies ({time.time() - t0:.0f} s)")

@@ -5,7 +5,7 @@ import pytest
 import torch
 from torch.utils.data import default_collate
 
-from sportsngen.data.tokens import BALL, Vocab, WindowDataset, rally_arrays
+from sportsngen.data.tokens import BALL, Vocab, WindowDataset, flip_xy, rally_arrays
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.train.head_fit import collect_head_states, fit_head, head_nll
@@ -50,6 +50,33 @@ def test_serve_states_are_the_decoders_states_at_each_rallys_serve(rallies):
     assert int(mask.sum()) == 1
     torch.testing.assert_close(st.h[row], h[..., BALL, :][mask][0])
     assert torch.equal(st.bins[row], bins[mask][0])
+
+
+def test_flipped_states_are_the_training_flips_in_the_world_frame_only(rallies):
+    model = small_model()
+    plain = collect_head_states(model, rallies, "serve", progress=False)
+    both = collect_head_states(model, rallies, "serve", flip=True, progress=False)
+    assert len(both) == 2 * len(plain)
+    torch.testing.assert_close(both.h[:len(plain)], plain.h)
+    # The turned half: the state of the same first window turned by the training flip.
+    ds = WindowDataset(rallies, model.cfg.window_frames, None)
+    first = next(i for i, (ri, s) in enumerate(ds.items) if ri == 2 and s == 0)
+    item = dict(ds[first])
+    for k in ("pos_m", "vel_mps", "next_pos_m", "prev_vel_mps"):
+        item[k] = flip_xy(item[k])
+    batch = default_collate([item])
+    with torch.no_grad():
+        h = window_states(model, batch)
+    mask, bins = model.strike_targets(batch["pos_m"], batch["vel_mps"], batch["next_pos_m"],
+                                      batch["has_next"], serves=True)
+    row = len(plain) + int(np.flatnonzero(plain.rally_id == rallies.rally_id[2])[0])
+    torch.testing.assert_close(both.h[row], h[..., BALL, :][mask][0])
+    assert torch.equal(both.bins[row], bins[mask][0])
+    assert not torch.allclose(both.h[row], plain.h[row - len(plain)])
+    # In the server's frame the turn is undone: nothing new to read.
+    turned = small_model(frame="server")
+    assert len(collect_head_states(turned, rallies, "serve", flip=True,
+                                   progress=False)) == len(plain)
 
 
 def test_fitting_lowers_the_nll_and_keeps_the_best_head(rallies):

@@ -1,14 +1,15 @@
 """A serve or strike head fitted alone on a frozen decoder, from the decoder's states read once.
 
 `train.py ... train_only=serve_head` runs the whole decoder forward every step to train a head
-of 0.1 M weights on the one or two serves a window holds: 4,000 steps (14 minutes on 2 cores)
-showed each recorded serve to the head about twice. With the decoder frozen its states at the
-serves do not change, so here they are read once (`collect_head_states`: one pass over the
-rallies' first windows, about a minute) and the head is fitted on them for as many passes as
-its validation loss keeps falling (`fit_head`: seconds a thousand steps), keeping the best
-state. The states are those the training windows give: windows from each rally's first frame,
-no augmentation (the flip is a turn about the net's centre, which the server's court frame
-undoes, so it would give the same states).
+of 0.13 M weights on the one serve a window holds: 4,000 steps (14 minutes on 2 cores) showed
+the head each serve at most about twice. With the decoder frozen its states at the serves do
+not change, so here they are read once (`collect_head_states`: one pass over the rallies'
+first windows, cut at their serves: 600 rallies in 2 s against 12-13 s for full windows) and
+the head is fitted on them for as many passes as its validation loss keeps falling
+(`fit_head`: seconds a thousand steps), keeping the best state. The states are those the
+training windows give: windows from each rally's first frame, and with `flip` (training's
+augmentation) each also turned about the net's centre, which in the world frame is another
+state (in the server's frame, `model.frame: server`, the same one, so it is read once).
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ HEADS = ("serve", "strike")
 # The `WindowDataset` item's entries with a frame axis (second after the batch's).
 _PER_FRAME = ("pos_m", "vel_mps", "next_pos_m", "prev_vel_mps", "t_s", "valid", "has_next",
               "labels", "near_contact")
+_TURNED = ("pos_m", "vel_mps", "next_pos_m", "prev_vel_mps")   # what the flip turns
 
 
 @dataclass
@@ -60,12 +62,26 @@ def _head(model: SportsNGEN, which: str):
     return head
 
 
+def _turned(batch: dict) -> dict:
+    """A collated batch turned 180 degrees about the vertical through the net's centre (the
+    training augmentation's flip, `tokens.flip_xy`)."""
+    out = dict(batch)
+    for k in _TURNED:
+        if k in out:
+            v = out[k].clone()
+            v[..., :2] *= -1
+            out[k] = v
+    return out
+
+
 @torch.no_grad()
 def collect_head_states(model: SportsNGEN, arrays: RallyArrays, which: str = "serve",
-                        batch_size: int = 32, progress: bool = True) -> HeadStates:
+                        flip: bool = False, batch_size: int = 32,
+                        progress: bool = True) -> HeadStates:
     """The decoder's states at every target of the `which` head ("serve": the serves, read
     from each rally's first window; "strike": the rally strikes, from windows tiling each
-    rally) in `arrays`."""
+    rally) in `arrays`; with `flip`, also from every window turned as training's augmentation
+    turns half of them (in the world frame only: the server's frame undoes the turn)."""
     _head(model, which)
     was_training = model.training
     model.eval()
@@ -73,8 +89,11 @@ def collect_head_states(model: SportsNGEN, arrays: RallyArrays, which: str = "se
     if which == "serve":   # a rally's serve lies in its first window
         ds = Subset(ds, [i for i, (_, start) in enumerate(ds.items) if start == 0])
     loader = DataLoader(ds, batch_size=batch_size, shuffle=False, collate_fn=default_collate)
+    turns = (False, True) if flip and model.cfg.frame == "world" else (False,)
+    batches = ((_turned(b) if t else b) for t in turns for b in loader)
     hs, bins, rid, srv = [], [], [], []
-    for batch in tqdm(loader, desc=f"{which} states", disable=not progress):
+    for batch in tqdm(batches, desc=f"{which} states", total=len(loader) * len(turns),
+                      disable=not progress):
         mask, b = model.strike_targets(batch["pos_m"], batch["vel_mps"], batch["next_pos_m"],
                                        batch["has_next"], serves=which == "serve")
         if not bool(mask.any()):
