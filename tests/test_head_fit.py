@@ -50,6 +50,7 @@ def test_serve_states_are_the_decoders_states_at_each_rallys_serve(rallies):
     assert int(mask.sum()) == 1
     torch.testing.assert_close(st.h[row], h[..., BALL, :][mask][0])
     assert torch.equal(st.bins[row], bins[mask][0])
+    np.testing.assert_allclose(st.contact_m[row], batch["pos_m"][..., BALL, :][mask][0].numpy())
 
 
 def test_flipped_states_are_the_training_flips_in_the_world_frame_only(rallies):

@@ -53,12 +53,9 @@ def test_the_records_serves_read_as_the_shots_table_says(truth_and_model):
         vocab = Vocab.from_data(data)
 
     Sim.model = model
-    from sportsngen.data.tokens import WindowDataset, rally_arrays
+    from sportsngen.data.tokens import rally_arrays
 
-    arr = rally_arrays(data, Sim.vocab)
-    ds = WindowDataset(arr, model.cfg.window_frames)
-    rows = teacher_forced_serves(model, [ds[i] for i, (_, s) in enumerate(ds.items) if s == 0],
-                                 draws=3)
+    rows = teacher_forced_serves(model, rally_arrays(data, Sim.vocab), draws=3)
     rec = rows[rows["source"] == "record"].set_index("rally_id")
     shots = data.shots[data.shots["shot_index"] == 0].set_index("rally_id")
     fault = (shots["error_kind"] == "fault").astype(float)
@@ -90,4 +87,4 @@ def test_a_model_without_a_serve_head_is_refused(truth_and_model):
     _, model = truth_and_model
     bare = SportsNGEN(dataclasses.replace(model.cfg, serve_head=False))
     with pytest.raises(ValueError, match="no serve head"):
-        teacher_forced_serves(bare, [])
+        teacher_forced_serves(bare, None)

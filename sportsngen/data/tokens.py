@@ -365,6 +365,11 @@ class WindowDataset(Dataset):
     def __len__(self) -> int:
         return len(self.items)
 
+    def first_windows(self) -> list[int]:
+        """Indices of the windows that start at their rally's first frame (one a rally, in
+        rally order; without augmentation's random crops, where a rally's serve lies)."""
+        return [i for i, (_, start) in enumerate(self.items) if start == 0]
+
     def __getitem__(self, idx: int) -> dict:
         info = get_worker_info()
         if info is not None and info.id != self._worker:  # each loader worker its own stream

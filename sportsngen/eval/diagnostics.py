@@ -263,7 +263,7 @@ def first_windows(sim, truth: RallyData, batch_size: int = 32) -> FirstWindows:
     """Score the first window of every rally of `truth` once (`FirstWindows`)."""
     arr = rally_arrays(truth, sim.vocab, unknown="generic")
     items = WindowDataset(arr, sim.model.cfg.window_frames)
-    first = {ri: items[i] for i, (ri, s) in enumerate(items.items) if s == 0}
+    first = {items.items[i][0]: items[i] for i in items.first_windows()}
     rows = sorted(first)
     p = window_contact_probabilities(sim.model, [first[ri] for ri in rows], batch_size)
     return FirstWindows(arr, first, dict(zip(rows, p)))

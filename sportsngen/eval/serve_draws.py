@@ -15,12 +15,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import torch
-from torch.utils.data import default_collate
 
-from sportsngen.data.tokens import BALL
 from sportsngen.model import strike
 from sportsngen.tennis.court import SERVICE_LINE_X_M, SINGLES_HALF_WIDTH_M, net_height_m
-from sportsngen.train.metrics import window_states
 
 
 def serve_faults(contact_m: np.ndarray, values: np.ndarray, fps: float) -> pd.DataFrame:
@@ -43,43 +40,33 @@ def serve_faults(contact_m: np.ndarray, values: np.ndarray, fps: float) -> pd.Da
 
 
 @torch.no_grad()
-def teacher_forced_serves(model, windows: list, draws: int = 6, seed: int = 0,
-                          batch_size: int = 32) -> pd.DataFrame:
-    """At every recorded serve of `windows` (`WindowDataset` items, e.g. each rally's first):
-    the record's serve and `draws` draws of the serve head, each read by `serve_faults`.
-    -> one row per (serve, source): rally_id, serve (0 first, 1 second), source ("record" or
-    "model"), the fault flags (the model's: shares over its draws) and speed_mps."""
+def teacher_forced_serves(model, arrays, draws: int = 6, seed: int = 0) -> pd.DataFrame:
+    """At every recorded serve of `arrays` (`RallyArrays`; the states read by
+    `train.head_fit.collect_head_states`): the record's serve and `draws` draws of the serve
+    head, each read by `serve_faults`. -> one row per (serve, source): rally_id, serve (0
+    first, 1 second), source ("record" or "model"), the fault flags (the model's: shares over
+    its draws) and speed_mps."""
+    from sportsngen.train.head_fit import collect_head_states
+
     if model.serve_head is None:
         raise ValueError("the model has no serve head (model.serve_head is off)")
-    fps = model.cfg.fps
+    st = collect_head_states(model, arrays, "serve", progress=False)
     edges = strike.serve_edges()
     gen = torch.Generator().manual_seed(seed)
     rng = np.random.default_rng(seed)
-    rows = []
-    for b0 in range(0, len(windows), batch_size):
-        batch = default_collate(windows[b0:b0 + batch_size])
-        h = window_states(model, batch)
-        mask, bins = model.strike_targets(batch["pos_m"], batch["vel_mps"], batch["next_pos_m"],
-                                          batch["has_next"], serves=True)
-        if not bool(mask.any()):
-            continue
-        hb = h[..., BALL, :][mask]
-        idx = torch.stack([model.serve_head.sample(hb, 1.0, gen) for _ in range(draws)], 1)
-        bi, ti = (x.numpy() for x in mask.nonzero(as_tuple=True))
-        contact = batch["pos_m"].numpy().astype(float)[bi, ti, BALL]
-        rec_vals = strike.strike_bin_value(bins[mask].numpy(), rng.random((len(bi), 4)), edges)
-        mod_vals = strike.strike_bin_value(idx.numpy(), rng.random(tuple(idx.shape)), edges)
-        rec = serve_faults(contact, rec_vals, fps)
-        mod = serve_faults(np.repeat(contact, draws, 0), mod_vals.reshape(-1, 4), fps)
-        mod_mean = mod.astype(float).groupby(np.repeat(np.arange(len(bi)), draws)).mean()
-        base = {"rally_id": batch["rally_id"].numpy()[bi], "serve": batch["serve"].numpy()[bi]}
-        rows.append(pd.DataFrame({**base, "source": "record", **rec.astype(float),
-                                  "speed_mps": rec_vals[:, 2]}))
-        rows.append(pd.DataFrame({**base, "source": "model", **mod_mean.reset_index(drop=True),
-                                  "speed_mps": mod_vals[..., 2].mean(1)}))
-    if not rows:
-        raise ValueError("no recorded serve in the windows given")
-    return pd.concat(rows, ignore_index=True)
+    idx = torch.stack([model.serve_head.sample(st.h, 1.0, gen) for _ in range(draws)], 1)
+    rec_vals = strike.strike_bin_value(st.bins.numpy(), rng.random((len(st), 4)), edges)
+    mod_vals = strike.strike_bin_value(idx.numpy(), rng.random(tuple(idx.shape)), edges)
+    fps = model.cfg.fps
+    rec = serve_faults(st.contact_m, rec_vals, fps)
+    mod = serve_faults(np.repeat(st.contact_m, draws, 0), mod_vals.reshape(-1, 4), fps)
+    mod_mean = mod.astype(float).groupby(np.repeat(np.arange(len(st)), draws)).mean()
+    base = {"rally_id": st.rally_id, "serve": st.serve}
+    return pd.concat([
+        pd.DataFrame({**base, "source": "record", **rec.astype(float),
+                      "speed_mps": rec_vals[:, 2]}),
+        pd.DataFrame({**base, "source": "model", **mod_mean.reset_index(drop=True),
+                      "speed_mps": mod_vals[..., 2].mean(1)})], ignore_index=True)
 
 
 def serve_fault_table(rows: pd.DataFrame) -> pd.DataFrame:
@@ -95,11 +82,8 @@ def serve_fault_table(rows: pd.DataFrame) -> pd.DataFrame:
 
 
 def serve_draw_table(sim, truth, draws: int = 6, seed: int = 0) -> pd.DataFrame:
-    """`serve_fault_table` of `sim`'s model at the serves of `truth` (a `RallyData`), read from
-    each rally's first window."""
-    from sportsngen.data.tokens import WindowDataset, rally_arrays
+    """`serve_fault_table` of `sim`'s model at the serves of `truth` (a `RallyData`)."""
+    from sportsngen.data.tokens import rally_arrays
 
     arr = rally_arrays(truth, sim.vocab, unknown="generic")
-    items = WindowDataset(arr, sim.model.cfg.window_frames)
-    first = [items[i] for i, (_, start) in enumerate(items.items) if start == 0]
-    return serve_fault_table(teacher_forced_serves(sim.model, first, draws, seed))
+    return serve_fault_table(teacher_forced_serves(sim.model, arr, draws, seed))

@@ -42,6 +42,7 @@ class HeadStates:
     bins: torch.Tensor       # (N, 4) int64
     rally_id: np.ndarray     # (N,)
     serve: np.ndarray        # (N,) 0 first serve, 1 second serve (the rally's)
+    contact_m: np.ndarray    # (N, 3) the ball where it is struck (the target's frame)
 
     def __len__(self) -> int:
         return len(self.bins)
@@ -49,8 +50,8 @@ class HeadStates:
     @staticmethod
     def concat(parts: list[HeadStates]) -> HeadStates:
         return HeadStates(torch.cat([p.h for p in parts]), torch.cat([p.bins for p in parts]),
-                          np.concatenate([p.rally_id for p in parts]),
-                          np.concatenate([p.serve for p in parts]))
+                          *(np.concatenate([getattr(p, k) for p in parts])
+                            for k in ("rally_id", "serve", "contact_m")))
 
 
 def _head(model: SportsNGEN, which: str):
@@ -87,11 +88,11 @@ def collect_head_states(model: SportsNGEN, arrays: RallyArrays, which: str = "se
     model.eval()
     ds = WindowDataset(arrays, model.cfg.window_frames, None)
     if which == "serve":   # a rally's serve lies in its first window
-        ds = Subset(ds, [i for i, (_, start) in enumerate(ds.items) if start == 0])
+        ds = Subset(ds, ds.first_windows())
     loader = DataLoader(ds, batch_size=batch_size, shuffle=False, collate_fn=default_collate)
     turns = (False, True) if flip and model.cfg.frame == "world" else (False,)
     batches = ((_turned(b) if t else b) for t in turns for b in loader)
-    hs, bins, rid, srv = [], [], [], []
+    hs, bins, rid, srv, contact = [], [], [], [], []
     for batch in tqdm(batches, desc=f"{which} states", total=len(loader) * len(turns),
                       disable=not progress):
         mask, b = model.strike_targets(batch["pos_m"], batch["vel_mps"], batch["next_pos_m"],
@@ -108,10 +109,12 @@ def collect_head_states(model: SportsNGEN, arrays: RallyArrays, which: str = "se
         rows = mask.nonzero()[:, 0]
         rid.append(batch["rally_id"][rows].numpy())
         srv.append(batch["serve"][rows].numpy())
+        contact.append(batch["pos_m"][..., BALL, :][mask].double().numpy())
     model.train(was_training)
     if not hs:
         raise ValueError(f"no {which} targets in the {len(arrays)} rallies given")
-    return HeadStates(torch.cat(hs), torch.cat(bins), np.concatenate(rid), np.concatenate(srv))
+    return HeadStates(torch.cat(hs), torch.cat(bins), np.concatenate(rid), np.concatenate(srv),
+                      np.concatenate(contact))
 
 
 @torch.no_grad()
