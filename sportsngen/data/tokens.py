@@ -301,9 +301,10 @@ def object_features(pos_m: torch.Tensor, vel_mps: torch.Tensor, t_s: torch.Tenso
     return torch.cat([pos_m / scale, vel_mps / VEL_SCALE_MPS, dist / DIST_SCALE_M, t], dim=-1)
 
 
-def flip_xy(arr: np.ndarray) -> np.ndarray:
-    """Rotate by 180 degrees about the vertical through the net centre: (x, y) -> (-x, -y)."""
-    out = arr.copy()
+def flip_xy(arr):
+    """Rotate by 180 degrees about the vertical through the net centre: (x, y) -> (-x, -y).
+    A numpy array or a torch tensor (a collated batch's); a new one either way."""
+    out = arr.clone() if torch.is_tensor(arr) else arr.copy()
     out[..., :2] *= -1
     return out
 

@@ -23,7 +23,7 @@ import torch
 from torch.utils.data import DataLoader, Subset, default_collate
 from tqdm.auto import tqdm
 
-from sportsngen.data.tokens import BALL, RallyArrays, WindowDataset
+from sportsngen.data.tokens import BALL, RallyArrays, WindowDataset, flip_xy
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.train.metrics import window_states
 
@@ -65,14 +65,8 @@ def _head(model: SportsNGEN, which: str):
 
 def _turned(batch: dict) -> dict:
     """A collated batch turned 180 degrees about the vertical through the net's centre (the
-    training augmentation's flip, `tokens.flip_xy`)."""
-    out = dict(batch)
-    for k in _TURNED:
-        if k in out:
-            v = out[k].clone()
-            v[..., :2] *= -1
-            out[k] = v
-    return out
+    training augmentation's flip)."""
+    return {k: flip_xy(v) if k in _TURNED else v for k, v in batch.items()}
 
 
 @torch.no_grad()
