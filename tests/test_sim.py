@@ -17,6 +17,7 @@ from sportsngen.data.toy import make_toy_rallies
 from sportsngen.eval.stats import serve_stats
 from sportsngen.model.export import load_model, save_model
 from sportsngen.sim import Simulator
+from sportsngen.sim.assemble import rules_shot_outcome
 from sportsngen.sim.initial import InitialConditions
 from sportsngen.sim.rollout import RolloutInputs, cpu_threads, rollout
 from sportsngen.tennis.scoring import MatchFormat, MatchState
@@ -56,6 +57,17 @@ def test_tiny_model_simulates_a_short_match(tiny_model_file):
     assert (r["realistic"] | (r["end_reason"] != "none")).all()
     assert res.n_discarded + res.forced_decisions >= 0
     assert set(res.rallies.frames["rally_id"]) == set(r["rally_id"])
+    # The shots table tells each rally's end as the rallies table does (the rules').
+    shots = res.rallies.shots.sort_values(["rally_id", "shot_index"])
+    is_last = shots.groupby("rally_id")["shot_index"].transform("max") == shots["shot_index"]
+    assert (shots.loc[~is_last, "outcome"] == "in_play").all()
+    # (a point given by a coin toss keeps end_detail "none" and its shots as they were played)
+    tossed = r.loc[r["end_detail"] == "none", "rally_id"]
+    last = shots[is_last & ~shots["rally_id"].isin(tossed)].set_index("rally_id")
+    assert len(last) > 0
+    end = r.set_index("rally_id").loc[last.index, "end_reason"]
+    for reason, outcome, kind in zip(end, last["outcome"], last["error_kind"]):
+        assert (outcome, kind) == rules_shot_outcome(reason, 0, 1)
 
 
 def test_simulate_points_is_deterministic_for_a_seed(tiny_model_file):
@@ -210,6 +222,22 @@ def test_simulate_py_learned_engine_writes_outputs(tiny_model_file, tmp_path, ca
         assert (tmp_path / name).exists(), name
     out = capsys.readouterr().out
     assert "match 1: Toy" in out and "1st in" in out
+
+
+def test_rules_shot_outcome_labels_shots_as_the_generator_does():
+    assert rules_shot_outcome("ace", 0, 1) == ("winner", "none")
+    assert rules_shot_outcome("winner", 4, 5) == ("winner", "none")
+    assert rules_shot_outcome("winner", 3, 5) == ("in_play", "none")
+    assert rules_shot_outcome("fault", 0, 1) == ("error", "fault")
+    assert rules_shot_outcome("double_fault", 0, 1) == ("error", "fault")
+    assert rules_shot_outcome("forced_error", 2, 3) == ("error", "forced")
+    assert rules_shot_outcome("unforced_error", 1, 2) == ("error", "unforced")
+    assert rules_shot_outcome("unforced_error", 0, 2) == ("in_play", "none")
+    assert rules_shot_outcome("none", 6, 7) == ("in_play", "none")
+    with pytest.raises(ValueError, match="unknown end_reason"):
+        rules_shot_outcome("let", 0, 1)
+    with pytest.raises(ValueError, match="outside a rally"):
+        rules_shot_outcome("ace", 1, 1)
 
 
 def test_wilson_interval_known_values():

@@ -12,6 +12,13 @@ The rallies table is the schema's plus the simulator's own columns:
 (forced / unforced) from the event classifier's label of the last shot (unforced when it says
 neither); a rally the rules could not decide (duration cap, no serve) has end_reason "none" and
 no winner. Speeds (serve_kmh, speed_mps) are finite differences over the frame after contact.
+
+The shots table's `outcome` and `error_kind` follow the rules as the generator's do
+(`rules_shot_outcome`): every shot but the last in play, the last one the rally's end. They
+were the event classifier's labels, which disagreed with the rules' end on most decided
+rallies of the bundled model (1,500-point check: 392 of 394 aces' serves and 474 of 759
+winners labelled errors, 590 shots before the last labelled errors), so a report said "error"
+under an ace. The frames keep the classifier's per-frame labels.
 """
 
 from __future__ import annotations
@@ -35,6 +42,24 @@ PLAN_COLUMNS = [c for c in RALLY_COLUMNS if c not in
                 ("winner", "end_reason", "end_detail", "serve_kmh", "rally_length")]
 _VOCABS = {"stroke": STROKES, "direction": DIRECTIONS, "outcome": OUTCOMES,
            "error_kind": ERROR_KINDS}
+
+
+# The last shot's (outcome, error_kind) by the rules' end_reason; "none" (undecided): in play.
+_LAST_SHOT = {"ace": ("winner", "none"), "winner": ("winner", "none"),
+              "fault": ("error", "fault"), "double_fault": ("error", "fault"),
+              "forced_error": ("error", "forced"), "unforced_error": ("error", "unforced"),
+              "none": ("in_play", "none")}
+
+
+def rules_shot_outcome(end_reason: str, shot_index: int, n_shots: int) -> tuple[str, str]:
+    """(outcome, error_kind) of shot `shot_index` of a rally of `n_shots` contacts that ended by
+    `end_reason` (the rules', an error's kind already resolved), as the generator labels its
+    shots: a shot that is not the last was in play."""
+    if end_reason not in _LAST_SHOT:
+        raise ValueError(f"unknown end_reason {end_reason!r}; known: {sorted(_LAST_SHOT)}")
+    if not 0 <= shot_index < n_shots:
+        raise ValueError(f"shot_index {shot_index} outside a rally of {n_shots} shots")
+    return _LAST_SHOT[end_reason] if shot_index == n_shots - 1 else ("in_play", "none")
 
 
 def _speed_after_mps(track: np.ndarray, frame: int, length: int, fps: float) -> float:
@@ -84,10 +109,12 @@ def assemble(plan: pd.DataFrame, pos_m: np.ndarray, length: np.ndarray,
             bx, by = next(((xy[0], xy[1]) for bf, xy in bounces if f < bf < nxt),
                           (np.nan, np.nan))
             c = res["contacts_m"][k]
+            outcome, error_kind = rules_shot_outcome(reason, k, n_shots)
             shot_rows.append({
                 "rally_id": int(plan["rally_id"].iat[i]), "shot_index": k, "frame": f,
                 "hitter": names[i, h] if h in (0, 1) else "",
                 **{name: _VOCABS[name][lab[k, j]] for j, name in enumerate(LABEL_NAMES)},
+                "outcome": outcome, "error_kind": error_kind,
                 "spin": "none", "contact_x": c[0], "contact_y": c[1], "contact_z": c[2],
                 "speed_mps": _speed_after_mps(track, f, n, fps), "bounce_x": bx,
                 "bounce_y": by})

@@ -6,7 +6,8 @@ second serve after a fault) and all of them go through one batched `Simulator.si
 call. A rally that breaks physics, or that the rules cannot decide, is set aside (kept in
 `MatchResult.discarded`, counted) and the same serve is played again; after `max_retries` such
 replays in a row, the point goes to the rules' verdict if there is one, else to a coin toss
-(counted in `forced_decisions`).
+(counted in `forced_decisions`; its rally's end_reason becomes "winner" with end_detail "none",
+its shots keep the outcomes they were played with).
 """
 
 from __future__ import annotations
