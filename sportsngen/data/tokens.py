@@ -346,12 +346,13 @@ class Augment:
 class WindowDataset(Dataset):
     """Windows of `window_frames` frames cut from `RallyArrays`.
 
-    Without `augment`, windows tile each rally from its start (the last one padded). With it,
-    each rally gives ceil(length / window) windows at random starts, flipped and noised.
+    Without `augment`, windows tile each rally from its start (the last one padded), or are
+    the `items` given ((rally index, first frame) each). With it, each rally gives
+    ceil(length / window) windows at random starts, flipped and noised.
     """
 
     def __init__(self, arrays: RallyArrays, window_frames: int, augment: Augment | None = None,
-                 seed: int = 0):
+                 seed: int = 0, items: list[tuple[int, int]] | None = None):
         if window_frames < 2:
             raise ValueError(f"window_frames must be at least 2, got {window_frames}")
         self.a = arrays
@@ -361,7 +362,13 @@ class WindowDataset(Dataset):
         self.rng = np.random.default_rng(seed)
         self._worker: int | None = None
         n_win = -(-arrays.length // self.window)
-        self.items = [(i, k * self.window) for i, n in enumerate(n_win) for k in range(n)]
+        self.items = [(i, k * self.window) for i, n in enumerate(n_win) for k in range(n)] \
+            if items is None else [(int(i), int(s)) for i, s in items]
+        bad = [(i, s) for i, s in self.items
+               if not (0 <= i < len(arrays.length) and 0 <= s < arrays.length[i])]
+        if bad:
+            raise ValueError(f"{len(bad)} window(s) outside their rallies, first {bad[0]} "
+                             "(rally index, first frame)")
 
     def __len__(self) -> int:
         return len(self.items)

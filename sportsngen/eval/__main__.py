@@ -10,6 +10,7 @@
         [--strike-in-reach-from N] [--[no-]strike-in-reach-force] [--top-p-serve P]
     python -m sportsngen.eval strikes [--model PATH] [--points 800] [--shots 1 2 3 4 5]
         [--after -1] [--seed 0] [--csv PATH] [sampling options as diagnose]
+    python -m sportsngen.eval strike-draws [--model PATH] [--points 1000] [--draws 6] [--seed 0]
     python -m sportsngen.eval movement [--model PATH] [--shot 2] [--points 600] [--server NAME]
         [--seed 0] [--csv PATH] [sampling options as diagnose]
     python -m sportsngen.eval expert [FOLDER] [--shot 3] [--after 8] [--unplayed]
@@ -22,7 +23,9 @@ points). Real slam points of `--real-year` served by the same players form a thi
 the shared data is present; without it the report is written without them and a note says why.
 `diagnose` prints the rollout diagnostics of `sportsngen.eval.diagnostics` for a model file
 (default the bundled model); `strikes` the model's strikes of recorded approaches shot by shot
-(`sportsngen.eval.shot_branches.strike_shares`); `movement` the hitter's run after his shot,
+(`sportsngen.eval.shot_branches.strike_shares`); `strike-draws` the strike head
+teacher-forced at recorded rally strikes, its errors by shot and serve beside the record's
+(`sportsngen.eval.strike_draws`); `movement` the hitter's run after his shot,
 teacher-forced and rolled out against the record (`sportsngen.eval.movement`); `expert` the
 generator's players on a folder's own rally states, their next shot beside the folder's
 (`sportsngen.eval.expert_answers`; without a folder, on generated points: the kernel's own
@@ -240,6 +243,17 @@ def run_serves(args: argparse.Namespace) -> int:
         sim, truth_points(setup), draws=args.draws, seed=args.seed))
 
 
+def run_strike_draws(args: argparse.Namespace) -> int:
+    """The strike head teacher-forced at recorded rally strikes, by shot and serve."""
+    from sportsngen.eval.diagnostics import truth_points
+    from sportsngen.eval.strike_draws import strike_draw_table
+
+    if args.draws < 1:
+        raise UsageError(f"--draws must be >= 1, got {args.draws}")
+    return _run_model_table(args, "strike-draws", lambda sim, setup: strike_draw_table(
+        sim, truth_points(setup), draws=args.draws, seed=args.seed))
+
+
 def run_movement(args: argparse.Namespace) -> int:
     """The hitter's run after his shot, record / teacher-forced / rolled out: prints it."""
     from sportsngen.eval.diagnostics import truth_points
@@ -413,6 +427,12 @@ def build_parser() -> argparse.ArgumentParser:
     serves.add_argument("--points", type=int, default=600,
                         help="ground-truth points generated (default 600)")
     serves.add_argument("--draws", type=int, default=6, help="draws of the head a serve")
+    sdraws = sub.add_parser("strike-draws", parents=[model_opts],
+                            help="the strike head teacher-forced at recorded rally strikes: "
+                                 "errors by shot and serve, beside the record")
+    sdraws.add_argument("--points", type=int, default=1000,
+                        help="ground-truth points generated (default 1000)")
+    sdraws.add_argument("--draws", type=int, default=6, help="draws of the head a strike")
     # Generated points where no folder is given (expert, reach).
     generated = argparse.ArgumentParser(add_help=False)
     generated.add_argument("--seed", type=int, default=0)
@@ -449,7 +469,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     runners = {"leaks": run_leaks, "diagnose": run_diagnose, "strikes": run_strikes,
                "movement": run_movement, "serves": run_serves, "expert": run_expert,
-               "reach": run_reach}
+               "reach": run_reach, "strike-draws": run_strike_draws}
     try:
         if args.command in runners:
             return runners[args.command](args)
