@@ -2,14 +2,15 @@
 
     .venv/bin/python scripts/fit_head.py --model FILE --out FILE [--head serve|strike]
         [--steps 4000] [--lr 1e-3] [--batch-size 256] [--seed 0] [--threads 2]
-        [--more-points N --more-seed S] [--no-flip]
+        [--more-points N --more-seed S] [--no-flip] [--states FILE] [--strike-roles]
 
 The rallies are the file's own training data and split (`extra.split`: the data config, the
 validation fraction and seed), so the validation NLL is on the rallies its last stage held
 out, and with `--more-points N` also N points generated from the same config with another
 seed (training only); the head ends at its best validation NLL
 (`sportsngen.train.head_fit`). Everything else in the file (other weights, sampling defaults,
-calibrator) is copied unchanged.
+calibrator) is copied unchanged. `--states FILE` keeps the states read (minutes for the strike
+head) in FILE and reads them from there on the next run with the same model and options.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from pathlib import Path
 
 import torch
 
@@ -24,7 +26,22 @@ from sportsngen.data.tokens import rally_arrays
 from sportsngen.model.export import load_model, read_extra, save_model
 from sportsngen.sim.simulator import model_path
 from sportsngen.train.datamodule import load_rally_data, split_rallies
+from sportsngen.train.finetune import with_strike_roles
 from sportsngen.train.head_fit import HEADS, HeadStates, collect_head_states, fit_head
+
+
+def _read_states(model, vocab, split: dict, args) -> tuple[HeadStates, HeadStates]:
+    arrays = rally_arrays(load_rally_data(split["data"]), vocab)
+    train, val = split_rallies(arrays, float(split["val_fraction"]), int(split["seed"]))
+    tr = collect_head_states(model, train, args.head, flip=not args.no_flip)
+    if args.more_points > 0:
+        more = {**split["data"], "n_points": args.more_points, "seed": args.more_seed}
+        if int(more["seed"]) == int(split["data"].get("seed", 0)):
+            raise SystemExit("--more-seed must differ from the data's own seed")
+        extra_arrays = rally_arrays(load_rally_data(more), vocab)
+        tr = HeadStates.concat([tr, collect_head_states(model, extra_arrays, args.head,
+                                                        flip=not args.no_flip)])
+    return tr, collect_head_states(model, val, args.head, progress=False)
 
 
 def main() -> None:
@@ -45,29 +62,42 @@ def main() -> None:
     ap.add_argument("--no-flip", action="store_true",
                     help="train on the windows as recorded only (default: also turned about "
                          "the net's centre, as training's augmentation does)")
+    ap.add_argument("--strike-roles", action="store_true",
+                    help="add the strike head's shift by the hitter's role and the serve "
+                         "(model.strike_roles) and fit it with the head")
+    ap.add_argument("--states", default=None,
+                    help="cache of the states read: written on the first run, read after")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
     path = model_path(args.model)
     model, ec, vocab, _ = load_model(path)
+    if args.strike_roles:
+        if args.head != "strike":
+            raise SystemExit("--strike-roles shifts the strike head's input: use --head strike")
+        model = with_strike_roles(model)
     extra = read_extra(path)
     split = extra.get("split")
     if not split or "data" not in split:
         raise SystemExit(f"{path} records no training data split (extra.split): it cannot "
                          "say which rallies it learnt from")
     t0 = time.time()
-    arrays = rally_arrays(load_rally_data(split["data"]), vocab)
-    train, val = split_rallies(arrays, float(split["val_fraction"]), int(split["seed"]))
-    tr = collect_head_states(model, train, args.head, flip=not args.no_flip)
-    if args.more_points > 0:
-        more = {**split["data"], "n_points": args.more_points, "seed": args.more_seed}
-        if int(more["seed"]) == int(split["data"].get("seed", 0)):
-            raise SystemExit("--more-seed must differ from the data's own seed")
-        extra_arrays = rally_arrays(load_rally_data(more), vocab)
-        tr = HeadStates.concat([tr, collect_head_states(model, extra_arrays, args.head,
-                                                        flip=not args.no_flip)])
-    va = collect_head_states(model, val, args.head, progress=False)
-    print(f"{len(tr)} training and {len(va)} validation {args.head} targets from "
-          f"{len(train)} / {len(val)} rallies ({time.time() - t0:.0f} s)")
+    key = {"model": str(path), "head": args.head, "flip": not args.no_flip,
+           "more_points": args.more_points, "more_seed": args.more_seed}
+    if args.states and Path(args.states).exists():
+        cached = torch.load(args.states, weights_only=False)
+        if cached["key"] != key:
+            raise SystemExit(f"{args.states} holds states read with {cached['key']}, not "
+                             f"{key}: remove it or name another file")
+        tr, va = cached["train"], cached["val"]
+        print(f"{len(tr)} training and {len(va)} validation {args.head} targets read from "
+              f"{args.states}")
+    else:
+        tr, va = _read_states(model, vocab, split, args)
+        print(f"{len(tr)} training and {len(va)} validation {args.head} targets "
+              f"({time.time() - t0:.0f} s)")
+        if args.states:
+            Path(args.states).parent.mkdir(parents=True, exist_ok=True)
+            torch.save({"key": key, "train": tr, "val": va}, args.states)
     t0 = time.time()
     history = fit_head(model, args.head, tr, va, steps=args.steps, lr=args.lr,
                        batch_size=args.batch_size, eval_every=args.eval_every, seed=args.seed)

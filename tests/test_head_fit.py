@@ -89,7 +89,7 @@ def test_fitting_lowers_the_nll_and_keeps_the_best_head(rallies):
     assert [r["step"] for r in history] == [0, 50, 100, 150, 200, 250, 300]
     # A head of ~16 k weights on 23 serves: it learns them (from ~18 nats, 4 x log 96).
     assert history[0]["val_nll"] > 17.0 and min(r["val_nll"] for r in history) < 12.0
-    assert head_nll(model.serve_head, st) == pytest.approx(min(r["val_nll"] for r in history))
+    assert head_nll(model, "serve", st) == pytest.approx(min(r["val_nll"] for r in history))
     # Only the serve head moved.
     after = model.state_dict()
     moved = {k for k in after if not torch.equal(after[k], before[k])}
@@ -106,3 +106,33 @@ def test_strike_states_and_clear_errors(rallies):
         collect_head_states(model, rallies, "volley", progress=False)
     with pytest.raises(ValueError, match="positive"):
         fit_head(model, "strike", st, st, steps=0)
+
+
+def test_strike_states_know_whose_strike_it_is(rallies):
+    model = small_model()
+    st = collect_head_states(model, rallies, "strike", progress=False)
+    # The record's rally strikes alternate: the receiver hits the return, the server the next.
+    assert 0.4 < st.receiver.mean() < 0.7
+    server_x = {int(r): np.sign(rallies.pos_m[rallies.start[i], 0, 0])
+                for i, r in enumerate(rallies.rally_id)}
+    on_server_end = np.sign(st.contact_m[:, 0]) == np.array([server_x[int(r)]
+                                                             for r in st.rally_id])
+    assert (st.receiver == ~on_server_end).all()
+
+
+def test_the_strike_role_shift_is_fitted_with_the_head_and_nothing_else(rallies):
+    from sportsngen.train.finetune import with_strike_roles
+
+    base = small_model()
+    model = with_strike_roles(base)
+    st = collect_head_states(model, rallies, "strike", progress=False)
+    # At zero the shift changes nothing.
+    assert head_nll(model, "strike", st) == pytest.approx(head_nll(base, "strike", st))
+    before = {k: v.clone() for k, v in model.state_dict().items()}
+    fit_head(model, "strike", st, st, steps=200, lr=3e-3, batch_size=64, eval_every=50,
+             progress=False)
+    after = model.state_dict()
+    moved = {k for k in after if not torch.equal(after[k], before[k])}
+    assert "strike_role.weight" in moved
+    assert all(k.startswith(("strike_head.", "strike_role.")) for k in moved)
+    assert head_nll(model, "strike", st) < head_nll(base, "strike", st)

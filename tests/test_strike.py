@@ -363,3 +363,81 @@ def test_a_sampled_serve_is_placed_on_its_solved_flight_and_a_toss_is_left_alone
     read = S.serve_labels(launch[None], np.array([1.0]), FPS)[0]
     assert abs(read[0] - value[0, 0]) < 0.02
     assert abs(np.linalg.norm(launch[1] - launch[0]) * FPS - value[0, 2]) < 0.1
+
+
+def test_strike_role_index_names_the_hitter_by_the_end_the_ball_is_on():
+    from sportsngen.model.strike_heads import strike_role_index
+
+    pos = torch.zeros(4, 3, 3)
+    pos[:, 0, 0] = torch.tensor([12.0, 12.0, -12.0, -12.0])     # the server's end
+    pos[:, 1, 0] = -pos[:, 0, 0]
+    pos[:, 2, 0] = torch.tensor([10.0, -9.0, -10.0, 3.0])       # the ball
+    serve = torch.tensor([0, 0, 1, 1])
+    # server first serve 0, receiver first 2, server second 1, receiver second 3
+    assert strike_role_index(pos, serve).tolist() == [0, 2, 1, 3]
+
+
+def test_a_strike_role_shift_moves_only_its_own_role_and_needs_the_role():
+    import dataclasses
+
+    from sportsngen.model.strike_heads import strike_role_index
+    from sportsngen.train.finetune import with_strike_roles
+
+    base = _struck_model()
+    model = with_strike_roles(base)
+    h = torch.randn(2, 5, 3, base.cfg.d_model)
+    pos = torch.zeros(2, 5, 3, 3)
+    pos[..., 0, 0], pos[..., 1, 0] = 12.0, -12.0
+    pos[0, :, 2, 0], pos[1, :, 2, 0] = 5.0, -5.0                 # server's, receiver's strikes
+    mask = torch.zeros(2, 5, dtype=torch.bool)
+    mask[:, 2] = True
+    bins = torch.randint(0, 96, (2, 5, 4))
+    serve = torch.tensor([0, 0])
+    same = model.strike_nll(h, mask, bins, pos, serve)
+    torch.testing.assert_close(same, base.strike_nll(h, mask, bins))
+    with torch.no_grad():
+        model.strike_role.weight[2] += 1.0                          # the receiver's, first serve
+    moved = model.strike_nll(h, mask, bins, pos, serve)
+    assert moved[0, 2] == same[0, 2] and moved[1, 2] != same[1, 2]
+    assert strike_role_index(pos[:, 2], serve).tolist() == [0, 2]
+    with pytest.raises(ValueError, match="give pos_m and serve"):
+        model.strike_nll(h, mask, bins)
+    with pytest.raises(ValueError, match="needs strike_head"):
+        type(base)(dataclasses.replace(base.cfg, strike_head=False, strike_roles=True))
+
+
+def test_rollouts_read_the_strike_role_shift_through_compaction():
+    from sportsngen.model import SportsNGEN
+    from sportsngen.sim.rollout import RolloutInputs, rollout
+    from sportsngen.train.finetune import with_strike_roles
+    from tests.test_model import tiny_cfg
+
+    class EndsRowOne:        # rally 1 ends after its third frame: the batch is compacted
+        def __init__(self):
+            self.calls = 0
+
+        def update(self, pos_m, active=None):
+            self.calls += 1
+            done = np.zeros(len(pos_m), dtype=bool)
+            done[1] = self.calls == 3
+            return done
+
+    torch.manual_seed(0)
+    model = SportsNGEN(tiny_cfg(strike_head=True, ball_centre="physics")).eval()
+    roles = with_strike_roles(model).eval()
+    b = 3
+    init = np.zeros((b, 2, 3, 3), np.float32)
+    init[:, :, 0, 0], init[:, :, 1, 0] = 12.0, -12.0
+    init[:, 0, 2] = [-6.0, 0.5, 1.0]                        # a ball flying to the server
+    init[:, 1, 2] = [-5.0, 0.5, 1.0]
+    inputs = RolloutInputs(init, np.tile([[2, 3, 0]], (b, 1)), np.zeros(b, np.int64),
+                           np.zeros(b, np.int64), np.array([0, 1, 1]),
+                           np.zeros((b, 7), np.float32))
+    a = rollout(model, inputs, 40, seed=3, tracker=EndsRowOne())
+    z = rollout(roles, inputs, 40, seed=3, tracker=EndsRowOne())
+    np.testing.assert_array_equal(np.nan_to_num(a.pos_m), np.nan_to_num(z.pos_m))
+    with torch.no_grad():
+        roles.strike_role.weight += 5.0
+    moved = rollout(roles, inputs, 40, seed=3, tracker=EndsRowOne())
+    assert moved.length.tolist() == a.length.tolist()
+    assert not np.allclose(np.nan_to_num(moved.pos_m), np.nan_to_num(a.pos_m))

@@ -70,6 +70,13 @@ class ModelConfig:
     # physics centre's own flight: the court's lines are edges of its bins, so a strike no
     # longer has to invert the flight to land in. False: strikes are drawn in the ball's bins.
     strike_head: bool = False
+    # The strike head's input also carries whose strike it is (the server's or the receiver's:
+    # whose end the ball is struck on) and the point's serve (first or second), as a learned
+    # shift of the ball token's state (`SportsNGEN.strike_role`, started at zero). The
+    # generator's server keeps a first serve's initiative all rally (the receiver's balls err a
+    # quarter of the time, the server's a tenth); the head read from the state alone drew
+    # the same share for both from the fourth shot on (docs/evaluation.md, twentieth part).
+    strike_roles: bool = False
     # A head of its own for the serve (`model.strike.is_serve`: struck from the toss) as where
     # it lands, its speed and its spin, the launch solved as a strike's: its fault, its box and
     # its speed come from a distribution over those, not from the ball's bins under a nucleus.

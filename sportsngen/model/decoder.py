@@ -197,6 +197,14 @@ class SportsNGEN(nn.Module):
             if cfg.strike_head else None
         self.serve_head = FactorisedHead(cfg.d_model, strike.STRIKE_BINS, 4, cfg.head_hidden) \
             if cfg.serve_head else None
+        self.strike_role = None
+        if cfg.strike_roles:
+            if not cfg.strike_head:
+                raise ValueError("strike_roles shifts the strike head's input: it needs "
+                                 "strike_head=True")
+            # Zero: a file without the shift reads the same with it.
+            self.strike_role = nn.Embedding(strike_heads.N_STRIKE_ROLES, cfg.d_model)
+            nn.init.zeros_(self.strike_role.weight)
 
     # --- inputs -------------------------------------------------------------------------------
     def _ident(self, ident: torch.Tensor) -> torch.Tensor:
@@ -374,10 +382,35 @@ class SportsNGEN(nn.Module):
         return strike_heads.strike_targets(pos_m, vel_mps, next_pos_m, has_next, self.cfg.fps,
                                            serves)
 
-    def strike_nll(self, h: torch.Tensor, mask: torch.Tensor,
-                   bins: torch.Tensor) -> torch.Tensor:
-        """(B, T) -log p(strike bins | ball state) at the `strike_targets`, 0 elsewhere."""
-        return self._head_nll(self.strike_head, h, mask, bins)
+    def strike_input(self, h_ball: torch.Tensor, role: torch.Tensor | None) -> torch.Tensor:
+        """The strike head's input: the ball token's state (..., d), shifted by the learned
+        row of `role` (..., `strike_heads.strike_role_index`) where `cfg.strike_roles`."""
+        if self.strike_role is None:
+            return h_ball
+        if role is None:
+            raise ValueError("this model's strike head reads the hitter's role and the serve "
+                             "(cfg.strike_roles): give them (strike_heads.strike_role_index)")
+        return h_ball + self.strike_role(role)
+
+    def strike_nll(self, h: torch.Tensor, mask: torch.Tensor, bins: torch.Tensor,
+                   pos_m: torch.Tensor | None = None,
+                   serve: torch.Tensor | None = None) -> torch.Tensor:
+        """(B, T) -log p(strike bins | ball state) at the `strike_targets`, 0 elsewhere. With
+        `cfg.strike_roles` the frames' positions `pos_m` (B, T, 3, 3) and the rallies' serve
+        (B,) (0 first, 1 second) say whose strike each is."""
+        out = torch.zeros(mask.shape, device=h.device, dtype=h.dtype)
+        if self.strike_head is None or not bool(mask.any()):
+            return out
+        role = None
+        if self.strike_role is not None:
+            if pos_m is None or serve is None:
+                raise ValueError("this model's strike head reads the hitter's role and the "
+                                 "serve (cfg.strike_roles): give pos_m and serve")
+            role = strike_heads.strike_role_index(pos_m[mask],
+                                                  serve[:, None].expand(mask.shape)[mask])
+        out[mask] = self.strike_head.nll(self.strike_input(h[..., BALL, :][mask], role),
+                                         bins[mask])
+        return out
 
     def serve_nll(self, h: torch.Tensor, mask: torch.Tensor, bins: torch.Tensor) -> torch.Tensor:
         """(B, T) -log p(serve bins | ball state) at the serves' `strike_targets`, 0 elsewhere."""
@@ -396,12 +429,20 @@ class SportsNGEN(nn.Module):
                       top_p: float = 1.0,
                       allowed: torch.Tensor | None = None,
                       forced: torch.Tensor | None = None,
-                      top_p_serve: float = 1.0) -> tuple[torch.Tensor, torch.Tensor]:
+                      top_p_serve: float = 1.0,
+                      serve: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
         """This model's strike and serve heads' draws placed in the sampled frames `nxt`
-        (`strike_heads.place_strikes`). -> (nxt, the launches' next two frames (B, 2, 3))."""
+        (`strike_heads.place_strikes`; `serve` (B,) the rallies' serve, 0 first, 1 second,
+        where `cfg.strike_roles`). -> (nxt, the launches' next two frames (B, 2, 3))."""
+        strike_h = None
+        if self.strike_role is not None:
+            if serve is None:
+                raise ValueError("this model's strike head reads the serve (cfg.strike_roles): "
+                                 "give serve")
+            strike_h = self.strike_input(h[:, BALL], strike_heads.strike_role_index(pos_m, serve))
         return strike_heads.place_strikes(self.strike_head, self.serve_head, h, pos_m, vel_mps,
                                           nxt, self.cfg.fps, generator, top_p, allowed, forced,
-                                          top_p_serve)
+                                          top_p_serve, strike_h)
 
     def nll(self, h: torch.Tensor, player_idx: torch.Tensor, ball_idx: torch.Tensor):
         """Per-token NLL: players (..., 2), ball (...)."""

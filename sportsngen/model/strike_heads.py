@@ -12,9 +12,22 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from sportsngen.data.tokens import BALL
+from sportsngen.data.tokens import BALL, OBJECTS
 from sportsngen.model import strike
 from sportsngen.model.sampling import uniform_in_bin
+
+SERVER = OBJECTS.index("server")
+
+
+N_STRIKE_ROLES = 4     # (server, receiver) x (first serve, second serve)
+
+
+def strike_role_index(pos_m: torch.Tensor, serve: torch.Tensor) -> torch.Tensor:
+    """Frames' positions (..., 3, 3) and their rallies' serve (...) (0 first, 1 second) -> (...)
+    2 * (the ball is on the receiver's end) + serve: whose strike it would be, and on which
+    serve's point. Players stay on their ends, so the end the ball is on names the hitter."""
+    receiver = torch.sign(pos_m[..., BALL, 0]) != torch.sign(pos_m[..., SERVER, 0])
+    return 2 * receiver.long() + serve.long()
 
 
 def strike_targets(pos_m: torch.Tensor, vel_mps: torch.Tensor, next_pos_m: torch.Tensor,
@@ -57,14 +70,17 @@ def place_strikes(strike_head, serve_head, h: torch.Tensor, pos_m: torch.Tensor,
                   vel_mps: torch.Tensor, nxt: torch.Tensor, fps: float,
                   generator: torch.Generator | None = None, top_p: float = 1.0,
                   allowed: torch.Tensor | None = None, forced: torch.Tensor | None = None,
-                  top_p_serve: float = 1.0) -> tuple[torch.Tensor, torch.Tensor]:
+                  top_p_serve: float = 1.0,
+                  strike_h: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
     """Where the sampled next frames `nxt` (B, 3, 3) hold a rally strike, or in the rows
     `forced` (B,) bool whatever they hold (in the rows `allowed`, (B,) bool, default all),
     `strike_head`'s draw from the decoder's states `h` (B, 3, D) instead: its bins (nucleus
     `top_p`), uniform inside them, the launch solved from the current ball and its first frame
     put in `nxt`; where they hold a serve, `serve_head`'s draw the same way (nucleus
     `top_p_serve`; `strike.solve_serve`). Either head may be None. Returns (nxt, the launch's
-    next two frames (B, 2, 3), NaN for rows without a strike or whose launch was not found)."""
+    next two frames (B, 2, 3), NaN for rows without a strike or whose launch was not found).
+    `strike_h` (B, D): the strike head's input where it is not the ball token's state
+    (`SportsNGEN.strike_input`)."""
     plan = torch.full((len(nxt), 2, 3), float("nan"), device=nxt.device)
     if strike_head is None and serve_head is None:
         return nxt, plan
@@ -77,16 +93,18 @@ def place_strikes(strike_head, serve_head, h: torch.Tensor, pos_m: torch.Tensor,
         struck = strike.is_strike(ball, vel, nxt_ball, fps)
         if forced is not None:
             struck |= forced.cpu().numpy()
-        parts.append((struck & allow, strike_head, None, strike.solve_launch, top_p))
+        parts.append((struck & allow, strike_head, None, strike.solve_launch, top_p,
+                      h[:, BALL] if strike_h is None else strike_h))
     if serve_head is not None:
         served = strike.is_serve(ball, vel, nxt_ball, fps) & allow
-        parts.append((served, serve_head, strike.serve_edges(), strike.solve_serve, top_p_serve))
-    for struck, head, edges, solve, p in parts:
+        parts.append((served, serve_head, strike.serve_edges(), strike.solve_serve, top_p_serve,
+                      h[:, BALL]))
+    for struck, head, edges, solve, p, states in parts:
         rows = np.flatnonzero(struck)
         if len(rows) == 0:
             continue
         r = torch.as_tensor(rows, device=h.device)
-        idx = head.sample(h[r, BALL], p, generator)
+        idx = head.sample(states[r], p, generator)
         u = uniform_in_bin(idx.shape, h.device, generator)
         values = strike.strike_bin_value(idx.cpu().numpy(), u.double().cpu().numpy(), edges)
         contact = ball[rows]                  # the contact is taken on the struck frame

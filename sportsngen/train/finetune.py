@@ -126,11 +126,25 @@ def graft_strike_head(model: SportsNGEN, donor: SportsNGEN) -> SportsNGEN:
                          f"e.g. {changed[0]}): the strike head belongs to another decoder")
     # The donor's serve head, where it has one, comes with its strike head.
     new = SportsNGEN(dataclasses.replace(model.cfg, strike_head=True,
-                                         serve_head=donor.cfg.serve_head or model.cfg.serve_head))
+                                         serve_head=donor.cfg.serve_head or model.cfg.serve_head,
+                                         strike_roles=donor.cfg.strike_roles))
+    ours = {k: v for k, v in ours.items() if not k.startswith("strike_role.")}
     state = {**ours, **{k: v for k, v in theirs.items()
-                        if k.startswith(("strike_head.", "serve_head."))}}
+                        if k.startswith(("strike_head.", "serve_head.", "strike_role."))}}
     new.load_state_dict(state)
     return new.eval()
+
+
+@torch.no_grad()
+def with_strike_roles(model: SportsNGEN) -> SportsNGEN:
+    """`model` with the strike head's role shift added (`cfg.strike_roles`), at zero: it draws
+    as before until the shift is fitted (`train.head_fit.fit_head`). -> a new model."""
+    if model.cfg.strike_roles:
+        return model
+    new = SportsNGEN(dataclasses.replace(model.cfg, strike_roles=True))
+    missing, unexpected = new.load_state_dict(model.state_dict(), strict=False)
+    assert list(missing) == ["strike_role.weight"] and not unexpected, (missing, unexpected)
+    return new.train(model.training)
 
 
 def freeze_except_identity(model: SportsNGEN, rows: list[int]) -> None:

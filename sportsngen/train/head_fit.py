@@ -23,11 +23,12 @@ import torch
 from torch.utils.data import DataLoader, Subset, default_collate
 from tqdm.auto import tqdm
 
-from sportsngen.data.tokens import BALL, RallyArrays, WindowDataset, flip_xy
+from sportsngen.data.tokens import BALL, OBJECTS, RallyArrays, WindowDataset, flip_xy
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.train.metrics import window_states
 
 HEADS = ("serve", "strike")
+SERVER = OBJECTS.index("server")
 # The `WindowDataset` item's entries with a frame axis (second after the batch's).
 _PER_FRAME = ("pos_m", "vel_mps", "next_pos_m", "prev_vel_mps", "t_s", "valid", "has_next",
               "labels", "near_contact")
@@ -43,6 +44,7 @@ class HeadStates:
     rally_id: np.ndarray     # (N,)
     serve: np.ndarray        # (N,) 0 first serve, 1 second serve (the rally's)
     contact_m: np.ndarray    # (N, 3) the ball where it is struck (the target's frame)
+    receiver: np.ndarray     # (N,) bool: the hitter is the rally's receiver (the ball on his end)
 
     def __len__(self) -> int:
         return len(self.bins)
@@ -51,7 +53,7 @@ class HeadStates:
     def concat(parts: list[HeadStates]) -> HeadStates:
         return HeadStates(torch.cat([p.h for p in parts]), torch.cat([p.bins for p in parts]),
                           *(np.concatenate([getattr(p, k) for p in parts])
-                            for k in ("rally_id", "serve", "contact_m")))
+                            for k in ("rally_id", "serve", "contact_m", "receiver")))
 
 
 def _head(model: SportsNGEN, which: str):
@@ -86,7 +88,7 @@ def collect_head_states(model: SportsNGEN, arrays: RallyArrays, which: str = "se
     loader = DataLoader(ds, batch_size=batch_size, shuffle=False, collate_fn=default_collate)
     turns = (False, True) if flip and model.cfg.frame == "world" else (False,)
     batches = ((_turned(b) if t else b) for t in turns for b in loader)
-    hs, bins, rid, srv, contact = [], [], [], [], []
+    hs, bins, rid, srv, contact, receiver = [], [], [], [], [], []
     for batch in tqdm(batches, desc=f"{which} states", total=len(loader) * len(turns),
                       disable=not progress):
         mask, b = model.strike_targets(batch["pos_m"], batch["vel_mps"], batch["next_pos_m"],
@@ -104,19 +106,43 @@ def collect_head_states(model: SportsNGEN, arrays: RallyArrays, which: str = "se
         rid.append(batch["rally_id"][rows].numpy())
         srv.append(batch["serve"][rows].numpy())
         contact.append(batch["pos_m"][..., BALL, :][mask].double().numpy())
+        # Players stay on their ends: the ball struck on the server's end is the server's.
+        server_x = batch["pos_m"][..., SERVER, 0][mask].numpy()
+        receiver.append(np.sign(contact[-1][:, 0]) != np.sign(server_x))
     model.train(was_training)
     if not hs:
         raise ValueError(f"no {which} targets in the {len(arrays)} rallies given")
     return HeadStates(torch.cat(hs), torch.cat(bins), np.concatenate(rid), np.concatenate(srv),
-                      np.concatenate(contact))
+                      np.concatenate(contact), np.concatenate(receiver))
+
+
+def _fitted(model: SportsNGEN, which: str) -> list[torch.nn.Module]:
+    """The modules a head's fit moves: the head, and the strike head's role shift if any."""
+    head = _head(model, which)
+    roles = model.strike_role if which == "strike" else None
+    return [head] if roles is None else [head, roles]
+
+
+def _inputs(model: SportsNGEN, which: str, states: HeadStates, idx) -> torch.Tensor:
+    """The head's input at `states[idx]`: the ball token's state, for a strike head with
+    `cfg.strike_roles` shifted by the hitter's role and the serve."""
+    h = states.h[idx]
+    if which != "strike" or model.strike_role is None:
+        return h
+    role = 2 * torch.as_tensor(states.receiver, dtype=torch.long) + \
+        torch.as_tensor(states.serve, dtype=torch.long)
+    return model.strike_input(h, role[idx])
 
 
 @torch.no_grad()
-def head_nll(head, states: HeadStates, batch_size: int = 4096) -> float:
-    """Mean -log p(bins | state) over `states` (nats a target)."""
+def head_nll(model: SportsNGEN, which: str, states: HeadStates,
+             batch_size: int = 4096) -> float:
+    """Mean -log p(bins | state) of `model`'s `which` head over `states` (nats a target)."""
+    head = _head(model, which)
     total = 0.0
     for i in range(0, len(states), batch_size):
-        total += float(head.nll(states.h[i:i + batch_size], states.bins[i:i + batch_size]).sum())
+        part = slice(i, i + batch_size)
+        total += float(head.nll(_inputs(model, which, states, part), states.bins[part]).sum())
     return total / max(len(states), 1)
 
 
@@ -124,16 +150,19 @@ def fit_head(model: SportsNGEN, which: str, train: HeadStates, val: HeadStates,
              steps: int = 3000, lr: float = 1e-3, batch_size: int = 256,
              weight_decay: float = 0.01, warmup_steps: int = 50, eval_every: int = 250,
              seed: int = 0, progress: bool = True) -> list[dict]:
-    """Fit `model`'s `which` head (in place) on `train` with AdamW, a linear warm-up and a
-    cosine decay; every `eval_every` steps the validation NLL, and at the end the head is left
-    at its best one. -> the history [{"step", "val_nll"}], step 0 the head as it came."""
+    """Fit `model`'s `which` head (in place; a strike head with its role shift where
+    `cfg.strike_roles`) on `train` with AdamW, a linear warm-up and a cosine decay; every
+    `eval_every` steps the validation NLL, and at the end the head is left at its best one.
+    -> the history [{"step", "val_nll"}], step 0 the head as it came."""
     if steps < 1 or batch_size < 1 or eval_every < 1:
         raise ValueError("steps, batch_size and eval_every must be positive")
     if len(train) == 0 or len(val) == 0:
         raise ValueError("fit_head needs training and validation targets")
     head = _head(model, which)
+    mods = _fitted(model, which)
     g = torch.Generator().manual_seed(seed)
-    opt = torch.optim.AdamW(head.parameters(), lr=lr, weight_decay=weight_decay)
+    opt = torch.optim.AdamW([p for m in mods for p in m.parameters()], lr=lr,
+                            weight_decay=weight_decay)
 
     def rate(step: int) -> float:
         if step < warmup_steps:
@@ -143,24 +172,25 @@ def fit_head(model: SportsNGEN, which: str, train: HeadStates, val: HeadStates,
 
     sched = torch.optim.lr_scheduler.LambdaLR(opt, rate)
     head.eval()
-    history = [{"step": 0, "val_nll": head_nll(head, val)}]
-    best = (history[0]["val_nll"], copy.deepcopy(head.state_dict()))
+    history = [{"step": 0, "val_nll": head_nll(model, which, val)}]
+    best = (history[0]["val_nll"], [copy.deepcopy(m.state_dict()) for m in mods])
     bar = tqdm(range(steps), desc=f"fit {which} head", disable=not progress)
     for step in bar:
         head.train()
         idx = torch.randint(len(train), (batch_size,), generator=g)
-        loss = head.nll(train.h[idx], train.bins[idx]).mean()
+        loss = head.nll(_inputs(model, which, train, idx), train.bins[idx]).mean()
         opt.zero_grad(set_to_none=True)
         loss.backward()
         opt.step()
         sched.step()
         if (step + 1) % eval_every == 0 or step + 1 == steps:
             head.eval()
-            v = head_nll(head, val)
+            v = head_nll(model, which, val)
             history.append({"step": step + 1, "val_nll": v})
             if v < best[0]:
-                best = (v, copy.deepcopy(head.state_dict()))
+                best = (v, [copy.deepcopy(m.state_dict()) for m in mods])
             bar.set_postfix(val_nll=f"{v:.3f}", best=f"{best[0]:.3f}")
-    head.load_state_dict(best[1])
+    for m, state in zip(mods, best[1]):
+        m.load_state_dict(state)
     head.eval()
     return history

@@ -93,7 +93,8 @@ class NextFrameMetrics:
         if model.strike_head is not None:
             s_mask, s_bins = model.strike_targets(pos, vel, nxt, batch["has_next"])
             self.sums["n_strike"] += float(s_mask.sum())
-            self.sums["nll_strike"] += model.strike_nll(h, s_mask, s_bins).double().sum().cpu()
+            nll = model.strike_nll(h, s_mask, s_bins, pos, batch["serve"])
+            self.sums["nll_strike"] += nll.double().sum().cpu()
         if model.serve_head is not None:
             s_mask, s_bins = model.strike_targets(pos, vel, nxt, batch["has_next"], serves=True)
             self.sums["n_serve"] += float(s_mask.sum())

@@ -156,7 +156,7 @@ class DecoderModule(L.LightningModule):
             # A strike's token also carries where its ball goes (`model.strike`).
             mask, bins = self.model.strike_targets(batch["pos_m"], batch["vel_mps"],
                                                    batch["next_pos_m"], batch["has_next"])
-            b_nll = b_nll + self.model.strike_nll(h, mask, bins)
+            b_nll = b_nll + self.model.strike_nll(h, mask, bins, batch["pos_m"], batch["serve"])
         if self.model.serve_head is not None:
             mask, bins = self.model.strike_targets(batch["pos_m"], batch["vel_mps"],
                                                    batch["next_pos_m"], batch["has_next"],

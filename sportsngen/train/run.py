@@ -127,11 +127,13 @@ def _expert_arrays(cfg: DictConfig, vocab: Vocab) -> RallyArrays | None:
 
 def _load_init(model: torch.nn.Module, state: dict) -> None:
     """The `init` model's weights into `model`; only a sub-bin, strike or serve head the init
-    lacks (added by `init_ball_sub_bins`, `init_strike_head`, `init_serve_head`) may be missing,
-    and nothing may be left over."""
+    lacks (added by `init_ball_sub_bins`, `init_strike_head`, `init_serve_head`) or the strike
+    head's role shift (`model.strike_roles`, zero) may be missing, and nothing may be left
+    over."""
     missing, unexpected = model.load_state_dict(state, strict=False)
     bad = [k for k in missing
-           if not k.startswith(("ball_sub_head.", "strike_head.", "serve_head."))]
+           if not k.startswith(("ball_sub_head.", "strike_head.", "serve_head.",
+                                "strike_role."))]
     if bad or unexpected:
         raise ValueError(f"init weights do not fit this model: missing {bad}, unexpected "
                          f"{list(unexpected)}")
