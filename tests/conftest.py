@@ -24,3 +24,19 @@ def tiny_model_file(tmp_path_factory) -> Path:
         cfg = compose(config_name="train", overrides=overrides)
     train_from_config(cfg, out)
     return out / "model.pt"
+
+
+@pytest.fixture(scope="session")
+def federer_points_and_head_model():
+    """80 generated points of Federer serving to Nadal, a small untrained model with serve and
+    strike heads, and a stand-in for a Simulator (its `vocab` and `model`): what the
+    teacher-forced head tables read."""
+    from types import SimpleNamespace
+
+    from sportsngen.data.tokens import Vocab
+    from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
+    from tests.test_head_fit import small_model
+
+    data = truth_points(DiagnosticsSetup(n_points=80, seed=5))
+    model = small_model()
+    return data, model, SimpleNamespace(vocab=Vocab.from_data(data), model=model)

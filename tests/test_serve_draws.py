@@ -3,9 +3,7 @@
 import numpy as np
 import pandas as pd
 import pytest
-import torch
 
-from sportsngen.data.tokens import Vocab
 from sportsngen.eval.serve_draws import serve_draw_table, serve_faults, teacher_forced_serves
 
 FPS = 25.0
@@ -30,32 +28,11 @@ def test_a_serve_is_read_in_long_wide_or_into_the_net():
     assert out["fault"].tolist() == [0.0, 1.0, 1.0, 1.0, 1.0]
 
 
-@pytest.fixture(scope="module")
-def truth_and_model():
-    from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
-    from sportsngen.model.config import ModelConfig
-    from sportsngen.model.decoder import SportsNGEN
-
-    data = truth_points(DiagnosticsSetup(n_points=60, seed=5))
-    torch.manual_seed(0)
-    cfg = ModelConfig(d_model=32, n_layers=2, n_heads=2, ff_mult=2, dropout=0.0, id_dim=8,
-                      embed_hidden=(32,), score_hidden=16, n_bins=9, head="factorised",
-                      head_hidden=16, window_s=4.0, fps=FPS, n_ids=40, n_tournaments=4,
-                      event_d_model=16, event_layers=1, event_heads=2,
-                      ball_centre="physics", serve_head=True)
-    return data, SportsNGEN(cfg).eval()
-
-
-def test_the_records_serves_read_as_the_shots_table_says(truth_and_model):
-    data, model = truth_and_model
-
-    class Sim:   # what serve_draw_table reads of a Simulator
-        vocab = Vocab.from_data(data)
-
-    Sim.model = model
+def test_the_records_serves_read_as_the_shots_table_says(federer_points_and_head_model):
+    data, model, sim = federer_points_and_head_model
     from sportsngen.data.tokens import rally_arrays
 
-    rows = teacher_forced_serves(model, rally_arrays(data, Sim.vocab), draws=3)
+    rows = teacher_forced_serves(model, rally_arrays(data, sim.vocab), draws=3)
     rec = rows[rows["source"] == "record"].set_index("rally_id")
     shots = data.shots[data.shots["shot_index"] == 0].set_index("rally_id")
     fault = (shots["error_kind"] == "fault").astype(float)
@@ -67,7 +44,7 @@ def test_the_records_serves_read_as_the_shots_table_says(truth_and_model):
     # An untrained head draws anywhere: most of its serves are faults.
     mod = rows[rows["source"] == "model"]
     assert mod["fault"].mean() > 0.5
-    table = serve_draw_table(Sim, data, draws=2)
+    table = serve_draw_table(sim, data, draws=2)
     assert list(table.columns) == ["serve", "source", "n", "long", "wide", "net", "fault",
                                    "speed_kmh"]
     first = table[(table["serve"] == "first") & (table["source"] == "record")].iloc[0]
@@ -79,12 +56,12 @@ def test_the_records_serves_read_as_the_shots_table_says(truth_and_model):
     assert isinstance(table, pd.DataFrame)
 
 
-def test_a_model_without_a_serve_head_is_refused(truth_and_model):
+def test_a_model_without_a_serve_head_is_refused(federer_points_and_head_model):
     import dataclasses
 
     from sportsngen.model.decoder import SportsNGEN
 
-    _, model = truth_and_model
+    _, model, _ = federer_points_and_head_model
     bare = SportsNGEN(dataclasses.replace(model.cfg, serve_head=False))
     with pytest.raises(ValueError, match="no serve head"):
         teacher_forced_serves(bare, None)

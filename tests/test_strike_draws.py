@@ -4,7 +4,6 @@ import dataclasses
 
 import numpy as np
 import pytest
-import torch
 
 from sportsngen.data.tokens import Vocab, WindowDataset, rally_arrays
 from sportsngen.eval.strike_draws import (
@@ -53,30 +52,9 @@ def test_windows_given_as_items_are_read_there_and_checked():
         WindowDataset(arr, 20, None, items=[(0, int(arr.length[0]))])
 
 
-@pytest.fixture(scope="module")
-def truth_and_model():
-    from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
-    from sportsngen.model.config import ModelConfig
-    from sportsngen.model.decoder import SportsNGEN
-
-    data = truth_points(DiagnosticsSetup(n_points=80, seed=5))
-    torch.manual_seed(0)
-    cfg = ModelConfig(d_model=32, n_layers=2, n_heads=2, ff_mult=2, dropout=0.0, id_dim=8,
-                      embed_hidden=(32,), score_hidden=16, n_bins=9, head="factorised",
-                      head_hidden=16, window_s=4.0, fps=FPS, n_ids=40, n_tournaments=4,
-                      event_d_model=16, event_layers=1, event_heads=2,
-                      ball_centre="physics", strike_head=True)
-    return data, SportsNGEN(cfg).eval()
-
-
-def test_the_records_strikes_read_as_the_shots_table_says(truth_and_model):
-    data, model = truth_and_model
-
-    class Sim:   # what strike_draw_table reads of a Simulator
-        vocab = Vocab.from_data(data)
-
-    Sim.model = model
-    rows = teacher_forced_strikes(model, rally_arrays(data, Sim.vocab), data, draws=3)
+def test_the_records_strikes_read_as_the_shots_table_says(federer_points_and_head_model):
+    data, model, sim = federer_points_and_head_model
+    rows = teacher_forced_strikes(model, rally_arrays(data, sim.vocab), data, draws=3)
     strikes = data.shots[data.shots["shot_index"] >= 1]
     # Nearly every recorded rally strike is found among the head's targets, once.
     assert len(rows) >= 0.9 * len(strikes)
@@ -90,7 +68,7 @@ def test_the_records_strikes_read_as_the_shots_table_says(truth_and_model):
     assert rows["serve"].tolist() == serve.tolist()
     # An untrained head draws anywhere: most of its strikes are errors.
     assert rows["model_error"].mean() > 0.5
-    out = strike_draw_table(Sim, data, draws=2)
+    out = strike_draw_table(sim, data, draws=2)
     assert list(out.columns) == ["shot", "hitter", "serve", "n", "record", "model"]
     assert out["n"].sum() == len(rows)
     assert set(out["hitter"]) <= {"server", "receiver", "both"} and "receiver" in set(out["hitter"])
@@ -113,10 +91,10 @@ def test_the_table_pools_the_late_shots():
     assert out["model"].tolist() == [0.5, 0.0, 0.75]
 
 
-def test_a_model_without_a_strike_head_is_refused(truth_and_model):
+def test_a_model_without_a_strike_head_is_refused(federer_points_and_head_model):
     from sportsngen.model.decoder import SportsNGEN
 
-    _, model = truth_and_model
+    _, model, _ = federer_points_and_head_model
     bare = SportsNGEN(dataclasses.replace(model.cfg, strike_head=False))
     with pytest.raises(ValueError, match="no strike head"):
         teacher_forced_strikes(bare, None, None)

@@ -421,18 +421,16 @@ def build_parser() -> argparse.ArgumentParser:
     move.add_argument("--shot", type=int, default=2,
                       help="the hitter's shot, counted after the serve (default 2: the "
                            "server's first rally ball)")
-    serves = sub.add_parser("serves", parents=[model_opts],
-                            help="the serve head teacher-forced at recorded serves: faults "
-                                 "(long, wide, net) and speed by serve, beside the record")
-    serves.add_argument("--points", type=int, default=600,
-                        help="ground-truth points generated (default 600)")
-    serves.add_argument("--draws", type=int, default=6, help="draws of the head a serve")
-    sdraws = sub.add_parser("strike-draws", parents=[model_opts],
-                            help="the strike head teacher-forced at recorded rally strikes: "
-                                 "errors by shot and serve, beside the record")
-    sdraws.add_argument("--points", type=int, default=1000,
-                        help="ground-truth points generated (default 1000)")
-    sdraws.add_argument("--draws", type=int, default=6, help="draws of the head a strike")
+    for name, points, what, help_text in (
+            ("serves", 600, "serve", "the serve head teacher-forced at recorded serves: faults "
+                                     "(long, wide, net) and speed by serve, beside the record"),
+            ("strike-draws", 1000, "strike", "the strike head teacher-forced at recorded rally "
+                                             "strikes: errors by shot and serve, beside the "
+                                             "record")):
+        draws = sub.add_parser(name, parents=[model_opts], help=help_text)
+        draws.add_argument("--points", type=int, default=points,
+                           help=f"ground-truth points generated (default {points})")
+        draws.add_argument("--draws", type=int, default=6, help=f"draws of the head a {what}")
     # Generated points where no folder is given (expert, reach).
     generated = argparse.ArgumentParser(add_help=False)
     generated.add_argument("--seed", type=int, default=0)

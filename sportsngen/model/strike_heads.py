@@ -17,8 +17,6 @@ from sportsngen.model import strike
 from sportsngen.model.sampling import uniform_in_bin
 
 SERVER = OBJECTS.index("server")
-
-
 N_STRIKE_ROLES = 4     # (server, receiver) x (first serve, second serve)
 
 
