@@ -242,6 +242,16 @@ def test_diagnose_command_refuses_bad_input(tmp_path, capsys):
     assert "--shots count contacts after the serve" in capsys.readouterr().err
     assert main(["strikes", "--model", str(tmp_path / "none.pt")]) == 2
     assert "no model file" in capsys.readouterr().err
+    for command in ("serves", "strike-draws"):
+        assert main([command, "--draws", "0"]) == 2
+        assert "--draws must be >= 1" in capsys.readouterr().err
+
+
+def test_strike_draws_command_refuses_a_model_without_a_strike_head(tiny_model_file, capsys):
+    from sportsngen.eval.__main__ import main
+
+    assert main(["strike-draws", "--model", str(tiny_model_file), "--points", "20"]) == 2
+    assert "no strike head" in capsys.readouterr().err
 
 
 def test_contact_probability_is_the_heads_mass_beyond_the_reversal():

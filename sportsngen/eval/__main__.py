@@ -232,26 +232,29 @@ def run_strikes(args: argparse.Namespace) -> int:
         sim, truth_points(setup), tuple(args.shots), after_frames=args.after, seed=args.seed))
 
 
-def run_serves(args: argparse.Namespace) -> int:
-    """The serve head teacher-forced at recorded serves, by serve number: prints the table."""
+def _run_head_draws(args: argparse.Namespace, name: str, table) -> int:
+    """A head teacher-forced at the recorded strikes of generated truth: `table(sim, truth,
+    draws=, seed=)` printed."""
     from sportsngen.eval.diagnostics import truth_points
-    from sportsngen.eval.serve_draws import serve_draw_table
 
     if args.draws < 1:
         raise UsageError(f"--draws must be >= 1, got {args.draws}")
-    return _run_model_table(args, "serves", lambda sim, setup: serve_draw_table(
+    return _run_model_table(args, name, lambda sim, setup: table(
         sim, truth_points(setup), draws=args.draws, seed=args.seed))
+
+
+def run_serves(args: argparse.Namespace) -> int:
+    """The serve head teacher-forced at recorded serves, by serve number: prints the table."""
+    from sportsngen.eval.serve_draws import serve_draw_table
+
+    return _run_head_draws(args, "serves", serve_draw_table)
 
 
 def run_strike_draws(args: argparse.Namespace) -> int:
     """The strike head teacher-forced at recorded rally strikes, by shot and serve."""
-    from sportsngen.eval.diagnostics import truth_points
     from sportsngen.eval.strike_draws import strike_draw_table
 
-    if args.draws < 1:
-        raise UsageError(f"--draws must be >= 1, got {args.draws}")
-    return _run_model_table(args, "strike-draws", lambda sim, setup: strike_draw_table(
-        sim, truth_points(setup), draws=args.draws, seed=args.seed))
+    return _run_head_draws(args, "strike-draws", strike_draw_table)
 
 
 def run_movement(args: argparse.Namespace) -> int:
