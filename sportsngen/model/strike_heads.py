@@ -20,12 +20,22 @@ SERVER = OBJECTS.index("server")
 N_STRIKE_ROLES = 4     # (server, receiver) x (first serve, second serve)
 
 
+def ball_on_receivers_end(pos_m: torch.Tensor) -> torch.Tensor:
+    """Frames' positions (..., 3, 3) -> (...) bool: the ball is on the receiver's end. Players
+    stay on their ends, so the end the ball is struck on names the hitter."""
+    return torch.sign(pos_m[..., BALL, 0]) != torch.sign(pos_m[..., SERVER, 0])
+
+
+def role_index(receiver: torch.Tensor, serve: torch.Tensor) -> torch.Tensor:
+    """(...) the hitter is the receiver, (...) the serve (0 first, 1 second) -> (...) the
+    strike role's row: 2 * receiver + serve."""
+    return 2 * receiver.long() + serve.long()
+
+
 def strike_role_index(pos_m: torch.Tensor, serve: torch.Tensor) -> torch.Tensor:
     """Frames' positions (..., 3, 3) and their rallies' serve (...) (0 first, 1 second) -> (...)
-    2 * (the ball is on the receiver's end) + serve: whose strike it would be, and on which
-    serve's point. Players stay on their ends, so the end the ball is on names the hitter."""
-    receiver = torch.sign(pos_m[..., BALL, 0]) != torch.sign(pos_m[..., SERVER, 0])
-    return 2 * receiver.long() + serve.long()
+    whose strike it would be, and on which serve's point (`role_index`)."""
+    return role_index(ball_on_receivers_end(pos_m), serve)
 
 
 def strike_targets(pos_m: torch.Tensor, vel_mps: torch.Tensor, next_pos_m: torch.Tensor,

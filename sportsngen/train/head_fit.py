@@ -23,12 +23,12 @@ import torch
 from torch.utils.data import DataLoader, Subset, default_collate
 from tqdm.auto import tqdm
 
-from sportsngen.data.tokens import BALL, OBJECTS, RallyArrays, WindowDataset, flip_xy
+from sportsngen.data.tokens import BALL, RallyArrays, WindowDataset, flip_xy
+from sportsngen.model import strike_heads
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.train.metrics import window_states
 
 HEADS = ("serve", "strike")
-SERVER = OBJECTS.index("server")
 # The `WindowDataset` item's entries with a frame axis (second after the batch's).
 _PER_FRAME = ("pos_m", "vel_mps", "next_pos_m", "prev_vel_mps", "t_s", "valid", "has_next",
               "labels", "near_contact")
@@ -106,9 +106,7 @@ def collect_head_states(model: SportsNGEN, arrays: RallyArrays, which: str = "se
         rid.append(batch["rally_id"][rows].numpy())
         srv.append(batch["serve"][rows].numpy())
         contact.append(batch["pos_m"][..., BALL, :][mask].double().numpy())
-        # Players stay on their ends: the ball struck on the server's end is the server's.
-        server_x = batch["pos_m"][..., SERVER, 0][mask].numpy()
-        receiver.append(np.sign(contact[-1][:, 0]) != np.sign(server_x))
+        receiver.append(strike_heads.ball_on_receivers_end(batch["pos_m"][mask]).numpy())
     model.train(was_training)
     if not hs:
         raise ValueError(f"no {which} targets in the {len(arrays)} rallies given")
@@ -129,9 +127,9 @@ def _inputs(model: SportsNGEN, which: str, states: HeadStates, idx) -> torch.Ten
     h = states.h[idx]
     if which != "strike" or model.strike_role is None:
         return h
-    role = 2 * torch.as_tensor(states.receiver, dtype=torch.long) + \
-        torch.as_tensor(states.serve, dtype=torch.long)
-    return model.strike_input(h, role[idx])
+    role = strike_heads.role_index(torch.as_tensor(states.receiver[idx]),
+                                   torch.as_tensor(states.serve[idx]))
+    return model.strike_input(h, role)
 
 
 @torch.no_grad()
