@@ -11,12 +11,13 @@
 #
 #   scripts/add_strike_roles.sh                   # the fit, then the calibrator
 #   STAGES="fit" scripts/add_strike_roles.sh      # the fit only
+#   DEST=other.pt RUN_DIR=dir scripts/add_strike_roles.sh   # elsewhere than the bundled file
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-.venv/bin/python}
 RUN=${RUN_DIR:-outputs/strike_roles}
 STAGES=${STAGES:-"fit calibrator"}
-DEST=sportsngen/model/bundled/sportsngen-small.pt
+DEST=${DEST:-sportsngen/model/bundled/sportsngen-small.pt}
 mkdir -p "$RUN"
 BASE="$RUN/base.pt"
 [ -f "$BASE" ] || git show 43eca70:sportsngen/model/bundled/sportsngen-small.pt > "$BASE"
@@ -29,7 +30,8 @@ for s in $STAGES; do
             --out "$DEST" 2>&1 | grep -v "it/s"
         ;;
     calibrator)
-        "$PY" scripts/rally_outcome_study.py --rallies 150 --n 16 --threads 2 --save-calibrator
+        "$PY" scripts/rally_outcome_study.py --model "$DEST" --rallies 150 --n 16 --threads 2 \
+            --save-calibrator
         ;;
     *)  echo "unknown stage $s" >&2; exit 2 ;;
     esac
