@@ -12,7 +12,7 @@ points from the decoder's state on the record itself, each strike read from a wi
 `LEAD_FRAMES` after it (the full history that training's crops and a rollout's band give a
 strike; a window that starts just before a strike gives another state), and the draw's error
 (long, wide or into the net) read from its bins, as the record's own strike through the same
-bins. One decoder pass a strike: about a minute for 1,000 points on 2 cores.
+bins. One decoder pass a strike: about half a minute for 1,000 points on 2 cores.
 """
 
 from __future__ import annotations
