@@ -398,9 +398,6 @@ class SportsNGEN(nn.Module):
         """(B, T) -log p(strike bins | ball state) at the `strike_targets`, 0 elsewhere. With
         `cfg.strike_roles` the frames' positions `pos_m` (B, T, 3, 3) and the rallies' serve
         (B,) (0 first, 1 second) say whose strike each is."""
-        out = torch.zeros(mask.shape, device=h.device, dtype=h.dtype)
-        if self.strike_head is None or not bool(mask.any()):
-            return out
         role = None
         if self.strike_role is not None:
             if pos_m is None or serve is None:
@@ -408,19 +405,20 @@ class SportsNGEN(nn.Module):
                                  "serve (cfg.strike_roles): give pos_m and serve")
             role = strike_heads.strike_role_index(pos_m[mask],
                                                   serve[:, None].expand(mask.shape)[mask])
-        out[mask] = self.strike_head.nll(self.strike_input(h[..., BALL, :][mask], role),
-                                         bins[mask])
-        return out
+        return self._head_nll(self.strike_head, h, mask, bins, role)
 
     def serve_nll(self, h: torch.Tensor, mask: torch.Tensor, bins: torch.Tensor) -> torch.Tensor:
         """(B, T) -log p(serve bins | ball state) at the serves' `strike_targets`, 0 elsewhere."""
         return self._head_nll(self.serve_head, h, mask, bins)
 
-    @staticmethod
-    def _head_nll(head, h: torch.Tensor, mask: torch.Tensor, bins: torch.Tensor) -> torch.Tensor:
+    def _head_nll(self, head, h: torch.Tensor, mask: torch.Tensor, bins: torch.Tensor,
+                  role: torch.Tensor | None = None) -> torch.Tensor:
+        """(B, T) -log p(bins | input) of `head` at `mask`, 0 elsewhere; its input the ball
+        token's state, shifted by the strike `role` rows (one a target) where given."""
         out = torch.zeros(mask.shape, device=h.device, dtype=h.dtype)
         if head is not None and bool(mask.any()):
-            out[mask] = head.nll(h[..., BALL, :][mask], bins[mask])
+            x = h[..., BALL, :][mask]
+            out[mask] = head.nll(x if role is None else self.strike_input(x, role), bins[mask])
         return out
 
     @torch.no_grad()
