@@ -3,6 +3,7 @@
     .venv/bin/python scripts/fit_head.py --model FILE --out FILE [--head serve|strike]
         [--steps 4000] [--lr 1e-3] [--batch-size 256] [--seed 0] [--threads 2]
         [--more-points N --more-seed S] [--no-flip] [--states FILE] [--strike-roles]
+        [--own-serves]
 
 The rallies are the file's own training data and split (`extra.split`: the data config, the
 validation fraction and seed), so the validation NLL is on the rallies its last stage held
@@ -24,16 +25,26 @@ import torch
 
 from sportsngen.data.tokens import rally_arrays
 from sportsngen.model.export import load_model, read_extra, save_model
-from sportsngen.sim.simulator import model_path
+from sportsngen.sim.simulator import Simulator, model_path
 from sportsngen.train.datamodule import load_rally_data, split_rallies
 from sportsngen.train.finetune import with_strike_roles
 from sportsngen.train.head_fit import HEADS, HeadStates, collect_head_states, fit_head
+from sportsngen.train.own_states import own_serve_states
 
 
 def _read_states(model, vocab, split: dict, args) -> tuple[HeadStates, HeadStates]:
-    arrays = rally_arrays(load_rally_data(split["data"]), vocab)
+    data = load_rally_data(split["data"])
+    arrays = rally_arrays(data, vocab)
     train, val = split_rallies(arrays, float(split["val_fraction"]), int(split["seed"]))
     tr = collect_head_states(model, train, args.head, flip=not args.no_flip)
+    own = []
+    if args.own_serves:
+        sim = Simulator.from_pretrained(args.model)
+        own = [own_serve_states(sim, data, part, seed=args.seed + i, progress=True)[1]
+               for i, part in enumerate((train, val))]
+        print(f"{len(own[0])} training and {len(own[1])} validation serves played from the "
+              "model's own tosses")
+        tr = HeadStates.concat([tr, own[0]])
     if args.more_points > 0:
         more = {**split["data"], "n_points": args.more_points, "seed": args.more_seed}
         if int(more["seed"]) == int(split["data"].get("seed", 0)):
@@ -41,7 +52,8 @@ def _read_states(model, vocab, split: dict, args) -> tuple[HeadStates, HeadState
         extra_arrays = rally_arrays(load_rally_data(more), vocab)
         tr = HeadStates.concat([tr, collect_head_states(model, extra_arrays, args.head,
                                                         flip=not args.no_flip)])
-    return tr, collect_head_states(model, val, args.head, progress=False)
+    va = collect_head_states(model, val, args.head, progress=False)
+    return tr, HeadStates.concat([va, own[1]]) if own else va
 
 
 def main() -> None:
@@ -65,12 +77,19 @@ def main() -> None:
     ap.add_argument("--strike-roles", action="store_true",
                     help="add the strike head's shift by the hitter's role and the serve "
                          "(model.strike_roles) and fit it with the head")
+    ap.add_argument("--own-serves", action="store_true",
+                    help="also fit the serve head on its states at the serves the model plays "
+                         "from its own tosses, each paired with the record's serve of the same "
+                         "point (sportsngen.train.own_states; training and validation)")
     ap.add_argument("--states", default=None,
                     help="cache of the states read: written on the first run, read after")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
     path = model_path(args.model)
     model, ec, vocab, _ = load_model(path)
+    if args.own_serves and args.head != "serve":
+        raise SystemExit("--own-serves pairs the model's own serves with the record's: use "
+                         "--head serve")
     if args.strike_roles:
         if args.head != "strike":
             raise SystemExit("--strike-roles shifts the strike head's input: use --head strike")
@@ -83,6 +102,8 @@ def main() -> None:
     t0 = time.time()
     key = {"model": str(path), "head": args.head, "flip": not args.no_flip,
            "more_points": args.more_points, "more_seed": args.more_seed}
+    if args.own_serves:       # (caches written before the option keep their key)
+        key.update(own_serves=True, seed=args.seed)
     if args.states and Path(args.states).exists():
         cached = torch.load(args.states, weights_only=False)
         if cached["key"] != key:

@@ -136,3 +136,51 @@ def test_the_strike_role_shift_is_fitted_with_the_head_and_nothing_else(rallies)
     assert "strike_role.weight" in moved
     assert all(k.startswith(("strike_head.", "strike_role.")) for k in moved)
     assert head_nll(model, "strike", st) < head_nll(base, "strike", st)
+
+
+def test_own_serve_states_pair_the_models_own_serve_with_the_records_serve(
+        federer_points_and_head_model):
+    """A stand-in simulator plays each point as recorded, but tosses rally A's ball 0.1 m
+    higher before the serve and sends it 0.5 m wider after, and stops rally B before its
+    serve: A's own state differs from its recorded one and takes the record's bins, not its
+    own serve's; B is left out; the rest equal the record."""
+    import pandas as pd
+
+    from sportsngen.data.tracking import RallyData
+    from sportsngen.train.own_states import own_serve_states
+
+    data, model, stand_in = federer_points_and_head_model
+    arrays = rally_arrays(data, stand_in.vocab)
+    a, b = (int(x) for x in arrays.rally_id[:2])
+    serve_frame = data.shots[data.shots["shot_index"] == 0].set_index("rally_id")["frame"]
+    seen = {}
+
+    def simulate_rallies(plan, seed=0, progress=False, max_duration_s=None):
+        seen["plan"] = plan
+        f = data.frames[data.frames["rally_id"].isin(plan["rally_id"])].copy()
+        toss = (f["rally_id"] == a) & (f["object"] == "ball") & (f["frame"] < serve_frame[a])
+        f.loc[toss, "z"] += 0.1
+        after = (f["rally_id"] == a) & (f["object"] == "ball") & (f["frame"] > serve_frame[a])
+        f.loc[after, "y"] += 0.5
+        f = f[(f["rally_id"] != b) | (f["frame"] < serve_frame[b] - 5)]
+        keep = data.rallies["rally_id"].isin(plan["rally_id"])
+        return RallyData(f, data.rallies[keep], data.shots[data.shots["rally_id"].isin(
+            plan["rally_id"])], fps=data.fps)
+
+    stand_in.simulate_rallies = simulate_rallies
+    try:
+        record, own = own_serve_states(stand_in, data, arrays, seed=3)
+    finally:
+        del stand_in.simulate_rallies
+    played = collect_head_states(model, rally_arrays(simulate_rallies(seen["plan"]),
+                                                     stand_in.vocab), "serve", progress=False)
+    assert not torch.equal(played.bins[played.rally_id == a][0],
+                           record.bins[record.rally_id == a][0])
+    assert sorted(seen["plan"]["rally_id"]) == sorted(pd.unique(record.rally_id))
+    assert b not in own.rally_id and len(own) == len(pd.unique(record.rally_id)) - 1
+    rec_row = {int(r): i for i, r in reversed(list(enumerate(record.rally_id)))}
+    for i, rid in enumerate(own.rally_id.tolist()):
+        j = rec_row[rid]
+        assert torch.equal(own.bins[i], record.bins[j]) and own.serve[i] == record.serve[j]
+        same = torch.allclose(own.h[i], record.h[j], atol=1e-5)
+        assert same == (rid != a), rid

@@ -411,6 +411,36 @@ def test_physical_limits_reject_a_ball_struck_back_out_of_everyones_reach():
     assert PhysicalLimits(reach_m=None).accept(np.arange(5), 10, pos, nxt, vel).all()
 
 
+def test_physical_limits_reject_a_ball_braked_in_mid_air_out_of_everyones_reach():
+    from sportsngen.sim.constraints import PhysicalLimits
+
+    lim = PhysicalLimits(fps=25.0)
+    pos = torch.zeros(7, 3, 3)
+    pos[:, 0, :2] = torch.tensor([11.0, 0.0])
+    pos[:, 1, :2] = torch.tensor([-15.0, 0.0])            # the receiver far back
+    pos[:, 2] = torch.tensor([[-2.0, 0.0, 1.2],            # past the net, in the air
+                              [-2.0, 0.0, 1.2],
+                              [-5.0, 0.0, 0.3],            # about to bounce
+                              [-5.0, 0.0, 0.3],
+                              [-13.5, 0.0, 1.0],           # 1.5 m from the receiver
+                              [-0.5, 0.0, 1.0],            # at the net
+                              [-2.0, 0.0, 1.2]])
+    vel = torch.zeros(7, 3, 3)
+    vel[:, 2] = torch.tensor([-40.0, 0.0, -8.0])          # a serve coming down
+    step = torch.tensor([[-1.6, 0.0, -0.32],               # free flight: kept
+                         [-0.5, 0.0, -0.32],               # 40 -> 12.5 m/s: rejected
+                         [-1.2, 0.0, 0.0],                 # a bounce keeping 0.75: kept
+                         [-0.3, 0.0, 0.0],                 # keeping 0.19: rejected
+                         [-0.5, 0.0, -0.32],               # braked, but a racket is there
+                         [-0.5, 0.0, -0.32],               # the net
+                         [-1.6, 0.3, -0.32]])              # 7.5 m/s sideways: rejected
+    nxt = pos.clone()
+    nxt[:, 2] += step
+    ok = lim.accept(np.arange(7), 10, pos, nxt, vel)
+    assert ok.tolist() == [True, False, True, False, True, True, False]
+    assert lim.jolted(pos, nxt, vel).tolist() == [False, True, False, True, True, True, True]
+
+
 def test_contact_odds_rollouts_are_reproducible_and_change_only_the_ball(tiny_model_file):
     kw = dict(max_duration_s=1.2, top_p_ball=0.6)
     a = _sim(tiny_model_file, contact_odds=True, **kw).simulate_points(

@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Reproduce the bundled model from the one before it (commit 0b2b131, itself made by
+# scripts/add_strike_roles.sh): its decoder and every other head frozen, the serve head refitted
+# alone on the decoder's states at the recorded serves of its own training split (with the
+# training's turned windows) and at the serves the model plays from its own tosses for the
+# same points, each paired with the record's serve (sportsngen.train.own_states;
+# docs/evaluation.md, twenty-first part). 3,000 steps at lr 3e-4, kept at the best validation
+# NLL. Then the sampling defaults: FORCE=1 adds the forced strike where the rule for balls in
+# reach gives up (strike_in_reach_force). As run: about 10 minutes at two threads.
+#
+#   scripts/add_own_serves.sh
+#   DEST=other.pt RUN_DIR=dir scripts/add_own_serves.sh   # elsewhere than the bundled file
+set -euo pipefail
+cd "$(dirname "$0")/.."
+PY=${PYTHON:-.venv/bin/python}
+RUN=${RUN_DIR:-outputs/own_serves}
+DEST=${DEST:-sportsngen/model/bundled/sportsngen-small.pt}
+FORCE=${FORCE:-1}
+mkdir -p "$RUN"
+BASE="$RUN/base.pt"
+[ -f "$BASE" ] || git show 0b2b131:sportsngen/model/bundled/sportsngen-small.pt > "$BASE"
+
+"$PY" scripts/fit_head.py --model "$BASE" --head serve --own-serves --steps 3000 --lr 3e-4 \
+    --eval-every 250 --threads 2 --out "$DEST" 2>&1 | grep -v "it/s"
+if [ "$FORCE" = 1 ]; then
+    "$PY" - "$DEST" <<'PY'
+import sys
+
+from sportsngen.model.export import read_extra, update_extra
+
+path = sys.argv[1]
+kept = read_extra(path).get("sim_defaults") or {}
+update_extra(path, sim_defaults={**kept, "strike_in_reach_force": True})
+print(f"{path}: sim_defaults {read_extra(path)['sim_defaults']}")
+PY
+fi
+echo "$DEST: $(stat -c %s "$DEST") bytes"
