@@ -37,14 +37,15 @@ def _read_states(model, vocab, split: dict, args) -> tuple[HeadStates, HeadState
     arrays = rally_arrays(data, vocab)
     train, val = split_rallies(arrays, float(split["val_fraction"]), int(split["seed"]))
     tr = collect_head_states(model, train, args.head, flip=not args.no_flip)
-    own = []
+    va = collect_head_states(model, val, args.head, progress=False)
     if args.own_serves:
         sim = Simulator.from_pretrained(args.model)
-        own = [own_serve_states(sim, data, part, seed=args.seed + i, progress=True)[1]
-               for i, part in enumerate((train, val))]
+        own = [own_serve_states(sim, data, part, seed=args.seed + i, progress=True,
+                                record=states)[1]
+               for i, (part, states) in enumerate(((train, tr), (val, va)))]
         print(f"{len(own[0])} training and {len(own[1])} validation serves played from the "
               "model's own tosses")
-        tr = HeadStates.concat([tr, own[0]])
+        tr, va = HeadStates.concat([tr, own[0]]), HeadStates.concat([va, own[1]])
     if args.more_points > 0:
         more = {**split["data"], "n_points": args.more_points, "seed": args.more_seed}
         if int(more["seed"]) == int(split["data"].get("seed", 0)):
@@ -52,8 +53,7 @@ def _read_states(model, vocab, split: dict, args) -> tuple[HeadStates, HeadState
         extra_arrays = rally_arrays(load_rally_data(more), vocab)
         tr = HeadStates.concat([tr, collect_head_states(model, extra_arrays, args.head,
                                                         flip=not args.no_flip)])
-    va = collect_head_states(model, val, args.head, progress=False)
-    return tr, HeadStates.concat([va, own[1]]) if own else va
+    return tr, va
 
 
 def main() -> None:

@@ -170,8 +170,12 @@ def test_own_serve_states_pair_the_models_own_serve_with_the_records_serve(
     stand_in.simulate_rallies = simulate_rallies
     try:
         record, own = own_serve_states(stand_in, data, arrays, seed=3)
+        # Recorded states read before are used as given, not read again.
+        given = own_serve_states(stand_in, data, arrays, seed=3, record=record)
     finally:
         del stand_in.simulate_rallies
+    assert given[0] is record and torch.equal(given[1].h, own.h)
+    assert torch.equal(given[1].bins, own.bins)
     played = collect_head_states(model, rally_arrays(simulate_rallies(seen["plan"]),
                                                      stand_in.vocab), "serve", progress=False)
     assert not torch.equal(played.bins[played.rally_id == a][0],

@@ -42,9 +42,10 @@ NET_STOP_M = 0.05               # a ball stopped by the net rests this far from 
 STRIKE_REACH_M = 1.2
 STRIKE_MAX_Z_M = 2.3            # the generator's highest groundstroke contact (`synth.shot`)
 # A ball in the air whose velocity changes by more than this in one frame has met something:
-# gravity, drag and Magnus change a flight's by at most about 3.5 m/s a frame at 25 Hz (a
-# 50 m/s serve), a racket by tens. The rollouts' balls that slowed in mid-air far from both
-# players (docs/evaluation.md, twenty-first part) changed by a median 14 m/s.
+# on generated flights away from both players the change is 0.64 m/s a frame (median) and 3.1
+# at the 99th percentile, a racket's tens. The rollouts' balls that braked in mid-air far from
+# both players went from a median 23 m/s to 9 m/s in a frame (docs/evaluation.md,
+# twenty-first part).
 JOLT_MPS = 6.0
 JOLT_MIN_Z_M = 0.1              # a flight that would come this low within the frame may bounce
 # A bounce keeps 0.53-0.87 of the ball's speed along the ground (1st-99th percentiles over
@@ -128,7 +129,7 @@ class PhysicalLimits:
         drawn where no player could strike; the reversals were rejected, and among the
         redraws the contacts that only slowed the ball passed, so 15 % of a check's rallies
         had a ball braking in mid-air (a serve 40 m/s to 13 m/s past the net, then landing
-        3.6 m short of where it was served to)."""
+        2.6 m short of where it was served to)."""
         ball, nxt = pos_m[:, BALL], next_pos_m[:, BALL]
         v_in, dt = vel_mps[:, BALL], 1.0 / self.fps
         change = torch.linalg.vector_norm((nxt - ball) * self.fps - v_in, dim=-1)

@@ -33,16 +33,18 @@ def _first(ids: np.ndarray) -> pd.Series:
 
 
 def own_serve_states(sim, data: RallyData, arrays: RallyArrays, seed: int = 0,
-                     duration_s: float = OWN_SERVE_S,
-                     progress: bool = False) -> tuple[HeadStates, HeadStates]:
+                     duration_s: float = OWN_SERVE_S, progress: bool = False,
+                     record: HeadStates | None = None) -> tuple[HeadStates, HeadStates]:
     """The serve head's states at the recorded serves of `arrays` (rallies of `data`) and at
     the serves `sim` (a `Simulator`) plays from its own serve starts for the same points ->
     (record, own): `own` holds the decoder's states at the model's serves with the record's
     serve bins (rally ids the record's; rallies whose rollout struck no serve in `duration_s`
-    are left out)."""
+    are left out). `record`: those recorded states when already read (`collect_head_states`
+    of `arrays`, turned windows after the rest), so they are not read twice."""
     from sportsngen.sim.assemble import PLAN_COLUMNS
 
-    record = collect_head_states(sim.model, arrays, "serve", progress=progress)
+    if record is None:
+        record = collect_head_states(sim.model, arrays, "serve", progress=progress)
     first_rec = _first(record.rally_id)
     plan = data.rallies.set_index("rally_id").loc[first_rec.index].reset_index()
     played = sim.simulate_rallies(plan[PLAN_COLUMNS].copy(), seed=seed, progress=progress,
