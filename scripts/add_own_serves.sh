@@ -6,9 +6,11 @@
 # same points, each paired with the record's serve (sportsngen.train.own_states;
 # docs/evaluation.md, twenty-first part). 3,000 steps at lr 3e-4, kept at the best validation
 # NLL. Then the sampling defaults: FORCE=1 adds the forced strike where the rule for balls in
-# reach gives up (strike_in_reach_force). As run: about 10 minutes at two threads.
+# reach gives up (strike_in_reach_force). Then the rally-outcome calibrator refitted on the new
+# file. As run: about 10 minutes at two threads for the fit, 15 for the calibrator.
 #
-#   scripts/add_own_serves.sh
+#   scripts/add_own_serves.sh                     # the fit and defaults, then the calibrator
+#   STAGES="fit" scripts/add_own_serves.sh        # the fit and defaults only
 #   DEST=other.pt RUN_DIR=dir scripts/add_own_serves.sh   # elsewhere than the bundled file
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -16,13 +18,12 @@ PY=${PYTHON:-.venv/bin/python}
 RUN=${RUN_DIR:-outputs/own_serves}
 DEST=${DEST:-sportsngen/model/bundled/sportsngen-small.pt}
 FORCE=${FORCE:-1}
+STAGES=${STAGES:-"fit calibrator"}
 mkdir -p "$RUN"
 BASE="$RUN/base.pt"
 [ -f "$BASE" ] || git show 0b2b131:sportsngen/model/bundled/sportsngen-small.pt > "$BASE"
 
-"$PY" scripts/fit_head.py --model "$BASE" --head serve --own-serves --steps 3000 --lr 3e-4 \
-    --eval-every 250 --threads 2 --out "$DEST" 2>&1 | grep -v "it/s"
-if [ "$FORCE" = 1 ]; then
+set_force() {
     "$PY" - "$DEST" <<'PY'
 import sys
 
@@ -33,5 +34,20 @@ kept = read_extra(path).get("sim_defaults") or {}
 update_extra(path, sim_defaults={**kept, "strike_in_reach_force": True})
 print(f"{path}: sim_defaults {read_extra(path)['sim_defaults']}")
 PY
-fi
+}
+
+for s in $STAGES; do
+    case $s in
+    fit)
+        "$PY" scripts/fit_head.py --model "$BASE" --head serve --own-serves --steps 3000 \
+            --lr 3e-4 --eval-every 250 --threads 2 --out "$DEST" 2>&1 | grep -v "it/s"
+        if [ "$FORCE" = 1 ]; then set_force; fi
+        ;;
+    calibrator)
+        "$PY" scripts/rally_outcome_study.py --model "$DEST" --rallies 150 --n 16 --threads 2 \
+            --save-calibrator
+        ;;
+    *)  echo "unknown stage $s" >&2; exit 2 ;;
+    esac
+done
 echo "$DEST: $(stat -c %s "$DEST") bytes"
