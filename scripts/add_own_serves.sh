@@ -43,10 +43,7 @@ for s in $STAGES; do
             --lr 3e-4 --eval-every 250 --threads 2 --out "$DEST" 2>&1 | grep -v "it/s"
         if [ "$FORCE" = 1 ]; then set_force; fi
         ;;
-    calibrator)
-        "$PY" scripts/rally_outcome_study.py --model "$DEST" --rallies 150 --n 16 --threads 2 \
-            --save-calibrator
-        ;;
+    calibrator) PYTHON="$PY" scripts/fit_calibrator.sh "$DEST" ;;
     *)  echo "unknown stage $s" >&2; exit 2 ;;
     esac
 done

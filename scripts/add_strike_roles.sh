@@ -29,10 +29,7 @@ for s in $STAGES; do
             --lr 3e-4 --eval-every 500 --threads 2 --states "$RUN/strike_states.pt" \
             --out "$DEST" 2>&1 | grep -v "it/s"
         ;;
-    calibrator)
-        "$PY" scripts/rally_outcome_study.py --model "$DEST" --rallies 150 --n 16 --threads 2 \
-            --save-calibrator
-        ;;
+    calibrator) PYTHON="$PY" scripts/fit_calibrator.sh "$DEST" ;;
     *)  echo "unknown stage $s" >&2; exit 2 ;;
     esac
 done
