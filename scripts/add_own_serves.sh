@@ -23,25 +23,14 @@ mkdir -p "$RUN"
 BASE="$RUN/base.pt"
 [ -f "$BASE" ] || git show 0b2b131:sportsngen/model/bundled/sportsngen-small.pt > "$BASE"
 
-set_force() {
-    "$PY" - "$DEST" <<'PY'
-import sys
-
-from sportsngen.model.export import read_extra, update_extra
-
-path = sys.argv[1]
-kept = read_extra(path).get("sim_defaults") or {}
-update_extra(path, sim_defaults={**kept, "strike_in_reach_force": True})
-print(f"{path}: sim_defaults {read_extra(path)['sim_defaults']}")
-PY
-}
-
 for s in $STAGES; do
     case $s in
     fit)
         "$PY" scripts/fit_head.py --model "$BASE" --head serve --own-serves --steps 3000 \
             --lr 3e-4 --eval-every 250 --threads 2 --out "$DEST" 2>&1 | grep -v "it/s"
-        if [ "$FORCE" = 1 ]; then set_force; fi
+        if [ "$FORCE" = 1 ]; then
+            "$PY" scripts/set_sim_defaults.py "$DEST" strike_in_reach_force=true
+        fi
         ;;
     calibrator) PYTHON="$PY" scripts/fit_calibrator.sh "$DEST" ;;
     *)  echo "unknown stage $s" >&2; exit 2 ;;

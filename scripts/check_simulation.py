@@ -118,7 +118,8 @@ def main() -> None:
           f"serve {sim.top_p_serve}, "
           f"cache refresh {sim.refresh_frames}, strike in reach {sim.strike_in_reach}"
           + (f" from shot {sim.strike_in_reach_from}" if sim.strike_in_reach else "")
-          + (", forced where it gives up" if sim.strike_in_reach_force else ""))
+          + (", forced where it gives up" if sim.strike_in_reach_force else "")
+          + (f", reach {sim.strike_in_reach_m} m" if sim.strike_in_reach else ""))
     t0 = time.perf_counter()
     simd = sim.simulate_both_serving(*players, args.surface, args.points, seed=args.seed)
     if args.save_sim is not None:

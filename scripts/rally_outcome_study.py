@@ -15,8 +15,9 @@ serve models, opponent-adjusted: P(server wins | first serve in play) or on a se
 Recalibration: the rallies are split in two halves (alternately, in sampling order); an
 isotonic map (`sportsngen.eval.calibration.IsotonicCalibrator`) fitted on the first half's
 rollout probabilities is judged on the second half, beside the raw rollouts and the baselines
-on the same half. Writes reliability.png (diagram + histogram, second half), outcome.md and
-outcome.json into --out. `--save-calibrator` also stores the fitted map in the model file, where
+on the same half. Writes reliability.png (diagram + histogram, second half), outcome.md,
+outcome.json and branch_points.csv (every branch point's rollout share `p`, its count `n`
+and the outcome) into --out. `--save-calibrator` also stores the fitted map in the model file, where
 `Simulator.rally_win_probability(..., calibrated=True)` uses it.
 """
 
@@ -28,11 +29,13 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import torch
 
 from sportsngen.eval.calibration import (
     IsotonicCalibrator,
     brier_score,
+    ece_if_calibrated,
     expected_calibration_error,
     plot_reliability,
 )
@@ -104,6 +107,14 @@ def main() -> None:
                    "brier": brier_score(p, y[test])} for name, p in preds.items()}
     rows["SportsNGEN rollouts, all branch points"] = {
         "ece": expected_calibration_error(p_model, y), "brier": brier_score(p_model, y)}
+    n_ok = res["n"].to_numpy()[ok]
+    floor = {"held-out half": ece_if_calibrated(p_model[test], n_ok[test], seed=args.seed),
+             "all branch points": ece_if_calibrated(p_model, n_ok, seed=args.seed)}
+    items_out = pd.DataFrame(
+        [(rid, f, m[0], m[2], m[4], h) for (rid, f), m, h in zip(items, meta, half)],
+        columns=["rally_id", "frame", "server", "serve_number", "branch_s", "half"])
+    items_out = items_out.assign(p=res["p"].to_numpy(), n=res["n"].to_numpy(),
+                                 server_won=[m[3] for m in meta])
     lines = ["# Rally outcome prediction", "",
              f"`python scripts/rally_outcome_study.py --rallies {args.rallies} --n {args.n} "
              f"--seed {args.seed}`: {len(items)} branch points ({int(ok.sum())} with at least "
@@ -115,13 +126,22 @@ def main() -> None:
     for name, v in rows.items():
         lines.append(f"| {name} | {v['ece']:.3f} | {v['brier']:.3f} |")
     lines += ["", f"Mean realistic decided rollouts per branch point: "
-              f"{res['n'].mean():.1f} of {args.n}.", "", "![reliability](reliability.png)"]
+              f"{res['n'].mean():.1f} of {args.n}. The ECE a perfectly calibrated simulator "
+              f"would score with this design (`ece_if_calibrated`: the rollouts' shares taken "
+              f"as the truth, {args.n} rollouts a point; a lower bound, since a rally's branch "
+              f"points share its outcome), mean (90th percentile): "
+              + ", ".join(f"{k} {v.mean():.3f} ({np.percentile(v, 90):.3f})"
+                          for k, v in floor.items()) + ".",
+              "", "![reliability](reliability.png)"]
     (args.out / "outcome.md").write_text("\n".join(lines) + "\n")
     (args.out / "outcome.json").write_text(json.dumps(
         {"metrics": rows, "n_items": len(items), "n_ok": int(ok.sum()), "wall_s": wall,
          "n_fit": int(fit.sum()), "n_test": int(test.sum()),
          "calibrator": {"x": cal.x.tolist(), "y": cal.y.tolist()},
-         "mean_ok_rollouts": float(res["n"].mean()), "base_rate": base}, indent=2))
+         "mean_ok_rollouts": float(res["n"].mean()), "base_rate": base,
+         "ece_if_calibrated": {k: {"mean": float(v.mean()), "p90": float(np.percentile(v, 90))}
+                               for k, v in floor.items()}}, indent=2))
+    items_out.to_csv(args.out / "branch_points.csv", index=False)
     print("\n".join(lines))
     if args.save_calibrator:
         from sportsngen.model.export import update_extra

@@ -7,6 +7,7 @@ from sportsngen.eval.calibration import (
     IsotonicCalibrator,
     brier_score,
     cluster_bootstrap,
+    ece_if_calibrated,
     expected_calibration_error,
     plot_reliability,
     reliability_table,
@@ -97,3 +98,20 @@ def test_cluster_bootstrap_resamples_whole_groups():
     assert lo.shape == (2,) and (lo <= hi).all() and hi[1] == 5.0 and lo[0] == 0.0
     with pytest.raises(ValueError, match="n_boot"):
         cluster_bootstrap(lambda i: 0.0, g, 0)
+
+
+def test_ece_if_calibrated_is_zero_for_certain_predictions_and_grows_with_fewer_rollouts():
+    certain = np.array([0.0, 1.0, 1.0, 0.0])
+    np.testing.assert_array_equal(ece_if_calibrated(certain, 16, n_boot=20), np.zeros(20))
+    # p = 0.45 (inside one bin) with many rollouts: the ECE is |observed - 0.45| of 400
+    # coins, whose mean is sqrt(0.45 * 0.55 / 400) * sqrt(2 / pi) = 0.0199.
+    one_bin = ece_if_calibrated(np.full(400, 0.45), 100_000, n_boot=2000, seed=1)
+    assert one_bin.mean() == pytest.approx(0.0199, abs=0.0015)
+    rng = np.random.default_rng(0)
+    spread = rng.beta(2, 1, 800)
+    few, many = (ece_if_calibrated(spread, n, n_boot=200, seed=2).mean() for n in (4, 1000))
+    assert few > many + 0.02
+    per_item = ece_if_calibrated(spread, np.full(800, 16), n_boot=200, seed=2)
+    assert per_item.mean() == pytest.approx(0.049, abs=0.004)
+    with pytest.raises(ValueError, match="rollout"):
+        ece_if_calibrated([0.5], 0)

@@ -588,3 +588,42 @@ def test_strike_in_reach_runs_in_rollouts_and_changes_nothing_before_a_good_boun
     pd.testing.assert_frame_equal(fa, fc[fc["frame"] < 20].reset_index(drop=True))
     with pytest.raises(ArgumentError, match="strike_in_reach_from"):
         _sim(tiny_model_file, strike_in_reach=True, strike_in_reach_from=0)
+
+
+def test_strike_in_reach_m_is_the_rules_reach_in_rollouts(tiny_model_file, monkeypatch):
+    from sportsngen.errors import ArgumentError
+    from sportsngen.sim import simulator as simulator_module
+
+    reaches = []
+
+    class Recording(simulator_module.StrikeInReach):
+        def __init__(self, tracker, **kw):
+            reaches.append(kw["reach_m"])
+            super().__init__(tracker, **kw)
+
+    monkeypatch.setattr(simulator_module, "StrikeInReach", Recording)
+    kw = dict(max_duration_s=0.4, top_p_ball=0.6, strike_in_reach=True)
+    _sim(tiny_model_file, **kw).simulate_points("Toy Alpha", "Toy Beta", "hard", 2, seed=0)
+    _sim(tiny_model_file, strike_in_reach_m=1.5, **kw).simulate_points(
+        "Toy Alpha", "Toy Beta", "hard", 2, seed=0)
+    assert reaches == [1.2, 1.5]
+    with pytest.raises(ArgumentError, match="strike_in_reach_m"):
+        _sim(tiny_model_file, strike_in_reach_m=0.0)
+
+
+def test_set_defaults_stores_sampling_defaults_that_from_pretrained_applies(tiny_model_file,
+                                                                           tmp_path):
+    import shutil
+
+    from sportsngen.errors import ArgumentError
+
+    path = tmp_path / "m.pt"
+    shutil.copy(tiny_model_file, path)
+    Simulator.set_defaults(path, strike_in_reach=True)
+    after = Simulator.set_defaults(path, strike_in_reach_m=1.5)
+    assert after == {"strike_in_reach": True, "strike_in_reach_m": 1.5}
+    sim = Simulator.from_pretrained(path)
+    assert sim.strike_in_reach and sim.strike_in_reach_m == 1.5
+    assert Simulator.from_pretrained(path, strike_in_reach_m=1.2).strike_in_reach_m == 1.2
+    with pytest.raises(ArgumentError, match="reach_metres"):
+        Simulator.set_defaults(path, reach_metres=1.5)

@@ -9,7 +9,8 @@ import argparse
 from sportsngen.errors import ArgumentError
 
 _NUCLEI = ("top_p_ball", "top_p_contact", "top_p_serve")
-_FLAGS = ("contact_odds", "strike_in_reach", "strike_in_reach_from", "strike_in_reach_force")
+_FLAGS = ("contact_odds", "strike_in_reach", "strike_in_reach_from", "strike_in_reach_force",
+          "strike_in_reach_m")
 
 
 def add_sampling_options(parser: argparse.ArgumentParser) -> None:
@@ -35,6 +36,9 @@ def add_sampling_options(parser: argparse.ArgumentParser) -> None:
                         default=None,
                         help="with --strike-in-reach: where no draw keeps the ball in reach, "
                              "the strike head strikes it (default: the model file's, else off)")
+    parser.add_argument("--strike-in-reach-m", type=float, default=None,
+                        help="with --strike-in-reach: the reach (m, the ball horizontally from "
+                             "the player's centre; default: the model file's, else 1.2)")
 
 
 def sampling_kwargs(args: argparse.Namespace) -> dict:
@@ -51,6 +55,9 @@ def sampling_kwargs(args: argparse.Namespace) -> dict:
         value = getattr(args, name, None)
         if value is not None:
             kw[name] = value
+    if not kw.get("strike_in_reach_m", 1.0) > 0:
+        raise ArgumentError(f"--strike-in-reach-m must be positive, got "
+                            f"{kw['strike_in_reach_m']}")
     if kw.get("strike_in_reach_from", 1) < 1:
         raise ArgumentError(f"--strike-in-reach-from counts contacts after the serve (>= 1), "
                             f"got {kw['strike_in_reach_from']}")

@@ -35,10 +35,10 @@ from sportsngen.errors import (
 from sportsngen.eval.calibration import IsotonicCalibrator
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.model.event_classifier import EventClassifier
-from sportsngen.model.export import load_model, read_extra
+from sportsngen.model.export import load_model, read_extra, update_extra
 from sportsngen.sim import whatif
 from sportsngen.sim.assemble import PLAN_COLUMNS, assemble
-from sportsngen.sim.constraints import AllOf, PhysicalLimits, StrikeInReach
+from sportsngen.sim.constraints import STRIKE_REACH_M, AllOf, PhysicalLimits, StrikeInReach
 from sportsngen.sim.events import frame_labels
 from sportsngen.sim.initial import InitialConditions
 from sportsngen.sim.match import MatchResult, simulate_matches
@@ -89,7 +89,7 @@ class Simulator:
                  contact_odds: bool = False, top_p_contact: float | None = None,
                  refresh_frames: int | None = None, strike_in_reach: bool = False,
                  strike_in_reach_from: int = 1, strike_in_reach_force: bool = False,
-                 top_p_serve: float = 1.0):
+                 top_p_serve: float = 1.0, strike_in_reach_m: float = STRIKE_REACH_M):
         if abs(initial.fps - model.cfg.fps) > 1e-6:
             raise ValueError(f"initial conditions at {initial.fps} Hz, model at {model.cfg.fps}")
         for name, p in (("top_p_player", top_p_player), ("top_p_ball", top_p_ball),
@@ -129,6 +129,10 @@ class Simulator:
         self.strike_in_reach_from = int(strike_in_reach_from)
         # ... and where no draw strikes it or keeps it in reach, the strike head strikes it.
         self.strike_in_reach_force = bool(strike_in_reach_force)
+        # ... within this distance of the player's centre (horizontally).
+        if not float(strike_in_reach_m) > 0:
+            raise ArgumentError(f"strike_in_reach_m must be positive, got {strike_in_reach_m!r}")
+        self.strike_in_reach_m = float(strike_in_reach_m)
         self._warned: set[str] = set()    # unknown players already warned about
         # Raw rollout win probabilities -> observed frequencies, when the model file has one
         # (`scripts/rally_outcome_study.py --save-calibrator`).
@@ -153,6 +157,23 @@ class Simulator:
         if extra.get("outcome_calibrator") is not None:
             sim.outcome_calibrator = IsotonicCalibrator.from_dict(extra["outcome_calibrator"])
         return sim
+
+    @staticmethod
+    def set_defaults(path: str | Path, **values) -> dict:
+        """Store sampling defaults in a model file (`sim_defaults`, which `from_pretrained`
+        applies), keeping those not named -> the file's defaults after. Only `Simulator`'s
+        own sampling arguments are accepted."""
+        import inspect
+
+        allowed = set(inspect.signature(Simulator.__init__).parameters) - {
+            "self", "model", "event_model", "vocab", "initial", "device"}
+        unknown = sorted(set(values) - allowed)
+        if unknown:
+            raise ArgumentError(f"not a Simulator sampling argument: {', '.join(unknown)} "
+                                f"(known: {', '.join(sorted(allowed))})")
+        kept = read_extra(path).get("sim_defaults") or {}
+        update_extra(path, sim_defaults={**kept, **values})
+        return read_extra(path)["sim_defaults"]
 
     @property
     def fps(self) -> float:
@@ -214,7 +235,8 @@ class Simulator:
             tracker = RallyTracker(part["server_end"].to_numpy(), part["side"].to_numpy(),
                                    part["serve_number"].to_numpy(), self.fps, duration_s)
             limits = PhysicalLimits(fps=self.fps) if self.physical_limits else None
-            strike = StrikeInReach(tracker, fps=self.fps, from_shot=self.strike_in_reach_from,
+            strike = StrikeInReach(tracker, reach_m=self.strike_in_reach_m, fps=self.fps,
+                                   from_shot=self.strike_in_reach_from,
                                    force=self.strike_in_reach_force) \
                 if self.strike_in_reach else None
             con = AllOf(limits, strike, constraint) if (limits or strike or constraint) else None
