@@ -66,7 +66,8 @@ def ece_if_calibrated(pred, n_rollouts, n_boot: int = 500, seed: int = 0,
     values a right model would score. The branch points of one rally share its outcome, which
     widens that spread further, so this is a lower bound of the design's noise floor. With
     predictions spread like the bundled model's, 16 rollouts and 800 independent branch
-    points give a mean of about 0.049; 32 rollouts about 0.039 (docs/evaluation.md).
+    points give a mean of about 0.049; 32 rollouts about 0.039 (docs/evaluation.md,
+    twenty-second part).
     """
     p = np.asarray(pred, dtype=float)
     _check(p, np.zeros(p.shape))
