@@ -15,6 +15,7 @@ the rally-end rules (`sportsngen.tennis.rally`), event labels from the classifie
 
 from __future__ import annotations
 
+import inspect
 import math
 import warnings
 from pathlib import Path
@@ -163,8 +164,6 @@ class Simulator:
         """Store sampling defaults in a model file (`sim_defaults`, which `from_pretrained`
         applies), keeping those not named -> the file's defaults after. Only `Simulator`'s
         own sampling arguments are accepted."""
-        import inspect
-
         allowed = set(inspect.signature(Simulator.__init__).parameters) - {
             "self", "model", "event_model", "vocab", "initial", "device"}
         unknown = sorted(set(values) - allowed)
