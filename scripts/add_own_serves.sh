@@ -6,8 +6,10 @@
 # same points, each paired with the record's serve (sportsngen.train.own_states;
 # docs/evaluation.md, twenty-first part). 3,000 steps at lr 3e-4, kept at the best validation
 # NLL. Then the sampling defaults: FORCE=1 adds the forced strike where the rule for balls in
-# reach gives up (strike_in_reach_force). Then the rally-outcome calibrator refitted on the new
-# file. As run: about 10 minutes at two threads for the fit, 15 for the calibrator.
+# reach gives up (strike_in_reach_force), and the rule's reach is REACH metres (1.5, the
+# generator's players' reach; docs/evaluation.md, twenty-third part). Then the rally-outcome
+# calibrator refitted on the new file (200 rallies, 32 rollouts each). As run: about 10
+# minutes at two threads for the fit, 60-90 for the calibrator.
 #
 #   scripts/add_own_serves.sh                     # the fit and defaults, then the calibrator
 #   STAGES="fit" scripts/add_own_serves.sh        # the fit and defaults only
@@ -18,6 +20,7 @@ PY=${PYTHON:-.venv/bin/python}
 RUN=${RUN_DIR:-outputs/own_serves}
 DEST=${DEST:-sportsngen/model/bundled/sportsngen-small.pt}
 FORCE=${FORCE:-1}
+REACH=${REACH:-1.5}
 STAGES=${STAGES:-"fit calibrator"}
 mkdir -p "$RUN"
 BASE="$RUN/base.pt"
@@ -31,8 +34,9 @@ for s in $STAGES; do
         if [ "$FORCE" = 1 ]; then
             "$PY" scripts/set_sim_defaults.py "$DEST" strike_in_reach_force=true
         fi
+        "$PY" scripts/set_sim_defaults.py "$DEST" strike_in_reach_m="$REACH"
         ;;
-    calibrator) PYTHON="$PY" scripts/fit_calibrator.sh "$DEST" ;;
+    calibrator) RALLIES=200 N=32 PYTHON="$PY" scripts/fit_calibrator.sh "$DEST" ;;
     *)  echo "unknown stage $s" >&2; exit 2 ;;
     esac
 done

@@ -14,6 +14,7 @@ from sportsngen.model.centre import (
     ball_acceleration_mps2,
     ball_centre_m,
     flight_acceleration_mps2,
+    net_cord_m,
     object_centres_m,
     physics_step_m,
     turned_lift_mps2,
@@ -29,10 +30,10 @@ def track(flight, n_frames: int) -> torch.Tensor:
     return torch.as_tensor(flight.at(np.arange(n_frames) / FPS), dtype=torch.float32)
 
 
-def miss_m(pos: torch.Tensor, mode: str) -> torch.Tensor:
+def miss_m(pos: torch.Tensor, mode: str, net: bool = False) -> torch.Tensor:
     """|next frame - centre| (n - 3, 3) for frames 2 .. n - 2 of a track."""
     vel = (pos[1:] - pos[:-1]) * FPS           # backward differences of frames 1 ..
-    c = ball_centre_m(pos[2:-1], vel[1:-1], vel[:-2], FPS, mode)
+    c = ball_centre_m(pos[2:-1], vel[1:-1], vel[:-2], FPS, mode, net)
     return (pos[3:] - c).abs()
 
 
@@ -153,6 +154,43 @@ def test_a_step_into_the_ground_bounces():
     assert float(rising[0, 2]) > 0.1                 # going up: no bounce
 
 
+@pytest.mark.parametrize("x0_m, z0_m, vz_mps", [(-8.0, 0.9, 0.0), (-7.93, 0.6, 0.5),
+                                                (7.0, 0.5, 2.0), (7.0, 1.0, -1.0)])
+def test_a_step_into_the_net_drops_dead_as_the_generators_ball(x0_m, z0_m, vz_mps):
+    # The generator's ball meets the net below the cord: on the frame it hits, the step puts
+    # it within 12 mm of the generator's (0 in most; flown through, 0.3-0.5 m off); on the
+    # next, whose backward difference mixes the ball's speed before and after, within 0.1 m
+    # (as after a bounce, the model's to learn); and never through the net.
+    vx = 25.0 if x0_m < 0 else -25.0
+    f = fly([x0_m, 0.5, z0_m], [vx, 1.0, vz_mps], 5.0, "hard", 0.76, max_bounces=3)
+    assert f.events[0].kind == "net"
+    pos = track(f, int(f.t_s[-1] * FPS) + 1)
+    hit = int(f.events[0].t_s * FPS)                 # the last frame before the net
+    miss = miss_m(pos, "physics", net=True).max(dim=-1).values  # row k: frame k + 3
+    assert float(miss[hit - 2]) < 0.012
+    assert float(miss[hit - 1]) < 0.1
+    assert float(miss[: hit - 2].max()) < 1e-3
+    side = np.sign(x0_m)
+    vel = (pos[1:] - pos[:-1]) * FPS
+    c = ball_centre_m(pos[2:-1], vel[1:-1], vel[:-2], FPS, "physics", net=True)
+    assert bool((side * c[:, 0] > 0).all())          # never through the net
+    # Without the net (files trained before it) the step flies through: 0.3-0.5 m off.
+    assert float(miss_m(pos, "physics").max(dim=-1).values[hit - 2]) > 0.25
+
+
+def test_the_net_step_follows_the_cord_and_only_balls_heading_for_it():
+    pos = torch.tensor([[-0.3, 0.0, 0.914 + BALL_RADIUS_M + 0.01],   # clears the strap
+                        [-0.3, 6.0, 1.02 + BALL_RADIUS_M],           # the cord is higher here
+                        [-0.3, 0.0, 0.5]])                           # flies away from the net
+    vel = torch.tensor([[25.0, 0.0, 0.0], [25.0, 0.0, 0.0], [-25.0, 0.0, 0.0]])
+    c = physics_step_m(pos, vel, None, FPS, net=True)
+    assert c[0, 0] > 0.6 and c[2, 0] < -1.2
+    assert c[1, 0] < 0                                # at y = 6 m the cord is 1.05 m: a hit
+    assert physics_step_m(pos, vel, None, FPS)[1, 0] > 0.6    # no net: flies through
+    assert float(net_cord_m(torch.tensor([0.0, 6.4, -9.0]))[0]) == pytest.approx(0.914)
+    assert net_cord_m(torch.tensor([6.4, -9.0])).tolist() == pytest.approx([1.07, 1.07])
+
+
 def test_object_centres_mix_player_and_ball_modes():
     pos = torch.zeros(2, 3, 3)
     pos[:, 2, 2] = 1.0
@@ -171,6 +209,20 @@ def test_model_files_saved_before_ball_centre_keep_their_centre():
         == "physics"
     with pytest.raises(ValueError, match="ball_centre"):
         ModelConfig(ball_centre="spin")
+    # ... and files saved before the net was in the step fly through it
+    assert ModelConfig.from_dict({"bin_centre": "cv", "ball_centre": "physics"}).ball_net \
+        is False
+
+
+@pytest.mark.parametrize("ball_net", [False, True])
+def test_the_decoders_centres_meet_the_net_as_its_config_says(ball_net):
+    from sportsngen.model import SportsNGEN
+    model = SportsNGEN(ModelConfig(d_model=16, n_layers=1, n_heads=2, bin_centre="cv",
+                                   ball_centre="physics", ball_net=ball_net))
+    pos = torch.tensor([[[-5.0, 0.0, 0.0], [5.0, 0.0, 0.0], [-0.3, 0.0, 0.5]]])
+    vel = torch.tensor([[[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [25.0, 0.0, 0.0]]])
+    ball_x = float(model.centres(pos, vel)[0, 2, 0])
+    assert (ball_x < 0) if ball_net else (ball_x > 0.6)
 
 
 

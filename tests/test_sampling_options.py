@@ -21,11 +21,12 @@ def test_flags_left_out_keep_the_model_files_defaults():
 def test_each_flag_becomes_its_simulator_argument():
     args = _parse("--top-p-ball", "0.45", "--no-contact-odds", "--top-p-contact", "0.7",
                   "--top-p-serve", "0.9", "--strike-in-reach", "--strike-in-reach-from", "2",
-                  "--strike-in-reach-force", "--strike-in-reach-m", "1.5")
+                  "--strike-in-reach-force", "--strike-in-reach-m", "1.5", "--ball-net")
     assert sampling_kwargs(args) == {
         "top_p_ball": 0.45, "top_p_contact": 0.7, "top_p_serve": 0.9, "contact_odds": False,
         "strike_in_reach": True, "strike_in_reach_from": 2, "strike_in_reach_force": True,
-        "strike_in_reach_m": 1.5}
+        "strike_in_reach_m": 1.5, "ball_net": True}
+    assert sampling_kwargs(_parse("--no-ball-net")) == {"ball_net": False}
 
 
 @pytest.mark.parametrize("argv, match", [

@@ -611,6 +611,13 @@ def test_strike_in_reach_m_is_the_rules_reach_in_rollouts(tiny_model_file, monke
         _sim(tiny_model_file, strike_in_reach_m=0.0)
 
 
+def test_ball_net_sets_the_centre_of_the_loaded_model_only(tiny_model_file):
+    assert _sim(tiny_model_file).model.cfg.ball_net is False
+    sim = _sim(tiny_model_file, ball_net=True)
+    assert sim.model.cfg.ball_net is True
+    assert _sim(tiny_model_file).model.cfg.ball_net is False     # each load its own
+
+
 def test_set_defaults_stores_sampling_defaults_that_from_pretrained_applies(tiny_model_file,
                                                                            tmp_path):
     import shutil

@@ -349,7 +349,7 @@ class SportsNGEN(nn.Module):
         `prev_vel_mps`, the velocities a frame earlier, lets the ball's physics step read its
         acceleration from the track (without it: gravity and drag)."""
         return object_centres_m(pos_m, vel_mps, prev_vel_mps, self.cfg.fps, self.cfg.bin_centre,
-                                self.cfg.ball_centre, BALL)
+                                self.cfg.ball_centre, BALL, self.cfg.ball_net)
 
     def target_offsets(self, pos_m, vel_mps, next_pos_m, prev_vel_mps=None) -> torch.Tensor:
         """Next positions as offsets from the bins' centres, in the model's frame (..., 3, 3)."""

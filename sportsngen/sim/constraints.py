@@ -19,13 +19,10 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from sportsngen.model.centre import GRAVITY_MPS2
+from sportsngen.model.centre import GRAVITY_MPS2, net_cord_m
 from sportsngen.tennis.court import (
     FENCE_X_M,
     FENCE_Y_M,
-    NET_HEIGHT_CENTRE_M,
-    NET_HEIGHT_POST_M,
-    NET_POST_Y_M,
 )
 from sportsngen.tennis.rally import (
     CONTACT_MAX_Z_M,
@@ -98,9 +95,7 @@ class PhysicalLimits:
             frac = a[:, 0] / (a[:, 0] - b[:, 0] + 1e-12)
             y = a[:, 1] + frac * (b[:, 1] - a[:, 1])
             z = a[:, 2] + frac * (b[:, 2] - a[:, 2])
-            sag = (torch.clamp(y.abs(), max=NET_POST_Y_M) / NET_POST_Y_M) ** 2
-            cord = NET_HEIGHT_CENTRE_M + (NET_HEIGHT_POST_M - NET_HEIGHT_CENTRE_M) * sag
-            ok &= ~crossed | (z >= cord - self.net_tol_m)
+            ok &= ~crossed | (z >= net_cord_m(y) - self.net_tol_m)
         return ok
 
     def struck_out_of_reach(self, pos_m: torch.Tensor, next_pos_m: torch.Tensor,
@@ -155,9 +150,7 @@ class PhysicalLimits:
         frac = a[:, 0] / (a[:, 0] - b[:, 0] + 1e-12)
         y = a[:, 1] + frac * (b[:, 1] - a[:, 1])
         z = a[:, 2] + frac * (b[:, 2] - a[:, 2])
-        sag = (torch.clamp(y.abs(), max=NET_POST_Y_M) / NET_POST_Y_M) ** 2
-        cord = NET_HEIGHT_CENTRE_M + (NET_HEIGHT_POST_M - NET_HEIGHT_CENTRE_M) * sag
-        stop = crossed & (z < cord - self.net_tol_m)
+        stop = crossed & (z < net_cord_m(y) - self.net_tol_m)
         b[stop, 0] = torch.sign(a[stop, 0]) * NET_STOP_M
         b[stop, 1] = y[stop]
         b[stop, 2] = z[stop].clamp(min=0.0)

@@ -90,7 +90,8 @@ class Simulator:
                  contact_odds: bool = False, top_p_contact: float | None = None,
                  refresh_frames: int | None = None, strike_in_reach: bool = False,
                  strike_in_reach_from: int = 1, strike_in_reach_force: bool = False,
-                 top_p_serve: float = 1.0, strike_in_reach_m: float = STRIKE_REACH_M):
+                 top_p_serve: float = 1.0, strike_in_reach_m: float = STRIKE_REACH_M,
+                 ball_net: bool | None = None):
         if abs(initial.fps - model.cfg.fps) > 1e-6:
             raise ValueError(f"initial conditions at {initial.fps} Hz, model at {model.cfg.fps}")
         for name, p in (("top_p_player", top_p_player), ("top_p_ball", top_p_ball),
@@ -134,6 +135,11 @@ class Simulator:
         if not float(strike_in_reach_m) > 0:
             raise ArgumentError(f"strike_in_reach_m must be positive, got {strike_in_reach_m!r}")
         self.strike_in_reach_m = float(strike_in_reach_m)
+        # The ball's physics centre meets the net (`ModelConfig.ball_net`; None: as the model
+        # was trained). Set on a file trained without it, the rollouts' flight stops at the net
+        # where its training targets flew through; for measuring what the net does.
+        if ball_net is not None:
+            self.model.cfg.ball_net = bool(ball_net)
         self._warned: set[str] = set()    # unknown players already warned about
         # Raw rollout win probabilities -> observed frequencies, when the model file has one
         # (`scripts/rally_outcome_study.py --save-calibrator`).
