@@ -212,6 +212,8 @@ def test_model_files_saved_before_ball_centre_keep_their_centre():
     # ... and files saved before the net was in the step fly through it
     assert ModelConfig.from_dict({"bin_centre": "cv", "ball_centre": "physics"}).ball_net \
         is False
+    with pytest.raises(ValueError, match="ball_net"):
+        ModelConfig(ball_centre="velocity", ball_net=True)
 
 
 @pytest.mark.parametrize("ball_net", [False, True])

@@ -612,9 +612,16 @@ def test_strike_in_reach_m_is_the_rules_reach_in_rollouts(tiny_model_file, monke
 
 
 def test_ball_net_sets_the_centre_of_the_loaded_model_only(tiny_model_file):
-    assert _sim(tiny_model_file).model.cfg.ball_net is False
-    sim = _sim(tiny_model_file, ball_net=True)
-    assert sim.model.cfg.ball_net is True
+    from sportsngen.errors import ArgumentError
+
+    sim = _sim(tiny_model_file)
+    assert sim.model.cfg.ball_net is False
+    if sim.model.cfg.ball_centre != "physics":
+        with pytest.raises(ArgumentError, match="ball_net"):
+            _sim(tiny_model_file, ball_net=True)
+        sim.model.cfg.ball_centre = "physics"      # as a physics-centre file would load
+    net = Simulator(sim.model, sim.event_model, sim.vocab, sim.initial, ball_net=True)
+    assert net.model.cfg.ball_net is True
     assert _sim(tiny_model_file).model.cfg.ball_net is False     # each load its own
 
 

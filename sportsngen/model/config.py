@@ -131,6 +131,9 @@ class ModelConfig:
         if self.ball_centre not in BALL_CENTRES:
             raise ValueError(f"model.ball_centre must be one of {BALL_CENTRES}, "
                              f"got {self.ball_centre!r}")
+        if self.ball_net and self.ball_centre != "physics":
+            raise ValueError(f"model.ball_net needs ball_centre physics (the net is in its "
+                             f"step), got ball_centre {self.ball_centre!r}")
         if self.frame not in FRAMES:
             raise ValueError(f"model.frame must be one of {FRAMES}, got {self.frame!r}")
         for name in ("dropout", "attn_dropout"):

@@ -139,6 +139,9 @@ class Simulator:
         # was trained). Set on a file trained without it, the rollouts' flight stops at the net
         # where its training targets flew through; for measuring what the net does.
         if ball_net is not None:
+            if ball_net and self.model.cfg.ball_centre != "physics":
+                raise ArgumentError(f"ball_net needs a model whose ball centre is the physics "
+                                    f"step, this one's is {self.model.cfg.ball_centre!r}")
             self.model.cfg.ball_net = bool(ball_net)
         self._warned: set[str] = set()    # unknown players already warned about
         # Raw rollout win probabilities -> observed frequencies, when the model file has one
