@@ -137,7 +137,8 @@ class Simulator:
         self.strike_in_reach_m = float(strike_in_reach_m)
         # The ball's physics centre meets the net (`ModelConfig.ball_net`; None: as the model
         # was trained). Set on a file trained without it, the rollouts' flight stops at the net
-        # where its training targets flew through; for measuring what the net does.
+        # where its training targets flew through; for measuring what the net does. It is the
+        # model's own config that changes: Simulators sharing one model object share it.
         if ball_net is not None:
             if ball_net and self.model.cfg.ball_centre != "physics":
                 raise ArgumentError(f"ball_net needs a model whose ball centre is the physics "
