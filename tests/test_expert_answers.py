@@ -157,6 +157,35 @@ def test_recovery_curves_read_the_record_exactly_and_branch_the_model(tiny_model
         recovery_curves(sim, truth, shot=0)
 
 
+def test_chase_curves_read_the_run_to_the_strike_from_the_record(tiny_model_file):
+    from sportsngen.eval.movement import _teacher_forced_speed_change, chase_curves
+    from sportsngen.eval.rules import analyse_rally_data
+    from sportsngen.sim import Simulator
+
+    sim = Simulator.from_pretrained(tiny_model_file, max_retries=0)
+    truth = truth_points(DiagnosticsSetup(n_points=30, seed=3))
+    rules = analyse_rally_data(truth)
+    # Along a fixed direction, the record's change of speed is the next frame's speed less
+    # this one's, read from the player's own track.
+    tf = _teacher_forced_speed_change(sim.model, sim.vocab, truth, rules, 1, 10, 0,
+                                      lambda rid, track, contacts: np.array([0.6, 0.8]), 2, 0,
+                                      16)
+    assert tf["rally_id"].nunique() >= 5 and np.isfinite(tf["dv_model"]).all()
+    for _, g in tf.groupby("rally_id"):
+        g = g.sort_values("k")
+        np.testing.assert_allclose(g["dv_record"].to_numpy()[:-1],
+                                   np.diff(g["speed_mps"].to_numpy()), atol=2e-3)
+    table = chase_curves(sim, truth, shot=1, frames=20, bin_frames=5, draws=2)
+    assert set(table["frames_after"]) <= {0, 5, 10, 15}
+    assert set(table["need"].astype(str)) <= {"<2 m", "2-4 m", ">4 m"}
+    # The generator's server runs towards where he strikes the return: his speed that way is
+    # positive on average from a few frames after the return on, wherever he had to go.
+    later = table[table["frames_after"] >= 5]
+    assert (later["speed_mps"] > 0).all() and later["n"].sum() > 0
+    with pytest.raises(ValueError, match="from the serve"):
+        chase_curves(sim, truth, shot=-1)
+
+
 def test_the_command_line_refuses_bad_shots(tmp_path, capsys):
     from sportsngen.eval.__main__ import main
 

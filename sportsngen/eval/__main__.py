@@ -11,8 +11,8 @@
     python -m sportsngen.eval strikes [--model PATH] [--points 800] [--shots 1 2 3 4 5]
         [--after -1] [--seed 0] [--csv PATH] [sampling options as diagnose]
     python -m sportsngen.eval strike-draws [--model PATH] [--points 1000] [--draws 6] [--seed 0]
-    python -m sportsngen.eval movement [--model PATH] [--shot 2] [--points 600] [--server NAME]
-        [--seed 0] [--csv PATH] [sampling options as diagnose]
+    python -m sportsngen.eval movement [--model PATH] [--shot 2] [--chase] [--points 600]
+        [--server NAME] [--seed 0] [--csv PATH] [sampling options as diagnose]
     python -m sportsngen.eval expert [FOLDER] [--shot 3] [--after 8] [--unplayed]
         [--points 1000] [--seed 0] [--csv PATH]
 
@@ -26,7 +26,8 @@ the shared data is present; without it the report is written without them and a 
 (`sportsngen.eval.shot_branches.strike_shares`); `strike-draws` the strike head
 teacher-forced at recorded rally strikes, its errors by shot and serve beside the record's
 (`sportsngen.eval.strike_draws`); `movement` the hitter's run after his shot,
-teacher-forced and rolled out against the record (`sportsngen.eval.movement`); `expert` the
+teacher-forced and rolled out against the record, or with `--chase` the answering player's run
+to the ball, teacher-forced against the record (`sportsngen.eval.movement`); `expert` the
 generator's players on a folder's own rally states, their next shot beside the folder's
 (`sportsngen.eval.expert_answers`; without a folder, on generated points: the kernel's own
 fidelity). `leaks` prints the AUC table of
@@ -258,14 +259,22 @@ def run_strike_draws(args: argparse.Namespace) -> int:
 
 
 def run_movement(args: argparse.Namespace) -> int:
-    """The hitter's run after his shot, record / teacher-forced / rolled out: prints it."""
+    """The hitter's run after his shot, record / teacher-forced / rolled out, or with
+    --chase the answering player's run to the ball, record / teacher-forced: prints it."""
     from sportsngen.eval.diagnostics import truth_points
-    from sportsngen.eval.movement import recovery_curves
+    from sportsngen.eval.movement import chase_curves, recovery_curves
 
-    if args.shot < 1:
-        raise UsageError(f"--shot counts contacts after the serve (>= 1), got {args.shot}")
+    if args.chase:
+        shot = 1 if args.shot is None else args.shot
+        if shot < 0:
+            raise UsageError(f"--shot counts contacts from the serve (>= 0), got {shot}")
+        return _run_model_table(args, "movement", lambda sim, setup: chase_curves(
+            sim, truth_points(setup), shot=shot, seed=args.seed))
+    shot = 2 if args.shot is None else args.shot
+    if shot < 1:
+        raise UsageError(f"--shot counts contacts after the serve (>= 1), got {shot}")
     return _run_model_table(args, "movement", lambda sim, setup: recovery_curves(
-        sim, truth_points(setup), shot=args.shot, seed=args.seed))
+        sim, truth_points(setup), shot=shot, seed=args.seed))
 
 
 def run_expert(args: argparse.Namespace) -> int:
@@ -421,9 +430,13 @@ def build_parser() -> argparse.ArgumentParser:
                                "rolled out")
     move.add_argument("--points", type=int, default=600,
                       help="ground-truth points generated (default 600)")
-    move.add_argument("--shot", type=int, default=2,
+    move.add_argument("--shot", type=int, default=None,
                       help="the hitter's shot, counted after the serve (default 2: the "
-                           "server's first rally ball)")
+                           "server's first rally ball); with --chase the shot whose ball is "
+                           "chased (default 1: the return, chased by the server)")
+    move.add_argument("--chase", action="store_true",
+                      help="the answering player's run to the ball, record and teacher-forced, "
+                           "by how far he had to go")
     for name, points, what, help_text in (
             ("serves", 600, "serve", "the serve head teacher-forced at recorded serves: faults "
                                      "(long, wide, net) and speed by serve, beside the record"),

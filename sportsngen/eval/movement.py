@@ -32,6 +32,8 @@ from sportsngen.tennis.court import BASELINE_X_M
 from sportsngen.train.metrics import window_states
 
 RECOVERY_FRAMES = 45      # 1.8 s: the run back and the next ball's approach
+CHASE_FRAMES = 35         # 1.4 s: a return's flight to the server, and a rally ball's
+CHASE_MIN_M = 0.3         # a player who moves less than this to his strike has no direction
 BIN_FRAMES = 5
 BRANCH_HORIZON_S = 4.0    # the next shot's flight and the run after it
 
@@ -63,6 +65,58 @@ def _hitter_tracks(data: RallyData, rules: pd.DataFrame, shot: int, frames: int,
 
 
 @torch.no_grad()
+def _teacher_forced_speed_change(model, vocab: Vocab, truth: RallyData, rules: pd.DataFrame,
+                                 shot: int, frames: int, slot: int, direction, draws: int,
+                                 seed: int, batch_size: int) -> pd.DataFrame:
+    """Per rally and frame k after the contact of shot `shot` (long form): player `slot`'s
+    change of speed along a horizontal unit vector over the next frame, the record's
+    (`dv_record`) and the model's expected one at the same state (`dv_model`, the mean of
+    `draws` draws). `direction(rally_id, track_xy, contacts)` gives the vector from the
+    player's recorded (T, 2) track and the rally's contact frames, or None to leave the rally
+    out."""
+    arr = rally_arrays(truth, vocab, unknown="generic")
+    w = model.cfg.window_frames
+    ds = WindowDataset(arr, w)
+    items, contact, dirs = [], [], []
+    for ri, rid in enumerate(arr.rally_id):
+        contacts = list(rules.loc[rid, "contact_frames"]) if rid in rules.index else []
+        if len(contacts) <= shot or contacts[shot] + frames + 1 >= arr.length[ri]:
+            continue
+        track = arr.pos_m[arr.start[ri]:arr.start[ri] + arr.length[ri], slot, :2]
+        u = direction(int(rid), np.asarray(track, dtype=float), [int(c) for c in contacts])
+        if u is None:
+            continue
+        s = max(0, int(contacts[shot]) + frames - w)
+        items.append((ri, s))
+        contact.append(int(contacts[shot]) - s)
+        dirs.append(u)
+    if not items:
+        raise ValueError(f"no recorded rally played shot {shot} with {frames} frames after it")
+    ds.items = items
+    gen = torch.Generator().manual_seed(seed)
+    fps = model.cfg.fps
+    rows = []
+    for b0 in range(0, len(items), batch_size):
+        batch = default_collate([ds[i] for i in range(b0, min(b0 + batch_size, len(items)))])
+        h = window_states(model, batch)
+        pos, vel = batch["pos_m"], batch["vel_mps"]
+        u = torch.as_tensor(np.stack(dirs[b0:b0 + len(pos)]), dtype=pos.dtype)[:, None, :]
+        xy_next = torch.stack([model.sample_next(h, pos, vel, generator=gen)[..., slot, :2]
+                               for _ in range(draws)]).mean(0)
+        xy = pos[..., slot, :2]
+        speed = (vel[..., slot, :2] * u).sum(-1)
+        dv_model = ((xy_next - xy) * u).sum(-1) * fps - speed
+        dv_record = ((batch["next_pos_m"][..., slot, :2] - xy) * u).sum(-1) * fps - speed
+        for j in range(len(xy)):
+            c = contact[b0 + j]
+            k = np.arange(frames)
+            rows.append(pd.DataFrame({"rally_id": int(arr.rally_id[items[b0 + j][0]]), "k": k,
+                                      "speed_mps": speed[j, c + k].numpy(),
+                                      "dv_record": dv_record[j, c + k].numpy(),
+                                      "dv_model": dv_model[j, c + k].numpy()}))
+    return pd.concat(rows, ignore_index=True)
+
+
 def teacher_forced_recovery(model, vocab: Vocab, truth: RallyData, shot: int = 2,
                             frames: int = RECOVERY_FRAMES, draws: int = 32, seed: int = 0,
                             batch_size: int = 16, rules: pd.DataFrame | None = None
@@ -72,42 +126,49 @@ def teacher_forced_recovery(model, vocab: Vocab, truth: RallyData, shot: int = 2
     and the model's expected change at the same state (`dv_model`: the mean of `draws`
     draws of its next frame). Each rally's window ends `frames` frames after the contact."""
     rules = analyse_rally_data(truth) if rules is None else rules
-    arr = rally_arrays(truth, vocab, unknown="generic")
-    w = model.cfg.window_frames
-    ds = WindowDataset(arr, w)
-    items, contact = [], []
-    for ri, rid in enumerate(arr.rally_id):
-        contacts = list(rules.loc[rid, "contact_frames"]) if rid in rules.index else []
-        if len(contacts) <= shot or contacts[shot] + frames + 1 >= arr.length[ri]:
-            continue
-        s = max(0, int(contacts[shot]) + frames - w)
-        items.append((ri, s))
-        contact.append(int(contacts[shot]) - s)
-    if not items:
-        raise ValueError(f"no recorded rally played shot {shot} with {frames} frames after it")
-    ds.items = items
-    slot = shot % 2                   # the server (0) strikes the even shots
-    gen = torch.Generator().manual_seed(seed)
-    rows = []
-    for b0 in range(0, len(items), batch_size):
-        batch = default_collate([ds[i] for i in range(b0, min(b0 + batch_size, len(items)))])
-        h = window_states(model, batch)
-        pos, vel = batch["pos_m"], batch["vel_mps"]
-        x_next = torch.stack([model.sample_next(h, pos, vel, generator=gen)[..., slot, 0]
-                              for _ in range(draws)]).mean(0)
-        away = torch.sign(pos[..., slot, 0])
-        x = pos[..., slot, 0]
-        speed = vel[..., slot, 0] * away
-        fps = model.cfg.fps
-        dv_model = (x_next - x) * away * fps - speed
-        dv_record = (batch["next_pos_m"][..., slot, 0] - x) * away * fps - speed
-        for j in range(len(x)):
-            c = contact[b0 + j]
-            k = np.arange(frames)
-            rows.append(pd.DataFrame({"rally_id": int(arr.rally_id[items[b0 + j][0]]), "k": k,
-                                      "dv_record": dv_record[j, c + k].numpy(),
-                                      "dv_model": dv_model[j, c + k].numpy()}))
-    return pd.concat(rows, ignore_index=True)
+
+    def away_from_net(rid, track, contacts):
+        return np.array([np.sign(track[contacts[shot], 0]), 0.0])
+
+    out = _teacher_forced_speed_change(model, vocab, truth, rules, shot, frames, shot % 2,
+                                       away_from_net, draws, seed, batch_size)
+    return out.drop(columns="speed_mps")
+
+
+def chase_curves(sim, truth: RallyData, shot: int = 1, frames: int = CHASE_FRAMES,
+                 bin_frames: int = BIN_FRAMES, draws: int = 32, seed: int = 0) -> pd.DataFrame:
+    """The chase of the ball of shot `shot` by the player who answers it (1: the server's run
+    to the return), in bins of `bin_frames` frames from its contact: his recorded speed
+    towards where he strikes it (`speed_mps`, along the line from where he stood at the
+    contact to where he stood at his own), the record's change of that speed over the next
+    frame (`dv_record`) and the model's expected change at the same states (`dv_model`), over
+    the `n` rallies whose ball was answered, by how far he had to go (`need_m`: up to 2 m,
+    2-4 m, beyond). A model that brakes too early teacher-forced has a fitting problem; one
+    that matches here and still arrives late in its rollouts (`eval.reach`, `toward_mps`) has
+    a problem with its own states."""
+    if shot < 0:
+        raise ValueError(f"shot counts contacts from the serve (>= 0), got {shot}")
+    if frames < bin_frames or bin_frames < 1:
+        raise ValueError(f"need frames >= bin_frames >= 1, got {frames}, {bin_frames}")
+    rules = analyse_rally_data(truth)
+    need_m = {}
+
+    def towards_the_strike(rid, track, contacts):
+        if len(contacts) <= shot + 1:
+            return None
+        d = track[contacts[shot + 1]] - track[contacts[shot]]
+        need_m[rid] = float(np.hypot(*d))
+        return None if need_m[rid] < CHASE_MIN_M else d / need_m[rid]
+
+    tf = _teacher_forced_speed_change(sim.model, sim.vocab, truth, rules, shot, frames,
+                                      (shot + 1) % 2, towards_the_strike, draws, seed, 16)
+    tf["need_m"] = tf["rally_id"].map(need_m)
+    tf["need"] = pd.cut(tf["need_m"], [0.0, 2.0, 4.0, np.inf], labels=["<2 m", "2-4 m", ">4 m"])
+    tf["frames_after"] = tf["k"] // bin_frames * bin_frames
+    table = tf.groupby(["need", "frames_after"], observed=True).agg(
+        n=("rally_id", "nunique"), speed_mps=("speed_mps", "mean"),
+        dv_record=("dv_record", "mean"), dv_model=("dv_model", "mean"))
+    return table.reset_index()
 
 
 def recovery_curves(sim, truth: RallyData, shot: int = 2, frames: int = RECOVERY_FRAMES,
