@@ -158,7 +158,11 @@ def test_recovery_curves_read_the_record_exactly_and_branch_the_model(tiny_model
 
 
 def test_chase_curves_read_the_run_to_the_strike_from_the_record(tiny_model_file):
-    from sportsngen.eval.movement import _teacher_forced_speed_change, chase_curves
+    from sportsngen.eval.movement import (
+        _chase_tracks,
+        _teacher_forced_speed_change,
+        chase_curves,
+    )
     from sportsngen.eval.rules import analyse_rally_data
     from sportsngen.sim import Simulator
 
@@ -175,6 +179,13 @@ def test_chase_curves_read_the_run_to_the_strike_from_the_record(tiny_model_file
         g = g.sort_values("k")
         np.testing.assert_allclose(g["dv_record"].to_numpy()[:-1],
                                    np.diff(g["speed_mps"].to_numpy()), atol=2e-3)
+    # A run's speeds along the line to the strike add up to its length by the strike.
+    runs = _chase_tracks(truth, rules, 1, 80)
+    assert runs["rally_id"].nunique() >= 5
+    for rid, g in runs.groupby("rally_id"):
+        c0, c1 = (int(c) for c in list(rules.loc[rid, "contact_frames"])[1:3])
+        moved = g.loc[g["k"] < c1 - c0, "speed_mps"].sum() / truth.fps
+        assert moved == pytest.approx(g["need_m"].iloc[0], abs=1e-6)
     table = chase_curves(sim, truth, shot=1, frames=20, bin_frames=5, draws=2)
     assert set(table["frames_after"]) <= {0, 5, 10, 15}
     assert set(table["need"].astype(str)) <= {"<2 m", "2-4 m", ">4 m"}
@@ -182,6 +193,9 @@ def test_chase_curves_read_the_run_to_the_strike_from_the_record(tiny_model_file
     # positive on average from a few frames after the return on, wherever he had to go.
     later = table[table["frames_after"] >= 5]
     assert (later["speed_mps"] > 0).all() and later["n"].sum() > 0
+    # The branches' columns are there, empty where no branch's server reached the return.
+    assert {"n_branch", "branch_speed_mps"} <= set(table.columns)
+    assert (table["n_branch"].isna() == table["branch_speed_mps"].isna()).all()
     with pytest.raises(ValueError, match="from the serve"):
         chase_curves(sim, truth, shot=-1)
 

@@ -64,6 +64,33 @@ def _hitter_tracks(data: RallyData, rules: pd.DataFrame, shot: int, frames: int,
     return pd.concat(rows, ignore_index=True)
 
 
+def _chase_tracks(data: RallyData, rules: pd.DataFrame, shot: int, frames: int
+                  ) -> pd.DataFrame:
+    """Per rally whose ball of shot `shot` was answered: the answering player's speed along
+    the line from where he stood at that contact to where he stood at his own, at each of the
+    `frames` frames from the first (long form, with his run's length `need_m`)."""
+    f = data.frames.merge(data.rallies[["rally_id", "server", "receiver"]], on="rally_id")
+    who = "server" if (shot + 1) % 2 == 0 else "receiver"
+    f = f[f["object"] == f[who]].sort_values(["rally_id", "frame"])
+    rows = []
+    for rid, g in f.groupby("rally_id", sort=False):
+        contacts = list(rules.loc[rid, "contact_frames"]) if rid in rules.index else []
+        if len(contacts) <= shot + 1:
+            continue
+        xy = g[["x", "y"]].to_numpy(float)
+        c0, c1 = int(contacts[shot]), int(contacts[shot + 1])
+        d = xy[c1] - xy[c0]
+        need = float(np.hypot(*d))
+        k = np.arange(min(frames, len(xy) - 1 - c0))
+        if need < CHASE_MIN_M or not len(k):
+            continue
+        step = (xy[c0 + k + 1] - xy[c0 + k]) @ (d / need) * data.fps
+        rows.append(pd.DataFrame({"rally_id": rid, "k": k, "need_m": need, "speed_mps": step}))
+    if not rows:
+        return pd.DataFrame(columns=["rally_id", "k", "need_m", "speed_mps"])
+    return pd.concat(rows, ignore_index=True)
+
+
 @torch.no_grad()
 def _teacher_forced_speed_change(model, vocab: Vocab, truth: RallyData, rules: pd.DataFrame,
                                  shot: int, frames: int, slot: int, direction, draws: int,
@@ -143,9 +170,11 @@ def chase_curves(sim, truth: RallyData, shot: int = 1, frames: int = CHASE_FRAME
     contact to where he stood at his own), the record's change of that speed over the next
     frame (`dv_record`) and the model's expected change at the same states (`dv_model`), over
     the `n` rallies whose ball was answered, by how far he had to go (`need_m`: up to 2 m,
-    2-4 m, beyond). A model that brakes too early teacher-forced has a fitting problem; one
-    that matches here and still arrives late in its rollouts (`eval.reach`, `toward_mps`) has
-    a problem with its own states."""
+    2-4 m, beyond); and the same speed in the model's branches rolled out from 3 frames after
+    that contact (`branch_speed_mps` over `n_branch` branches whose player struck the ball,
+    along the line to his own strike). A model that brakes too early teacher-forced has a
+    fitting problem; one that matches on the record and in branches that reach the ball loses
+    balls by the ones it does not reach (`eval.reach`)."""
     if shot < 0:
         raise ValueError(f"shot counts contacts from the serve (>= 0), got {shot}")
     if frames < bin_frames or bin_frames < 1:
@@ -163,11 +192,23 @@ def chase_curves(sim, truth: RallyData, shot: int = 1, frames: int = CHASE_FRAME
     tf = _teacher_forced_speed_change(sim.model, sim.vocab, truth, rules, shot, frames,
                                       (shot + 1) % 2, towards_the_strike, draws, seed, 16)
     tf["need_m"] = tf["rally_id"].map(need_m)
-    tf["need"] = pd.cut(tf["need_m"], [0.0, 2.0, 4.0, np.inf], labels=["<2 m", "2-4 m", ">4 m"])
-    tf["frames_after"] = tf["k"] // bin_frames * bin_frames
-    table = tf.groupby(["need", "frames_after"], observed=True).agg(
+    if shot == 0:
+        branches, _ = serve_branches(sim, truth, seed=seed, horizon_s=BRANCH_HORIZON_S)
+    else:
+        branches, _ = shot_branches(sim, truth, shot=shot, seed=seed,
+                                    truth_out=shot_outcomes(truth, shot, rules),
+                                    horizon_s=BRANCH_HORIZON_S)
+    br = _chase_tracks(branches, analyse_rally_data(branches), shot, frames)
+    keys = ["need", "frames_after"]
+    for t in (tf, br):
+        t["need"] = pd.cut(t["need_m"].astype(float), [0.0, 2.0, 4.0, np.inf],
+                           labels=["<2 m", "2-4 m", ">4 m"])
+        t["frames_after"] = t["k"] // bin_frames * bin_frames
+    table = tf.groupby(keys, observed=True).agg(
         n=("rally_id", "nunique"), speed_mps=("speed_mps", "mean"),
         dv_record=("dv_record", "mean"), dv_model=("dv_model", "mean"))
+    table = table.join(br.groupby(keys, observed=True).agg(
+        n_branch=("rally_id", "nunique"), branch_speed_mps=("speed_mps", "mean")))
     return table.reset_index()
 
 
