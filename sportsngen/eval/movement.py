@@ -38,22 +38,30 @@ BIN_FRAMES = 5
 BRANCH_HORIZON_S = 4.0    # the next shot's flight and the run after it
 
 
+def _player_runs(data: RallyData, rules: pd.DataFrame, slot: int, min_contacts: int):
+    """(rally_id, the (T, 2) track of player `slot` (0 the server, 1 the receiver), the
+    rally's contact frames) for each rally with at least `min_contacts` contacts."""
+    f = data.frames.merge(data.rallies[["rally_id", "server", "receiver"]], on="rally_id")
+    who = "server" if slot == 0 else "receiver"
+    f = f[f["object"] == f[who]].sort_values(["rally_id", "frame"])
+    for rid, g in f.groupby("rally_id", sort=False):
+        if rid not in rules.index:
+            continue
+        contacts = [int(c) for c in rules.loc[rid, "contact_frames"]]
+        if len(contacts) >= min_contacts:
+            yield rid, g[["x", "y"]].to_numpy(float), contacts
+
+
 def _hitter_tracks(data: RallyData, rules: pd.DataFrame, shot: int, frames: int,
                    ids=None) -> pd.DataFrame:
     """Per rally that played shot `shot`: the hitter's distance behind his baseline and speed
     away from the net at each of the `frames` frames from the contact (long form)."""
-    f = data.frames.merge(data.rallies[["rally_id", "server", "receiver"]], on="rally_id")
-    who = "server" if shot % 2 == 0 else "receiver"
-    f = f[f["object"] == f[who]].sort_values(["rally_id", "frame"])
     rows = []
-    for rid, g in f.groupby("rally_id", sort=False):
-        if (ids is not None and rid not in ids) or rid not in rules.index:
+    for rid, xy, contacts in _player_runs(data, rules, shot % 2, shot + 1):
+        if ids is not None and rid not in ids:
             continue
-        contacts = list(rules.loc[rid, "contact_frames"])
-        if len(contacts) <= shot:
-            continue
-        behind = np.abs(g["x"].to_numpy(float)) - BASELINE_X_M
-        c = int(contacts[shot])
+        behind = np.abs(xy[:, 0]) - BASELINE_X_M
+        c = contacts[shot]
         k = np.arange(min(frames, len(behind) - 1 - c))
         if len(k):
             rows.append(pd.DataFrame({"rally_id": rid, "k": k, "behind_m": behind[c + k],
@@ -69,16 +77,9 @@ def _chase_tracks(data: RallyData, rules: pd.DataFrame, shot: int, frames: int
     """Per rally whose ball of shot `shot` was answered: the answering player's speed along
     the line from where he stood at that contact to where he stood at his own, at each of the
     `frames` frames from the first (long form, with his run's length `need_m`)."""
-    f = data.frames.merge(data.rallies[["rally_id", "server", "receiver"]], on="rally_id")
-    who = "server" if (shot + 1) % 2 == 0 else "receiver"
-    f = f[f["object"] == f[who]].sort_values(["rally_id", "frame"])
     rows = []
-    for rid, g in f.groupby("rally_id", sort=False):
-        contacts = list(rules.loc[rid, "contact_frames"]) if rid in rules.index else []
-        if len(contacts) <= shot + 1:
-            continue
-        xy = g[["x", "y"]].to_numpy(float)
-        c0, c1 = int(contacts[shot]), int(contacts[shot + 1])
+    for rid, xy, contacts in _player_runs(data, rules, (shot + 1) % 2, shot + 2):
+        c0, c1 = contacts[shot], contacts[shot + 1]
         d = xy[c1] - xy[c0]
         need = float(np.hypot(*d))
         k = np.arange(min(frames, len(xy) - 1 - c0))
@@ -94,7 +95,7 @@ def _chase_tracks(data: RallyData, rules: pd.DataFrame, shot: int, frames: int
 @torch.no_grad()
 def _teacher_forced_speed_change(model, vocab: Vocab, truth: RallyData, rules: pd.DataFrame,
                                  shot: int, frames: int, slot: int, direction, draws: int,
-                                 seed: int, batch_size: int) -> pd.DataFrame:
+                                 seed: int, batch_size: int = 16) -> pd.DataFrame:
     """Per rally and frame k after the contact of shot `shot` (long form): player `slot`'s
     change of speed along a horizontal unit vector over the next frame, the record's
     (`dv_record`) and the model's expected one at the same state (`dv_model`, the mean of
@@ -190,7 +191,7 @@ def chase_curves(sim, truth: RallyData, shot: int = 1, frames: int = CHASE_FRAME
         return None if need_m[rid] < CHASE_MIN_M else d / need_m[rid]
 
     tf = _teacher_forced_speed_change(sim.model, sim.vocab, truth, rules, shot, frames,
-                                      (shot + 1) % 2, towards_the_strike, draws, seed, 16)
+                                      (shot + 1) % 2, towards_the_strike, draws, seed)
     tf["need_m"] = tf["rally_id"].map(need_m)
     if shot == 0:
         branches, _ = serve_branches(sim, truth, seed=seed, horizon_s=BRANCH_HORIZON_S)
