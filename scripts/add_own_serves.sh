@@ -7,12 +7,16 @@
 # docs/evaluation.md, twenty-first part). 3,000 steps at lr 3e-4, kept at the best validation
 # NLL. Then the sampling defaults: FORCE=1 adds the forced strike where the rule for balls in
 # reach gives up (strike_in_reach_force), and the rule's reach is REACH metres (1.5, the
-# generator's players' reach; docs/evaluation.md, twenty-third part). Then the rally-outcome
-# calibrator refitted on the new file (200 rallies, 32 rollouts each). As run: about 10
-# minutes at two threads for the fit, 60-90 for the calibrator.
+# generator's players' reach; docs/evaluation.md, twenty-third part). Then the per-server
+# shifts of the serve head's odds of a long and a wide serve (scripts/fit_serve_bias.py on the
+# training split's serves and those of conf/data/synthetic_named.yaml; twenty-fourth part).
+# Then the rally-outcome calibrator refitted on the new file (200 rallies, 32 rollouts each).
+# As run: about 10 minutes at two threads for the fit, 5 for the shifts, 60-90 for the
+# calibrator. (The bundled file's calibrator is the one fitted before the shifts were added:
+# the calibrator stage was not re-run for them.)
 #
-#   scripts/add_own_serves.sh                     # the fit and defaults, then the calibrator
-#   STAGES="fit" scripts/add_own_serves.sh        # the fit and defaults only
+#   scripts/add_own_serves.sh                     # the fit, defaults and shifts, then the calibrator
+#   STAGES="fit bias" scripts/add_own_serves.sh   # the fit, defaults and shifts only
 #   DEST=other.pt RUN_DIR=dir scripts/add_own_serves.sh   # elsewhere than the bundled file
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -21,7 +25,7 @@ RUN=${RUN_DIR:-outputs/own_serves}
 DEST=${DEST:-sportsngen/model/bundled/sportsngen-small.pt}
 FORCE=${FORCE:-1}
 REACH=${REACH:-1.5}
-STAGES=${STAGES:-"fit calibrator"}
+STAGES=${STAGES:-"fit bias calibrator"}
 mkdir -p "$RUN"
 BASE="$RUN/base.pt"
 [ -f "$BASE" ] || git show 0b2b131:sportsngen/model/bundled/sportsngen-small.pt > "$BASE"
@@ -35,6 +39,10 @@ for s in $STAGES; do
             "$PY" scripts/set_sim_defaults.py "$DEST" strike_in_reach_force=true
         fi
         "$PY" scripts/set_sim_defaults.py "$DEST" strike_in_reach_m="$REACH"
+        ;;
+    bias)
+        "$PY" scripts/fit_serve_bias.py --model "$DEST" --more-data synthetic_named \
+            --out "$DEST" 2>&1 | grep -v "it/s"
         ;;
     calibrator) RALLIES=200 N=32 PYTHON="$PY" scripts/fit_calibrator.sh "$DEST" ;;
     *)  echo "unknown stage $s" >&2; exit 2 ;;

@@ -2,13 +2,14 @@
 
     .venv/bin/python scripts/fit_head.py --model FILE --out FILE [--head serve|strike]
         [--steps 4000] [--lr 1e-3] [--batch-size 256] [--seed 0] [--threads 2]
-        [--more-points N --more-seed S] [--no-flip] [--states FILE] [--strike-roles]
-        [--own-serves]
+        [--more-points N --more-seed S] [--more-data NAME] [--no-flip] [--states FILE]
+        [--strike-roles] [--own-serves]
 
 The rallies are the file's own training data and split (`extra.split`: the data config, the
 validation fraction and seed), so the validation NLL is on the rallies its last stage held
 out, and with `--more-points N` also N points generated from the same config with another
-seed (training only); the head ends at its best validation NLL
+seed (training only), or with `--more-data NAME` the points of conf/data/NAME.yaml (e.g.
+synthetic_named, the named players' round robins); the head ends at its best validation NLL
 (`sportsngen.train.head_fit`). Everything else in the file (other weights, sampling defaults,
 calibrator) is copied unchanged. `--states FILE` keeps the states read (minutes for the strike
 head) in FILE and reads them from there on the next run with the same model and options.
@@ -27,6 +28,7 @@ from sportsngen.data.tokens import rally_arrays
 from sportsngen.model.export import load_model, read_extra, save_model
 from sportsngen.sim.simulator import Simulator, model_path
 from sportsngen.train.datamodule import load_rally_data, split_rallies
+from sportsngen.train.evaluate import data_config
 from sportsngen.train.finetune import with_strike_roles
 from sportsngen.train.head_fit import HEADS, HeadStates, collect_head_states, fit_head
 from sportsngen.train.own_states import own_serve_states
@@ -46,10 +48,16 @@ def _read_states(model, vocab, split: dict, args) -> tuple[HeadStates, HeadState
         print(f"{len(own[0])} training and {len(own[1])} validation serves played from the "
               "model's own tosses")
         tr, va = HeadStates.concat([tr, own[0]]), HeadStates.concat([va, own[1]])
-    if args.more_points > 0:
-        more = {**split["data"], "n_points": args.more_points, "seed": args.more_seed}
-        if int(more["seed"]) == int(split["data"].get("seed", 0)):
-            raise SystemExit("--more-seed must differ from the data's own seed")
+    if args.more_data or args.more_points > 0:
+        more = data_config(args.more_data) if args.more_data else dict(split["data"])
+        if args.more_points > 0:
+            more["n_points"] = args.more_points
+        if not args.more_data or args.more_seed is not None:
+            more["seed"] = 1000 if args.more_seed is None else args.more_seed
+        if more == split["data"] or (not args.more_data and int(more["seed"]) == int(
+                split["data"].get("seed", 0))):
+            raise SystemExit("the more points would repeat the file's own data: give another "
+                             "--more-seed")
         extra_arrays = rally_arrays(load_rally_data(more), vocab)
         tr = HeadStates.concat([tr, collect_head_states(model, extra_arrays, args.head,
                                                         flip=not args.no_flip)])
@@ -70,7 +78,12 @@ def main() -> None:
     ap.add_argument("--more-points", type=int, default=0,
                     help="also train on this many more points generated as the file's data "
                          "with another seed (--more-seed): more serves of every player")
-    ap.add_argument("--more-seed", type=int, default=1000)
+    ap.add_argument("--more-seed", type=int, default=None,
+                    help="the more points' seed (default 1000, or --more-data's own)")
+    ap.add_argument("--more-data", default=None,
+                    help="draw the more points from this data config (conf/data/NAME.yaml), "
+                         "e.g. synthetic_named: the named players' round robins, several "
+                         "times each named player's serves in the file's own data")
     ap.add_argument("--no-flip", action="store_true",
                     help="train on the windows as recorded only (default: also turned about "
                          "the net's centre, as training's augmentation does)")
@@ -101,7 +114,10 @@ def main() -> None:
                          "say which rallies it learnt from")
     t0 = time.time()
     key = {"model": str(path), "head": args.head, "flip": not args.no_flip,
-           "more_points": args.more_points, "more_seed": args.more_seed}
+           "more_points": args.more_points,
+           "more_seed": 1000 if args.more_seed is None else args.more_seed}
+    if args.more_data:        # (caches written before the option keep their key)
+        key["more_data"] = args.more_data
     if args.own_serves:       # (caches written before the option keep their key)
         key.update(own_serves=True, seed=args.seed)
     if args.states and Path(args.states).exists():

@@ -54,7 +54,10 @@ def teacher_forced_serves(model, arrays, draws: int = 6, seed: int = 0) -> pd.Da
     edges = strike.serve_edges()
     gen = torch.Generator().manual_seed(seed)
     rng = np.random.default_rng(seed)
-    idx = torch.stack([model.serve_head.sample(st.h, 1.0, gen) for _ in range(draws)], 1)
+    bias = model.serve_head_bias(torch.as_tensor(st.server_id), torch.as_tensor(st.serve),
+                                 torch.as_tensor(st.contact_m, dtype=torch.float32))
+    idx = torch.stack([model.serve_head.sample(st.h, 1.0, gen, dim_bias=bias)
+                       for _ in range(draws)], 1)
     rec_vals = strike.strike_bin_value(st.bins.numpy(), rng.random((len(st), 4)), edges)
     mod_vals = strike.strike_bin_value(idx.numpy(), rng.random(tuple(idx.shape)), edges)
     fps = model.cfg.fps

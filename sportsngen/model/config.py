@@ -89,6 +89,11 @@ class ModelConfig:
     # its speed come from a distribution over those, not from the ball's bins under a nucleus.
     # False: serves are drawn in the ball's bins.
     serve_head: bool = False
+    # A table of per-server shifts of the serve head's odds of a long and a wide serve
+    # (`model.serve_bias`, fitted by `train.serve_bias` after the head; zero until then): the
+    # head reads the server only through the ball's state and draws every named player's
+    # faults near the average player's (docs/evaluation.md, twenty-fourth part).
+    serve_bias: bool = False
     player_max_speed_mps: float = 10.0   # bin range: offsets up to this speed over one frame
     ball_max_speed_mps: tuple[float, float, float] = (80.0, 40.0, 40.0)
     window_s: float = 6.0
@@ -143,6 +148,9 @@ class ModelConfig:
             raise ValueError("model.d_model (event_d_model) must be divisible by n_heads "
                              f"(event_heads): {self.d_model}/{self.n_heads}, "
                              f"{self.event_d_model}/{self.event_heads}")
+        if self.serve_bias and not self.serve_head:
+            raise ValueError("model.serve_bias shifts the serve head's odds: it needs "
+                             "serve_head=True")
         if self.n_bins < 3 or self.n_bins % 2 == 0:
             raise ValueError(f"model.n_bins must be odd and >= 3 (a bin centred on 0), "
                              f"got {self.n_bins}")

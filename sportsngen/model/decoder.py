@@ -25,7 +25,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from sportsngen.data.tokens import BALL, GENERIC_ID, N_FEATURES, N_OBJECTS, N_SPECIAL_IDS
-from sportsngen.model import strike, strike_heads
+from sportsngen.model import serve_bias, strike, strike_heads
 from sportsngen.model.bins import Bins
 from sportsngen.model.centre import object_centres_m
 from sportsngen.model.config import FEATURE_GROUPS, ModelConfig
@@ -205,6 +205,10 @@ class SportsNGEN(nn.Module):
             # Zero: a file without the shift reads the same with it.
             self.strike_role = nn.Embedding(strike_heads.N_STRIKE_ROLES, cfg.d_model)
             nn.init.zeros_(self.strike_role.weight)
+        # Fitted by moment matching (`train.serve_bias`), not by gradient: a buffer, zero until
+        # then, so the head draws as without it.
+        self.register_buffer("serve_bias", torch.zeros(cfg.n_ids, serve_bias.N_SERVES, 2)
+                             if cfg.serve_bias else None)
 
     # --- inputs -------------------------------------------------------------------------------
     def _ident(self, ident: torch.Tensor) -> torch.Tensor:
@@ -421,6 +425,16 @@ class SportsNGEN(nn.Module):
             out[mask] = head.nll(x if role is None else self.strike_input(x, role), bins[mask])
         return out
 
+    def serve_head_bias(self, server_ident: torch.Tensor | None, serve: torch.Tensor | None,
+                        contact_m: torch.Tensor) -> torch.Tensor | None:
+        """The serve head's logit shifts (N, 4, bins) for serves of `server_ident` (N,) on
+        serve `serve` (N,) struck at `contact_m` (N, 3) (`model.serve_bias`); None where the
+        model has no table or the server or the serve is not given."""
+        if self.serve_bias is None or server_ident is None or serve is None:
+            return None
+        return serve_bias.serve_dim_bias(self.serve_bias, self._ident(server_ident), serve,
+                                         contact_m)
+
     @torch.no_grad()
     def place_strikes(self, h: torch.Tensor, pos_m: torch.Tensor, vel_mps: torch.Tensor,
                       nxt: torch.Tensor, generator: torch.Generator | None = None,
@@ -428,19 +442,27 @@ class SportsNGEN(nn.Module):
                       allowed: torch.Tensor | None = None,
                       forced: torch.Tensor | None = None,
                       top_p_serve: float = 1.0,
-                      serve: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+                      serve: torch.Tensor | None = None,
+                      server_ident: torch.Tensor | None = None
+                      ) -> tuple[torch.Tensor, torch.Tensor]:
         """This model's strike and serve heads' draws placed in the sampled frames `nxt`
         (`strike_heads.place_strikes`; `serve` (B,) the rallies' serve, 0 first, 1 second,
-        where `cfg.strike_roles`). -> (nxt, the launches' next two frames (B, 2, 3))."""
+        where `cfg.strike_roles` or `cfg.serve_bias`; `server_ident` (B,) the servers'
+        identities, which `cfg.serve_bias` reads). -> (nxt, the launches' next two frames
+        (B, 2, 3))."""
         strike_h = None
         if self.strike_role is not None:
             if serve is None:
                 raise ValueError("this model's strike head reads the serve (cfg.strike_roles): "
                                  "give serve")
             strike_h = self.strike_input(h[:, BALL], strike_heads.strike_role_index(pos_m, serve))
+        serve_shift = None
+        if self.serve_bias is not None and server_ident is not None and serve is not None:
+            def serve_shift(rows: torch.Tensor) -> torch.Tensor:
+                return self.serve_head_bias(server_ident[rows], serve[rows], pos_m[rows, BALL])
         return strike_heads.place_strikes(self.strike_head, self.serve_head, h, pos_m, vel_mps,
                                           nxt, self.cfg.fps, generator, top_p, allowed, forced,
-                                          top_p_serve, strike_h)
+                                          top_p_serve, strike_h, serve_shift)
 
     def nll(self, h: torch.Tensor, player_idx: torch.Tensor, ball_idx: torch.Tensor):
         """Per-token NLL: players (..., 2), ball (...)."""

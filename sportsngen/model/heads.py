@@ -69,27 +69,34 @@ class FactorisedHead(nn.Module):
                           nn.Linear(hidden, n_bins))
             for k in range(dims - 1))
 
-    def dim_logits(self, h: torch.Tensor, prev: torch.Tensor, k: int) -> torch.Tensor:
-        """Logits of dimension k given the bins `prev` (..., >= k) of dimensions 0..k-1."""
+    def dim_logits(self, h: torch.Tensor, prev: torch.Tensor, k: int,
+                   dim_bias: torch.Tensor | None = None) -> torch.Tensor:
+        """Logits of dimension k given the bins `prev` (..., >= k) of dimensions 0..k-1;
+        `dim_bias` (..., dims, n_bins): added to each dimension's logits (e.g. the serve head's
+        per-server shift, `model.serve_bias`)."""
         if k == 0:
-            return F.linear(h, self.first.weight, self.first.bias)
-        embs = [F.embedding(prev[..., j], self.bin_emb[j].weight) for j in range(k)]
-        return run_mlp(self.cond[k - 1], torch.cat([h, *embs], dim=-1))
+            out = F.linear(h, self.first.weight, self.first.bias)
+        else:
+            embs = [F.embedding(prev[..., j], self.bin_emb[j].weight) for j in range(k)]
+            out = run_mlp(self.cond[k - 1], torch.cat([h, *embs], dim=-1))
+        return out if dim_bias is None else out + dim_bias[..., k, :]
 
-    def nll(self, h: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:
+    def nll(self, h: torch.Tensor, idx: torch.Tensor,
+            dim_bias: torch.Tensor | None = None) -> torch.Tensor:
         """Teacher-forced: sum over dimensions of -log p(idx_k | h, idx_<k)."""
         total = 0.0
         for k in range(self.dims):
-            logits = self.dim_logits(h, idx, k)
+            logits = self.dim_logits(h, idx, k, dim_bias)
             total = total + F.cross_entropy(logits.reshape(-1, self.n_bins),
                                             idx[..., k].reshape(-1),
                                             reduction="none").reshape(idx.shape[:-1])
         return total
 
-    def _decode(self, h: torch.Tensor, pick) -> torch.Tensor:
+    def _decode(self, h: torch.Tensor, pick, dim_bias: torch.Tensor | None = None
+                ) -> torch.Tensor:
         chosen = torch.zeros(*h.shape[:-1], self.dims, dtype=torch.long, device=h.device)
         for k in range(self.dims):
-            chosen[..., k] = pick(self.dim_logits(h, chosen, k))
+            chosen[..., k] = pick(self.dim_logits(h, chosen, k, dim_bias))
         return chosen
 
     def top1(self, h: torch.Tensor) -> torch.Tensor:
@@ -99,12 +106,15 @@ class FactorisedHead(nn.Module):
     def sample(self, h: torch.Tensor, top_p: float = 1.0,
                generator: torch.Generator | None = None,
                regions: torch.Tensor | None = None,
-               top_p_regions: float | None = None) -> torch.Tensor:
+               top_p_regions: float | None = None,
+               dim_bias: torch.Tensor | None = None) -> torch.Tensor:
         """Dimension by dimension, each with its own nucleus (the first inside `regions`).
         `top_p_regions`: the nucleus of every dimension of a row whose first falls in
-        `regions` (default `top_p`)."""
+        `regions` (default `top_p`); `dim_bias` as in `dim_logits` (without `regions`)."""
         if regions is None:
-            return self._decode(h, lambda lg: sample_top_p(lg, top_p, generator))
+            return self._decode(h, lambda lg: sample_top_p(lg, top_p, generator), dim_bias)
+        if dim_bias is not None:
+            raise ValueError("dim_bias is not taken with regions")
         chosen = torch.zeros(*h.shape[:-1], self.dims, dtype=torch.long, device=h.device)
         chosen[..., 0] = sample_top_p_in_regions(self.dim_logits(h, chosen, 0), regions, top_p,
                                                  generator, top_p_regions)

@@ -9,6 +9,8 @@ its own).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import torch
 
@@ -79,7 +81,9 @@ def place_strikes(strike_head, serve_head, h: torch.Tensor, pos_m: torch.Tensor,
                   generator: torch.Generator | None = None, top_p: float = 1.0,
                   allowed: torch.Tensor | None = None, forced: torch.Tensor | None = None,
                   top_p_serve: float = 1.0,
-                  strike_h: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+                  strike_h: torch.Tensor | None = None,
+                  serve_bias: Callable[[torch.Tensor], torch.Tensor] | None = None
+                  ) -> tuple[torch.Tensor, torch.Tensor]:
     """Where the sampled next frames `nxt` (B, 3, 3) hold a rally strike, or in the rows
     `forced` (B,) bool whatever they hold (in the rows `allowed`, (B,) bool, default all),
     `strike_head`'s draw from the decoder's states `h` (B, 3, D) instead: its bins (nucleus
@@ -88,7 +92,9 @@ def place_strikes(strike_head, serve_head, h: torch.Tensor, pos_m: torch.Tensor,
     `top_p_serve`; `strike.solve_serve`). Either head may be None. Returns (nxt, the launch's
     next two frames (B, 2, 3), NaN for rows without a strike or whose launch was not found).
     `strike_h` (B, D): the strike head's input where it is not the ball token's state
-    (`SportsNGEN.strike_input`)."""
+    (`SportsNGEN.strike_input`); `serve_bias`: the served rows (R,) -> the shifts of the serve
+    head's logits for them (R, 4, bins) (`SportsNGEN.serve_head_bias`), asked only on a frame
+    that holds a serve."""
     plan = torch.full((len(nxt), 2, 3), float("nan"), device=nxt.device)
     if strike_head is None and serve_head is None:
         return nxt, plan
@@ -102,17 +108,18 @@ def place_strikes(strike_head, serve_head, h: torch.Tensor, pos_m: torch.Tensor,
         if forced is not None:
             struck |= forced.cpu().numpy()
         parts.append((struck & allow, strike_head, None, strike.solve_launch, top_p,
-                      h[:, BALL] if strike_h is None else strike_h))
+                      h[:, BALL] if strike_h is None else strike_h, None))
     if serve_head is not None:
         served = strike.is_serve(ball, vel, nxt_ball, fps) & allow
         parts.append((served, serve_head, strike.serve_edges(), strike.solve_serve, top_p_serve,
-                      h[:, BALL]))
-    for struck, head, edges, solve, p, states in parts:
+                      h[:, BALL], serve_bias))
+    for struck, head, edges, solve, p, states, bias in parts:
         rows = np.flatnonzero(struck)
         if len(rows) == 0:
             continue
         r = torch.as_tensor(rows, device=h.device)
-        idx = head.sample(states[r], p, generator)
+        idx = (head.sample(states[r], p, generator) if bias is None
+               else head.sample(states[r], p, generator, dim_bias=bias(r)))
         u = uniform_in_bin(idx.shape, h.device, generator)
         values = strike.strike_bin_value(idx.cpu().numpy(), u.double().cpu().numpy(), edges)
         contact = ball[rows]                  # the contact is taken on the struck frame

@@ -136,15 +136,22 @@ def graft_strike_head(model: SportsNGEN, donor: SportsNGEN) -> SportsNGEN:
 
 
 @torch.no_grad()
+def with_flag(model: SportsNGEN, flag: str, added: list[str]) -> SportsNGEN:
+    """`model` with the boolean config `flag` turned on, whose new tensors (`added`, the
+    state-dict keys) start as the model builds them and everything else is copied. -> a new
+    model (the same one if the flag is on)."""
+    if getattr(model.cfg, flag):
+        return model
+    new = SportsNGEN(dataclasses.replace(model.cfg, **{flag: True}))
+    missing, unexpected = new.load_state_dict(model.state_dict(), strict=False)
+    assert list(missing) == added and not unexpected, (missing, unexpected)
+    return new.train(model.training)
+
+
 def with_strike_roles(model: SportsNGEN) -> SportsNGEN:
     """`model` with the strike head's role shift added (`cfg.strike_roles`), at zero: it draws
     as before until the shift is fitted (`train.head_fit.fit_head`). -> a new model."""
-    if model.cfg.strike_roles:
-        return model
-    new = SportsNGEN(dataclasses.replace(model.cfg, strike_roles=True))
-    missing, unexpected = new.load_state_dict(model.state_dict(), strict=False)
-    assert list(missing) == ["strike_role.weight"] and not unexpected, (missing, unexpected)
-    return new.train(model.training)
+    return with_flag(model, "strike_roles", ["strike_role.weight"])
 
 
 def freeze_except_identity(model: SportsNGEN, rows: list[int]) -> None:

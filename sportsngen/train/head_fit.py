@@ -45,6 +45,7 @@ class HeadStates:
     serve: np.ndarray        # (N,) 0 first serve, 1 second serve (the rally's)
     contact_m: np.ndarray    # (N, 3) the ball where it is struck (the target's frame)
     receiver: np.ndarray     # (N,) bool: the hitter is the rally's receiver (the ball on his end)
+    server_id: np.ndarray    # (N,) int64: the rally's server's identity (the Vocab's index)
 
     def __len__(self) -> int:
         return len(self.bins)
@@ -53,7 +54,8 @@ class HeadStates:
     def concat(parts: list[HeadStates]) -> HeadStates:
         return HeadStates(torch.cat([p.h for p in parts]), torch.cat([p.bins for p in parts]),
                           *(np.concatenate([getattr(p, k) for p in parts])
-                            for k in ("rally_id", "serve", "contact_m", "receiver")))
+                            for k in ("rally_id", "serve", "contact_m", "receiver",
+                                      "server_id")))
 
 
 def _head(model: SportsNGEN, which: str):
@@ -88,7 +90,7 @@ def collect_head_states(model: SportsNGEN, arrays: RallyArrays, which: str = "se
     loader = DataLoader(ds, batch_size=batch_size, shuffle=False, collate_fn=default_collate)
     turns = (False, True) if flip and model.cfg.frame == "world" else (False,)
     batches = ((_turned(b) if t else b) for t in turns for b in loader)
-    hs, bins, rid, srv, contact, receiver = [], [], [], [], [], []
+    hs, bins, rid, srv, contact, receiver, server_id = [], [], [], [], [], [], []
     for batch in tqdm(batches, desc=f"{which} states", total=len(loader) * len(turns),
                       disable=not progress):
         mask, b = model.strike_targets(batch["pos_m"], batch["vel_mps"], batch["next_pos_m"],
@@ -107,11 +109,13 @@ def collect_head_states(model: SportsNGEN, arrays: RallyArrays, which: str = "se
         srv.append(batch["serve"][rows].numpy())
         contact.append(batch["pos_m"][..., BALL, :][mask].double().numpy())
         receiver.append(strike_heads.ball_on_receivers_end(batch["pos_m"][mask]).numpy())
+        server_id.append(batch["ident"][rows, 0].numpy())
     model.train(was_training)
     if not hs:
         raise ValueError(f"no {which} targets in the {len(arrays)} rallies given")
     return HeadStates(torch.cat(hs), torch.cat(bins), np.concatenate(rid), np.concatenate(srv),
-                      np.concatenate(contact), np.concatenate(receiver))
+                      np.concatenate(contact), np.concatenate(receiver),
+                      np.concatenate(server_id).astype(np.int64))
 
 
 def _fitted(model: SportsNGEN, which: str) -> list[torch.nn.Module]:

@@ -55,5 +55,5 @@ def own_serve_states(sim, data: RallyData, arrays: RallyArrays, seed: int = 0,
     both = first_own.index.intersection(first_rec.index)
     o, r = first_own[both].to_numpy(), first_rec[both].to_numpy()
     own = HeadStates(states.h[o], record.bins[r], record.rally_id[r], record.serve[r],
-                     states.contact_m[o], states.receiver[o])
+                     states.contact_m[o], states.receiver[o], states.server_id[o])
     return record, own

@@ -1,0 +1,58 @@
+"""A per-server shift of the serve head's odds of a long and of a wide serve.
+
+The serve head reads the server only through the decoder's ball state at the toss. Fitted on
+every player's serves, it draws every named player's faults near the average player's: on the
+serves it was fitted on, its mass beyond the service line on second serves is 0.043-0.089 for
+every named server against records of 0.011-0.099, and four times each named player's serves
+did not move it (docs/evaluation.md, twenty-fourth part). `ModelConfig.serve_bias` adds a
+table of logit shifts, per player identity and serve (first, second), one added to the depth
+bins beyond the service line and one to the lateral bins outside the box the serve is aimed
+at; `sportsngen.train.serve_bias` fits it after the head, matching the head's mean odds on a
+server's recorded serves to his record's shares.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from sportsngen.model import strike
+from sportsngen.tennis.court import SERVICE_LINE_X_M, SINGLES_HALF_WIDTH_M
+
+LONG, WIDE = 0, 1          # the table's last axis
+N_SERVES = 2               # first, second
+
+
+def long_fraction() -> np.ndarray:
+    """(STRIKE_BINS,) the share of each serve depth bin beyond the service line (one bin
+    straddles it: the edges fall on the baseline, not on the service line)."""
+    e = strike.serve_edges()[0]
+    return np.clip((e[1:] - SERVICE_LINE_X_M) / (e[1:] - e[:-1]), 0.0, 1.0)
+
+
+_LONG_BINS = long_fraction() > 0.5
+_LATERAL_CENTRES_M = 0.5 * (strike.serve_edges()[1, 1:] + strike.serve_edges()[1, :-1])
+
+
+def wide_bins(contact_m: torch.Tensor) -> torch.Tensor:
+    """Serves struck at `contact_m` (N, 3) -> (N, STRIKE_BINS) bool: the lateral bins that put
+    the serve outside the box diagonally opposite (the other box included). A serve's lateral is
+    in the hitter's view (`eval.serve_draws.serve_faults` reads it the same way); the lateral
+    edges fall on the centre and singles lines, so a bin is wholly in or out."""
+    centre = torch.as_tensor(_LATERAL_CENTRES_M, dtype=contact_m.dtype, device=contact_m.device)
+    toward = (torch.sign(contact_m[:, 1]) * torch.sign(contact_m[:, 0]))[:, None] * centre
+    return (toward < 0) | (toward > SINGLES_HALF_WIDTH_M)
+
+
+def serve_dim_bias(table: torch.Tensor, server_id: torch.Tensor, serve: torch.Tensor,
+                   contact_m: torch.Tensor) -> torch.Tensor:
+    """The serve head's logit shifts for serves of `server_id` (N,) on serve `serve` (N,; 0
+    first, 1 second) struck at `contact_m` (N, 3), from `table` (n_ids, N_SERVES, 2) -> (N, 4,
+    STRIKE_BINS), zero but on the long depth bins and the wide lateral bins."""
+    n = len(server_id)
+    shift = table[server_id.long(), serve.long().clamp(0, N_SERVES - 1)]      # (N, 2)
+    out = torch.zeros(n, 4, strike.STRIKE_BINS, dtype=table.dtype, device=table.device)
+    long = torch.as_tensor(_LONG_BINS, device=table.device)
+    out[:, 0] = shift[:, LONG, None] * long
+    out[:, 1] = shift[:, WIDE, None] * wide_bins(contact_m.to(table.dtype))
+    return out

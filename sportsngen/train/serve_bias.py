@@ -1,0 +1,96 @@
+"""Fit a model's per-server shifts of the serve head's odds of a long and a wide serve.
+
+`ModelConfig.serve_bias` (`sportsngen.model.serve_bias`) adds to the serve head's logits, per
+server and serve, one shift on the depth bins beyond the service line and one on the lateral
+bins outside the box. Each is found here by matching: on a server's recorded serves (the
+decoder's states read once, `train.head_fit.collect_head_states`), the shift that makes the
+head's mean odds of a long (a wide) serve equal his record's share, pulled toward the head's
+own odds by `prior_serves` pseudo-serves so that a player with few serves moves little. The
+wide odds are read at the record's own depth bin, as the head's teacher-forced loss reads them.
+Both odds rise monotonically with their shift, so a bisection finds it.
+"""
+
+from __future__ import annotations
+
+import pandas as pd
+import torch
+
+from sportsngen.model import serve_bias
+from sportsngen.model.decoder import SportsNGEN
+from sportsngen.train.finetune import with_flag
+from sportsngen.train.head_fit import HeadStates
+
+MAX_SHIFT = 4.0          # logits: odds moved at most e^4 (a fault share 0.05 -> 0.74)
+
+
+def with_serve_bias(model: SportsNGEN) -> SportsNGEN:
+    """`model` with the per-server table added (`cfg.serve_bias`), at zero: it draws as
+    before until `fit_serve_bias` fills it. -> a new model (the same one if it has it)."""
+    return with_flag(model, "serve_bias", ["serve_bias"])
+
+
+def _odds(logits: torch.Tensor, mask: torch.Tensor, weight: torch.Tensor,
+          shift: torch.Tensor) -> torch.Tensor:
+    """Mean over rows of sum_j softmax(logits + shift * mask)_j * weight_j, for each of the
+    candidate shifts (S,) -> (S,)."""
+    lg = logits[None] + shift[:, None, None] * mask[None].to(logits.dtype)
+    return (lg.softmax(-1) * weight[None]).sum(-1).mean(-1)
+
+
+def _solve(logits: torch.Tensor, mask: torch.Tensor, weight: torch.Tensor, target: float,
+           iters: int = 40) -> float:
+    """The shift in [-MAX_SHIFT, MAX_SHIFT] whose mean odds (`_odds`) equal `target`
+    (bisection; the odds rise with the shift)."""
+    lo, hi = -MAX_SHIFT, MAX_SHIFT
+    for _ in range(iters):
+        mid = 0.5 * (lo + hi)
+        if float(_odds(logits, mask, weight, torch.tensor([mid]))[0]) < target:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+@torch.no_grad()
+def fit_serve_bias(model: SportsNGEN, states: HeadStates, prior_serves: float = 100.0,
+                   min_serves: int = 20) -> pd.DataFrame:
+    """Fill `model.serve_bias` (in place) from the recorded serves `states`, per server and
+    serve with at least `min_serves` serves (others keep 0). -> per (server_id, serve): n,
+    the record's long and wide shares, the head's before and after, and the shifts."""
+    if model.serve_bias is None:
+        raise ValueError("the model has no per-server table (cfg.serve_bias): add it with "
+                         "with_serve_bias")
+    if prior_serves < 0 or min_serves < 1:
+        raise ValueError("prior_serves must be >= 0 and min_serves >= 1")
+    head = model.serve_head
+    long_w = torch.as_tensor(serve_bias.long_fraction(), dtype=states.h.dtype)
+    long_mask = long_w > 0.5
+    contact = torch.as_tensor(states.contact_m, dtype=states.h.dtype)
+    rows = []
+    keys = pd.DataFrame({"server_id": states.server_id, "serve": states.serve})
+    for (sid, srv), g in keys.groupby(["server_id", "serve"]):
+        if len(g) < min_serves or not 0 <= srv < serve_bias.N_SERVES:
+            continue
+        i = torch.as_tensor(g.index.to_numpy())
+        h, bins = states.h[i], states.bins[i]
+        n = len(i)
+        depth = head.dim_logits(h, bins, 0)
+        wide = serve_bias.wide_bins(contact[i])
+        lateral = head.dim_logits(h, bins, 1)
+        rec = {"long": float(long_w[bins[:, 0]].mean()),
+               "wide": float(wide[torch.arange(n), bins[:, 1]].float().mean())}
+        row = {"server_id": int(sid), "serve": int(srv), "n": n}
+        for kind, k, logits, mask, weight in (
+                ("long", serve_bias.LONG, depth, long_mask.expand(n, -1), long_w.expand(n, -1)),
+                ("wide", serve_bias.WIDE, lateral, wide, wide.to(h.dtype))):
+            before = float(_odds(logits, mask, weight, torch.zeros(1))[0])
+            target = (n * rec[kind] + prior_serves * before) / (n + prior_serves)
+            shift = _solve(logits, mask, weight, target)
+            model.serve_bias[int(sid), int(srv), k] = shift
+            row.update({f"{kind}_record": rec[kind], f"{kind}_head": before,
+                        f"{kind}_target": target,
+                        f"{kind}_after": float(_odds(logits, mask, weight,
+                                                     torch.tensor([shift]))[0]),
+                        f"{kind}_shift": shift})
+        rows.append(row)
+    return pd.DataFrame(rows)

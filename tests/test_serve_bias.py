@@ -1,0 +1,223 @@
+"""The serve head's per-server shifts of its odds of a long and a wide serve
+(`sportsngen.model.serve_bias`, `sportsngen.train.serve_bias`)."""
+
+import numpy as np
+import pytest
+import torch
+
+from sportsngen.eval.serve_draws import serve_faults
+from sportsngen.model import serve_bias, strike
+from sportsngen.model.config import ModelConfig
+from sportsngen.model.decoder import SportsNGEN
+from sportsngen.model.heads import FactorisedHead
+from sportsngen.tennis.court import SERVICE_LINE_X_M
+from sportsngen.train.head_fit import HeadStates
+from sportsngen.train.serve_bias import fit_serve_bias, with_serve_bias
+
+FPS = 25.0
+
+
+def small_model(**kw) -> SportsNGEN:
+    torch.manual_seed(0)
+    cfg = dict(d_model=32, n_layers=1, n_heads=2, ff_mult=2, dropout=0.0, id_dim=8,
+               embed_hidden=(32,), score_hidden=16, n_bins=9, head="factorised",
+               head_hidden=16, window_s=4.0, fps=FPS, n_ids=6, n_tournaments=2,
+               event_d_model=16, event_layers=1, event_heads=2, ball_centre="physics",
+               serve_head=True)
+    cfg.update(kw)
+    return SportsNGEN(ModelConfig(**cfg)).eval()
+
+
+def test_a_dimensions_bias_is_added_to_its_logits():
+    torch.manual_seed(1)
+    head = FactorisedHead(8, 5, 2, hidden=8)
+    h, idx = torch.randn(4, 8), torch.randint(5, (4, 2))
+    bias = torch.zeros(4, 2, 5)
+    bias[:, 0, 2] = 1.5
+    bias[:, 1, 0] = -0.7
+    got = head.nll(h, idx, dim_bias=bias)
+    lx = head.dim_logits(h, idx, 0) + bias[:, 0]
+    ly = head.dim_logits(h, idx, 1) + bias[:, 1]
+    want = (torch.nn.functional.cross_entropy(lx, idx[:, 0], reduction="none")
+            + torch.nn.functional.cross_entropy(ly, idx[:, 1], reduction="none"))
+    torch.testing.assert_close(got, want)
+    # A bin shifted far down is never drawn; unbiased, the same generator draws as before.
+    bias = torch.zeros(400, 2, 5)
+    bias[:, 0, :4] = -50.0
+    hh = torch.randn(400, 8)
+    assert (head.sample(hh, 1.0, torch.Generator().manual_seed(0), dim_bias=bias)[:, 0]
+            == 4).all()
+    torch.testing.assert_close(
+        head.sample(hh, 1.0, torch.Generator().manual_seed(3)),
+        head.sample(hh, 1.0, torch.Generator().manual_seed(3),
+                    dim_bias=torch.zeros(400, 2, 5)))
+    with pytest.raises(ValueError, match="regions"):
+        head.sample(hh, 0.9, None, regions=torch.ones(5, dtype=torch.bool), dim_bias=bias)
+
+
+def test_the_long_bins_are_those_beyond_the_service_line():
+    frac = serve_bias.long_fraction()
+    e = strike.serve_edges()[0]
+    assert frac.shape == (strike.STRIKE_BINS,)
+    assert (frac[e[1:] <= SERVICE_LINE_X_M] == 0).all()
+    assert (frac[e[:-1] >= SERVICE_LINE_X_M] == 1).all()
+    k = int(np.searchsorted(e, SERVICE_LINE_X_M)) - 1       # the bin across the line
+    assert frac[k] == pytest.approx((e[k + 1] - SERVICE_LINE_X_M) / (e[k + 1] - e[k]))
+    assert 0 < frac[k] < 1 and int(((0 < frac) & (frac < 1)).sum()) == 1
+
+
+@pytest.mark.parametrize("contact", [[11.9, -0.8, 2.9], [11.9, 0.8, 2.9], [-11.9, 0.8, 2.9],
+                                     [-11.9, -0.8, 2.9]])
+def test_the_wide_bins_are_the_lateral_bins_the_fault_reading_calls_wide(contact):
+    e = strike.serve_edges()[1]
+    centres = 0.5 * (e[1:] + e[:-1])
+    values = np.stack([np.full_like(centres, 5.0), centres, np.full_like(centres, 45.0),
+                       np.zeros_like(centres)], -1)
+    read = serve_faults(np.tile(contact, (len(centres), 1)), values, FPS)["wide"]
+    got = serve_bias.wide_bins(torch.tensor([contact], dtype=torch.float32))[0].numpy()
+    assert got.tolist() == (read == 1).tolist()
+    assert 0 < got.sum() < len(got)
+
+
+def _states(model, n_per=(300, 40), seed=0):
+    """Recorded serves of two servers (ids 2 and 3), first serves, with bins drawn so that
+    server 2 serves long 40 % of the time and server 3 5 %."""
+    rng = np.random.default_rng(seed)
+    n = sum(n_per)
+    sid = np.repeat([2, 3], n_per)
+    frac = serve_bias.long_fraction()
+    long_bins, in_bins = np.flatnonzero(frac == 1), np.flatnonzero(frac == 0)
+    want = np.where(sid == 2, 0.4, 0.05)
+    depth = np.where(rng.random(n) < want, rng.choice(long_bins[:8], n),
+                     rng.choice(in_bins[-20:], n))
+    bins = np.stack([depth, rng.integers(40, 56, n), rng.integers(96, size=n),
+                     rng.integers(96, size=n)], -1)
+    contact = np.tile([11.9, -0.8, 2.9], (n, 1))
+    return HeadStates(torch.randn(n, model.cfg.d_model), torch.as_tensor(bins), np.arange(n),
+                      np.zeros(n, dtype=np.int64), contact, np.zeros(n, dtype=bool),
+                      sid.astype(np.int64))
+
+
+def test_the_fit_matches_each_servers_record_pulled_toward_the_head():
+    model = with_serve_bias(small_model())
+    st = _states(model)
+    table = fit_serve_bias(model, st, prior_serves=0.0).set_index("server_id")
+    # Without pseudo-serves the head's mean odds land on each record's share.
+    for sid in (2, 3):
+        r = table.loc[sid]
+        assert r["long_after"] == pytest.approx(r["long_record"], abs=1e-4)
+        assert r["wide_after"] == pytest.approx(r["wide_record"], abs=1e-4)
+    assert table.loc[2, "long_shift"] > table.loc[3, "long_shift"]
+    # The shift is in the table for that server and serve only.
+    assert model.serve_bias[2, 0, serve_bias.LONG] == pytest.approx(table.loc[2, "long_shift"])
+    assert (model.serve_bias[:, 1] == 0).all() and (model.serve_bias[[0, 1, 4, 5]] == 0).all()
+    # With pseudo-serves the target lies between the head and the record, nearer the record
+    # the more serves a server has.
+    pulled = fit_serve_bias(model, st, prior_serves=100.0).set_index("server_id")
+    for sid, n in ((2, 300), (3, 40)):
+        r = pulled.loc[sid]
+        w = n / (n + 100.0)
+        assert r["long_target"] == pytest.approx(w * r["long_record"] + (1 - w) * r["long_head"])
+    # Too few serves: left at zero.
+    fresh = with_serve_bias(small_model())
+    assert 3 not in set(fit_serve_bias(fresh, st, min_serves=50)["server_id"])
+    assert (fresh.serve_bias[3] == 0).all()
+
+
+def test_the_fitted_model_draws_each_servers_long_share():
+    model = with_serve_bias(small_model())
+    st = _states(model, n_per=(400, 400), seed=1)
+    fit_serve_bias(model, st, prior_serves=0.0)
+    bias = model.serve_head_bias(torch.as_tensor(st.server_id), torch.as_tensor(st.serve),
+                                 torch.as_tensor(st.contact_m, dtype=torch.float32))
+    frac = serve_bias.long_fraction()
+    draws = torch.stack([model.serve_head.sample(st.h, 1.0, torch.Generator().manual_seed(k),
+                                                 dim_bias=bias) for k in range(10)])
+    long = frac[draws[..., 0].numpy()]          # (10, N) expected share beyond the line
+    for sid, want in ((2, 0.4), (3, 0.05)):
+        got = long[:, st.server_id == sid].mean()
+        assert got == pytest.approx(want, abs=0.03), (sid, got)
+
+
+def test_the_table_is_added_at_zero_and_read_per_server():
+    plain = small_model()
+    assert plain.serve_bias is None
+    assert plain.serve_head_bias(torch.tensor([2]), torch.tensor([0]),
+                                 torch.zeros(1, 3)) is None
+    model = with_serve_bias(plain)
+    assert model.cfg.serve_bias and model.serve_bias.shape == (6, 2, 2)
+    assert (model.serve_bias == 0).all()
+    assert with_serve_bias(model) is model
+    model.serve_bias[3, 1] = torch.tensor([1.0, -2.0])
+    contact = torch.tensor([[11.9, -0.8, 2.9], [11.9, -0.8, 2.9]])
+    b = model.serve_head_bias(torch.tensor([3, 3]), torch.tensor([1, 0]), contact)
+    assert b.shape == (2, 4, strike.STRIKE_BINS)
+    long = torch.as_tensor(serve_bias.long_fraction() > 0.5)
+    assert (b[0, 0][long] == 1.0).all() and (b[0, 0][~long] == 0).all()
+    assert (b[0, 1][serve_bias.wide_bins(contact[:1])[0]] == -2.0).all()
+    assert (b[0, 2:] == 0).all() and (b[1] == 0).all()      # first serve: no shift
+    # Saved and loaded with the file; a config without it refuses it without a serve head.
+    sd = model.state_dict()
+    again = SportsNGEN(model.cfg)
+    again.load_state_dict(sd)
+    torch.testing.assert_close(again.serve_bias, model.serve_bias)
+    with pytest.raises(ValueError, match="serve_head"):
+        ModelConfig(serve_bias=True, serve_head=False)
+
+
+def test_the_named_players_data_gives_each_named_player_four_matchups():
+    from collections import Counter
+
+    from sportsngen.synth.dataset import matchups
+    from sportsngen.train.evaluate import data_config
+
+    cfg = data_config("synthetic_named")
+    small = data_config("synthetic_small")
+    pairs = matchups(cfg)
+    assert len(pairs) == 20                       # C(5, 2) men's + C(5, 2) women's
+    count = Counter(p.name for pair in pairs for p in pair)
+    for name in small["players"]["named"]:
+        assert count[name] == 4
+    # Its population women are synthetic_small's first three, the same names the model knows.
+    pop = {n for n in count if n.startswith("Pop")}
+    assert pop == {"Pop W 000", "Pop W 001", "Pop W 002"}
+    known = {p.name: p for pair in matchups(small) for p in pair}
+    assert all(p == known[p.name] for pair in pairs for p in pair)
+    assert cfg["seed"] != small["seed"]
+
+
+def test_a_rollouts_serve_is_drawn_with_its_servers_shift():
+    from sportsngen.sim.rollout import _follow_strikes
+
+    model = with_serve_bias(small_model())
+    n = 64
+    pos = torch.zeros(n, 3, 3)
+    pos[:, 2] = torch.tensor([11.4, 0.7, 2.9])            # the toss at its top, ad court
+    vel = torch.zeros_like(pos)
+    vel[:, 2, 2] = -1.0
+    nxt = pos.clone()
+    nxt[:, 2] += torch.tensor([-1.9, -0.2, -0.1])          # the model's draw: a serve
+    h = torch.randn(n, 3, model.cfg.d_model)
+    plan = torch.full((n, 2, 3), float("nan"))
+    ident = torch.tensor([2, 3] * (n // 2))
+    serve = torch.ones(n, dtype=torch.long)
+    # Server 3's second serves never go long or wide; server 2's always long.
+    model.serve_bias[3, 1] = torch.tensor([-60.0, -60.0])
+    model.serve_bias[2, 1, serve_bias.LONG] = 60.0
+    drawn = []
+    real = model.serve_head.sample
+    model.serve_head.sample = lambda *a, **k: drawn.append(real(*a, **k)) or drawn[-1]
+    _follow_strikes(model, h, pos, vel, nxt, plan, torch.Generator().manual_seed(0),
+                    serve=serve, server_ident=ident)
+    bins = drawn[0]
+    frac = serve_bias.long_fraction()
+    wide = serve_bias.wide_bins(pos[:, 2])
+    three, two = ident == 3, ident == 2
+    assert (frac[bins[three, 0].numpy()] == 0).all()
+    assert not wide[three, :].gather(1, bins[three, 1:2]).any()
+    assert (frac[bins[two, 0].numpy()] > 0.5).all()
+    # Without the servers' identities the table is not read: some serves go long.
+    drawn.clear()
+    _follow_strikes(model, h, pos, vel, nxt, plan, torch.Generator().manual_seed(0),
+                    serve=serve)
+    assert (frac[drawn[0][:, 0].numpy()] > 0.5).any()
