@@ -1,5 +1,5 @@
 """Add and fit a model file's per-server shifts of the serve head's odds of a long and a wide
-serve (`model.serve_bias`; `sportsngen.train.serve_bias`).
+serve and of its speed (`model.serve_bias`; `sportsngen.train.serve_bias`).
 
     .venv/bin/python scripts/fit_serve_bias.py --model FILE --out FILE [--more-data NAME]
         [--prior-serves 100] [--threads 2]
@@ -58,8 +58,10 @@ def main() -> None:
     table = fit_serve_bias(model, states, prior_serves=args.prior_serves)
     names = {N_SPECIAL_IDS + i: p for i, p in enumerate(vocab.players)}
     table.insert(0, "server", table["server_id"].map(names))
+    for kind in ("speed_record", "speed_head"):
+        table[kind] *= 3.6                                     # km/h
     cols = ["server", "serve", "n", "long_record", "long_head", "long_shift", "wide_record",
-            "wide_head", "wide_shift"]
+            "wide_head", "wide_shift", "speed_record", "speed_head", "speed_shift"]
     print(table[cols].round(3).to_string(index=False))
     save_model(args.out, model, vocab, ec, extra=extra)
     print(f"wrote {args.out}")

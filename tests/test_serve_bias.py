@@ -81,7 +81,7 @@ def test_the_wide_bins_are_the_lateral_bins_the_fault_reading_calls_wide(contact
 
 def _states(model, n_per=(300, 40), seed=0):
     """Recorded serves of two servers (ids 2 and 3), first serves, with bins drawn so that
-    server 2 serves long 40 % of the time and server 3 5 %."""
+    server 2 serves long 40 % of the time and server 3 5 %, server 2 fast and server 3 slow."""
     rng = np.random.default_rng(seed)
     n = sum(n_per)
     sid = np.repeat([2, 3], n_per)
@@ -90,8 +90,8 @@ def _states(model, n_per=(300, 40), seed=0):
     want = np.where(sid == 2, 0.4, 0.05)
     depth = np.where(rng.random(n) < want, rng.choice(long_bins[:8], n),
                      rng.choice(in_bins[-20:], n))
-    bins = np.stack([depth, rng.integers(40, 56, n), rng.integers(96, size=n),
-                     rng.integers(96, size=n)], -1)
+    speed = np.where(sid == 2, rng.integers(60, 90, n), rng.integers(10, 40, n))
+    bins = np.stack([depth, rng.integers(40, 56, n), speed, rng.integers(96, size=n)], -1)
     contact = np.tile([11.9, -0.8, 2.9], (n, 1))
     return HeadStates(torch.randn(n, model.cfg.d_model), torch.as_tensor(bins), np.arange(n),
                       np.zeros(n, dtype=np.int64), contact, np.zeros(n, dtype=bool),
@@ -107,6 +107,9 @@ def test_the_fit_matches_each_servers_record_pulled_toward_the_head():
         r = table.loc[sid]
         assert r["long_after"] == pytest.approx(r["long_record"], abs=1e-4)
         assert r["wide_after"] == pytest.approx(r["wide_record"], abs=1e-4)
+        assert r["speed_after"] == pytest.approx(r["speed_record"], abs=1e-3)
+    # Server 3's recorded serves are the slow ones: his speed tilts down, server 2's up.
+    assert table.loc[3, "speed_shift"] < 0 < table.loc[2, "speed_shift"]
     assert table.loc[2, "long_shift"] > table.loc[3, "long_shift"]
     # The shift is in the table for that server and serve only.
     assert model.serve_bias[2, 0, serve_bias.LONG] == pytest.approx(table.loc[2, "long_shift"])
@@ -145,17 +148,19 @@ def test_the_table_is_added_at_zero_and_read_per_server():
     assert plain.serve_head_bias(torch.tensor([2]), torch.tensor([0]),
                                  torch.zeros(1, 3)) is None
     model = with_serve_bias(plain)
-    assert model.cfg.serve_bias and model.serve_bias.shape == (6, 2, 2)
+    assert model.cfg.serve_bias and model.serve_bias.shape == (6, 2, 3)
     assert (model.serve_bias == 0).all()
     assert with_serve_bias(model) is model
-    model.serve_bias[3, 1] = torch.tensor([1.0, -2.0])
+    model.serve_bias[3, 1] = torch.tensor([1.0, -2.0, 0.5])
     contact = torch.tensor([[11.9, -0.8, 2.9], [11.9, -0.8, 2.9]])
     b = model.serve_head_bias(torch.tensor([3, 3]), torch.tensor([1, 0]), contact)
     assert b.shape == (2, 4, strike.STRIKE_BINS)
     long = torch.as_tensor(serve_bias.long_fraction() > 0.5)
     assert (b[0, 0][long] == 1.0).all() and (b[0, 0][~long] == 0).all()
     assert (b[0, 1][serve_bias.wide_bins(contact[:1])[0]] == -2.0).all()
-    assert (b[0, 2:] == 0).all() and (b[1] == 0).all()      # first serve: no shift
+    tilt = torch.as_tensor(serve_bias.speed_tilt(), dtype=b.dtype)
+    torch.testing.assert_close(b[0, 2], 0.5 * tilt)
+    assert (b[0, 3] == 0).all() and (b[1] == 0).all()      # the spin, and first serves: none
     # Saved and loaded with the file; a config without it refuses it without a serve head.
     sd = model.state_dict()
     again = SportsNGEN(model.cfg)
@@ -202,7 +207,7 @@ def test_a_rollouts_serve_is_drawn_with_its_servers_shift():
     ident = torch.tensor([2, 3] * (n // 2))
     serve = torch.ones(n, dtype=torch.long)
     # Server 3's second serves never go long or wide; server 2's always long.
-    model.serve_bias[3, 1] = torch.tensor([-60.0, -60.0])
+    model.serve_bias[3, 1, :2] = torch.tensor([-60.0, -60.0])
     model.serve_bias[2, 1, serve_bias.LONG] = 60.0
     drawn = []
     real = model.serve_head.sample

@@ -89,10 +89,10 @@ class ModelConfig:
     # its speed come from a distribution over those, not from the ball's bins under a nucleus.
     # False: serves are drawn in the ball's bins.
     serve_head: bool = False
-    # A table of per-server shifts of the serve head's odds of a long and a wide serve
-    # (`model.serve_bias`, fitted by `train.serve_bias` after the head; zero until then): the
-    # head reads the server only through the ball's state and draws every named player's
-    # faults near the average player's (docs/evaluation.md, twenty-fourth part).
+    # A table of per-server shifts of the serve head's odds of a long and a wide serve and of
+    # its speed (`model.serve_bias`, fitted by `train.serve_bias` after the head; zero until
+    # then): the head reads the server only through the ball's state and draws every named
+    # player's faults near the average player's (docs/evaluation.md, twenty-fourth part).
     serve_bias: bool = False
     player_max_speed_mps: float = 10.0   # bin range: offsets up to this speed over one frame
     ball_max_speed_mps: tuple[float, float, float] = (80.0, 40.0, 40.0)

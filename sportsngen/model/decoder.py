@@ -207,7 +207,8 @@ class SportsNGEN(nn.Module):
             nn.init.zeros_(self.strike_role.weight)
         # Fitted by moment matching (`train.serve_bias`), not by gradient: a buffer, zero until
         # then, so the head draws as without it.
-        self.register_buffer("serve_bias", torch.zeros(cfg.n_ids, serve_bias.N_SERVES, 2)
+        self.register_buffer("serve_bias", torch.zeros(cfg.n_ids, serve_bias.N_SERVES,
+                                                       serve_bias.N_KINDS)
                              if cfg.serve_bias else None)
 
     # --- inputs -------------------------------------------------------------------------------

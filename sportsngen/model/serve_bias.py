@@ -1,4 +1,4 @@
-"""A per-server shift of the serve head's odds of a long and of a wide serve.
+"""A per-server shift of the serve head's odds of a long and of a wide serve, and of its speed.
 
 The serve head reads the server only through the decoder's ball state at the toss. Fitted on
 every player's serves, it draws every named player's faults near the average player's: on the
@@ -6,9 +6,9 @@ serves it was fitted on, its mass beyond the service line on second serves is 0.
 every named server against records of 0.011-0.099, and four times each named player's serves
 did not move it (docs/evaluation.md, twenty-fourth part). `ModelConfig.serve_bias` adds a
 table of logit shifts, per player identity and serve (first, second), one added to the depth
-bins beyond the service line and one to the lateral bins outside the box the serve is aimed
-at; `sportsngen.train.serve_bias` fits it after the head, matching the head's mean odds on a
-server's recorded serves to his record's shares.
+bins beyond the service line, one to the lateral bins outside the box the serve is aimed at,
+and a tilt of the speed bins; `sportsngen.train.serve_bias` fits it after the head, matching
+the head's mean odds (and mean speed) on a server's recorded serves to his record's.
 """
 
 from __future__ import annotations
@@ -19,8 +19,13 @@ import torch
 from sportsngen.model import strike
 from sportsngen.tennis.court import SERVICE_LINE_X_M, SINGLES_HALF_WIDTH_M
 
-LONG, WIDE = 0, 1          # the table's last axis
-N_SERVES = 2               # first, second
+LONG, WIDE, SPEED = 0, 1, 2    # the table's last axis
+N_KINDS = 3
+N_SERVES = 2                   # first, second
+# The speed's shift tilts its bins' logits by (centre - SPEED_REF_MPS) / SPEED_UNIT_MPS: an
+# exponential tilt that moves the head's mean speed, one unit a logit per 10 m/s.
+SPEED_REF_MPS = 40.0
+SPEED_UNIT_MPS = 10.0
 
 
 def long_fraction() -> np.ndarray:
@@ -32,6 +37,20 @@ def long_fraction() -> np.ndarray:
 
 _LONG_BINS = long_fraction() > 0.5
 _LATERAL_CENTRES_M = 0.5 * (strike.serve_edges()[1, 1:] + strike.serve_edges()[1, :-1])
+
+
+def speed_centres_mps() -> np.ndarray:
+    """(STRIKE_BINS,) the serve speed bins' centres (m/s)."""
+    e = strike.serve_edges()[2]
+    return 0.5 * (e[1:] + e[:-1])
+
+
+def speed_tilt() -> np.ndarray:
+    """(STRIKE_BINS,) the speed bins' logit per unit of the speed's shift."""
+    return (speed_centres_mps() - SPEED_REF_MPS) / SPEED_UNIT_MPS
+
+
+_SPEED_TILT = speed_tilt()
 
 
 def wide_bins(contact_m: torch.Tensor) -> torch.Tensor:
@@ -47,12 +66,15 @@ def wide_bins(contact_m: torch.Tensor) -> torch.Tensor:
 def serve_dim_bias(table: torch.Tensor, server_id: torch.Tensor, serve: torch.Tensor,
                    contact_m: torch.Tensor) -> torch.Tensor:
     """The serve head's logit shifts for serves of `server_id` (N,) on serve `serve` (N,; 0
-    first, 1 second) struck at `contact_m` (N, 3), from `table` (n_ids, N_SERVES, 2) -> (N, 4,
-    STRIKE_BINS), zero but on the long depth bins and the wide lateral bins."""
+    first, 1 second) struck at `contact_m` (N, 3), from `table` (n_ids, N_SERVES, N_KINDS) ->
+    (N, 4, STRIKE_BINS): the long depth bins and the wide lateral bins shifted, the speed bins
+    tilted (`speed_tilt`), the spin's left alone."""
     n = len(server_id)
-    shift = table[server_id.long(), serve.long().clamp(0, N_SERVES - 1)]      # (N, 2)
+    shift = table[server_id.long(), serve.long().clamp(0, N_SERVES - 1)]      # (N, N_KINDS)
     out = torch.zeros(n, 4, strike.STRIKE_BINS, dtype=table.dtype, device=table.device)
     long = torch.as_tensor(_LONG_BINS, device=table.device)
     out[:, 0] = shift[:, LONG, None] * long
     out[:, 1] = shift[:, WIDE, None] * wide_bins(contact_m.to(table.dtype))
+    out[:, 2] = shift[:, SPEED, None] * torch.as_tensor(_SPEED_TILT, dtype=table.dtype,
+                                                         device=table.device)
     return out

@@ -1,13 +1,16 @@
-"""Fit a model's per-server shifts of the serve head's odds of a long and a wide serve.
+"""Fit a model's per-server shifts of the serve head's odds of a long and a wide serve, and of
+its speed.
 
 `ModelConfig.serve_bias` (`sportsngen.model.serve_bias`) adds to the serve head's logits, per
-server and serve, one shift on the depth bins beyond the service line and one on the lateral
-bins outside the box. Each is found here by matching: on a server's recorded serves (the
-decoder's states read once, `train.head_fit.collect_head_states`), the shift that makes the
-head's mean odds of a long (a wide) serve equal his record's share, pulled toward the head's
-own odds by `prior_serves` pseudo-serves so that a player with few serves moves little. The
-wide odds are read at the record's own depth bin, as the head's teacher-forced loss reads them.
-Both odds rise monotonically with their shift, so a bisection finds it.
+server and serve, one shift on the depth bins beyond the service line, one on the lateral
+bins outside the box and a tilt of the speed bins. Each is found here by matching: on a
+server's recorded serves (the decoder's states read once,
+`train.head_fit.collect_head_states`), the shift that makes the head's mean odds of a long (a
+wide) serve, or its mean speed, equal his record's, pulled toward the head's own by
+`prior_serves` pseudo-serves so that a player with few serves moves little. The wide odds are
+read at the record's own depth bin and the speed at its depth and lateral bins, as the head's
+teacher-forced loss reads them. Each rises monotonically with its shift, so a bisection finds
+it.
 """
 
 from __future__ import annotations
@@ -32,7 +35,8 @@ def with_serve_bias(model: SportsNGEN) -> SportsNGEN:
 def _odds(logits: torch.Tensor, mask: torch.Tensor, weight: torch.Tensor,
           shift: torch.Tensor) -> torch.Tensor:
     """Mean over rows of sum_j softmax(logits + shift * mask)_j * weight_j, for each of the
-    candidate shifts (S,) -> (S,)."""
+    candidate shifts (S,) -> (S,): the odds of the bins `mask` weights (or with the speed's
+    tilt as `mask` and the bins' speeds as `weight`, the mean speed)."""
     lg = logits[None] + shift[:, None, None] * mask[None].to(logits.dtype)
     return (lg.softmax(-1) * weight[None]).sum(-1).mean(-1)
 
@@ -40,7 +44,7 @@ def _odds(logits: torch.Tensor, mask: torch.Tensor, weight: torch.Tensor,
 def _solve(logits: torch.Tensor, mask: torch.Tensor, weight: torch.Tensor, target: float,
            iters: int = 40) -> float:
     """The shift in [-MAX_SHIFT, MAX_SHIFT] whose mean odds (`_odds`) equal `target`
-    (bisection; the odds rise with the shift)."""
+    (bisection; the odds rise with the shift, and the mean speed with the tilt)."""
     lo, hi = -MAX_SHIFT, MAX_SHIFT
     for _ in range(iters):
         mid = 0.5 * (lo + hi)
@@ -56,7 +60,8 @@ def fit_serve_bias(model: SportsNGEN, states: HeadStates, prior_serves: float = 
                    min_serves: int = 20) -> pd.DataFrame:
     """Fill `model.serve_bias` (in place) from the recorded serves `states`, per server and
     serve with at least `min_serves` serves (others keep 0). -> per (server_id, serve): n,
-    the record's long and wide shares, the head's before and after, and the shifts."""
+    the record's long and wide shares and mean speed (m/s), the head's before and after, and
+    the shifts."""
     if model.serve_bias is None:
         raise ValueError("the model has no per-server table (cfg.serve_bias): add it with "
                          "with_serve_bias")
@@ -65,6 +70,8 @@ def fit_serve_bias(model: SportsNGEN, states: HeadStates, prior_serves: float = 
     head = model.serve_head
     long_w = torch.as_tensor(serve_bias.long_fraction(), dtype=states.h.dtype)
     long_mask = long_w > 0.5
+    speed_mps = torch.as_tensor(serve_bias.speed_centres_mps(), dtype=states.h.dtype)
+    tilt = torch.as_tensor(serve_bias.speed_tilt(), dtype=states.h.dtype)
     contact = torch.as_tensor(states.contact_m, dtype=states.h.dtype)
     rows = []
     keys = pd.DataFrame({"server_id": states.server_id, "serve": states.serve})
@@ -77,12 +84,16 @@ def fit_serve_bias(model: SportsNGEN, states: HeadStates, prior_serves: float = 
         depth = head.dim_logits(h, bins, 0)
         wide = serve_bias.wide_bins(contact[i])
         lateral = head.dim_logits(h, bins, 1)
+        speed = head.dim_logits(h, bins, 2)
         rec = {"long": float(long_w[bins[:, 0]].mean()),
-               "wide": float(wide[torch.arange(n), bins[:, 1]].float().mean())}
+               "wide": float(wide[torch.arange(n), bins[:, 1]].float().mean()),
+               "speed": float(speed_mps[bins[:, 2]].mean())}
         row = {"server_id": int(sid), "serve": int(srv), "n": n}
         for kind, k, logits, mask, weight in (
                 ("long", serve_bias.LONG, depth, long_mask.expand(n, -1), long_w.expand(n, -1)),
-                ("wide", serve_bias.WIDE, lateral, wide, wide.to(h.dtype))):
+                ("wide", serve_bias.WIDE, lateral, wide, wide.to(h.dtype)),
+                ("speed", serve_bias.SPEED, speed, tilt.expand(n, -1),
+                 speed_mps.expand(n, -1))):
             before = float(_odds(logits, mask, weight, torch.zeros(1))[0])
             target = (n * rec[kind] + prior_serves * before) / (n + prior_serves)
             shift = _solve(logits, mask, weight, target)
