@@ -226,3 +226,16 @@ def test_a_rollouts_serve_is_drawn_with_its_servers_shift():
     _follow_strikes(model, h, pos, vel, nxt, plan, torch.Generator().manual_seed(0),
                     serve=serve)
     assert (frac[drawn[0][:, 0].numpy()] > 0.5).any()
+
+
+def test_a_player_added_for_fine_tuning_gets_a_row_at_zero():
+    from sportsngen.data.tokens import Vocab
+    from sportsngen.train.finetune import add_player
+
+    vocab = Vocab(players=("A", "B", "C", "D"))
+    model = with_serve_bias(small_model(n_ids=vocab.n_ids))
+    model.serve_bias[2:] = 0.5
+    new, new_vocab, idx = add_player(model, vocab, "New Player")
+    assert new.serve_bias.shape == (vocab.n_ids + 1, 2, 3)
+    torch.testing.assert_close(new.serve_bias[:vocab.n_ids], model.serve_bias)
+    assert idx == vocab.n_ids and (new.serve_bias[idx] == 0).all()

@@ -91,6 +91,9 @@ def add_player(model: SportsNGEN, vocab: Vocab, name: str):
     state = model.state_dict()
     old_w = state["embed.identity.weight"]
     state["embed.identity.weight"] = torch.cat([old_w, old_w[GENERIC_ID:GENERIC_ID + 1]])
+    if state.get("serve_bias") is not None:    # a new server draws the head's own serve
+        table = state["serve_bias"]
+        state["serve_bias"] = torch.cat([table, torch.zeros_like(table[:1])])
     new.load_state_dict(state)
     return new, new_vocab, new_vocab.player_index(name)
 
