@@ -17,7 +17,8 @@ import pandas as pd
 import torch
 
 from sportsngen.model import strike
-from sportsngen.tennis.court import SERVICE_LINE_X_M, SINGLES_HALF_WIDTH_M, net_height_m
+from sportsngen.model.serve_bias import serve_wide
+from sportsngen.tennis.court import SERVICE_LINE_X_M, net_height_m
 
 
 def serve_faults(contact_m: np.ndarray, values: np.ndarray, fps: float) -> pd.DataFrame:
@@ -29,10 +30,8 @@ def serve_faults(contact_m: np.ndarray, values: np.ndarray, fps: float) -> pd.Da
     frames = strike.launch_frames(contact_m, v0, values[:, 3], fps)
     over_net_m = strike.strike_labels(frames, side, fps)[:, 2]
     land_y = -side * values[:, 1]
-    # The serve goes to the box diagonally opposite the server: the other sign of y.
-    toward = -np.sign(contact_m[:, 1]) * land_y
     long = values[:, 0] > SERVICE_LINE_X_M
-    wide = (toward < 0) | (toward > SINGLES_HALF_WIDTH_M)
+    wide = serve_wide(contact_m, values[:, 1])      # the box diagonally opposite the server
     net = ~(over_net_m >= net_height_m(land_y))       # NaN (no crossing) is a net fault
     flags = {k: np.where(found, v, np.nan) for k, v in
              (("long", long), ("wide", wide), ("net", net), ("fault", long | wide | net))}

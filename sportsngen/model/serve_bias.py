@@ -35,14 +35,18 @@ def long_fraction() -> np.ndarray:
     return np.clip((e[1:] - SERVICE_LINE_X_M) / (e[1:] - e[:-1]), 0.0, 1.0)
 
 
+def _centres(dim: int) -> np.ndarray:
+    e = strike.serve_edges()[dim]
+    return 0.5 * (e[1:] + e[:-1])
+
+
 _LONG_BINS = long_fraction() > 0.5
-_LATERAL_CENTRES_M = 0.5 * (strike.serve_edges()[1, 1:] + strike.serve_edges()[1, :-1])
+_LATERAL_CENTRES_M = _centres(1)
 
 
 def speed_centres_mps() -> np.ndarray:
     """(STRIKE_BINS,) the serve speed bins' centres (m/s)."""
-    e = strike.serve_edges()[2]
-    return 0.5 * (e[1:] + e[:-1])
+    return _centres(2)
 
 
 def speed_tilt() -> np.ndarray:
@@ -53,14 +57,21 @@ def speed_tilt() -> np.ndarray:
 _SPEED_TILT = speed_tilt()
 
 
+def serve_wide(contact_m, lateral_m):
+    """Serves struck at `contact_m` (..., 3) with lateral `lateral_m` (...) (`SERVE_DIMS`, in
+    the hitter's view) -> (...) bool: outside the box diagonally opposite, the other box
+    included. numpy or torch alike (`eval.serve_draws.serve_faults` reads faults with it)."""
+    lib = torch if isinstance(contact_m, torch.Tensor) else np
+    toward = lib.sign(contact_m[..., 1]) * lib.sign(contact_m[..., 0]) * lateral_m
+    return (toward < 0) | (toward > SINGLES_HALF_WIDTH_M)
+
+
 def wide_bins(contact_m: torch.Tensor) -> torch.Tensor:
     """Serves struck at `contact_m` (N, 3) -> (N, STRIKE_BINS) bool: the lateral bins that put
-    the serve outside the box diagonally opposite (the other box included). A serve's lateral is
-    in the hitter's view (`eval.serve_draws.serve_faults` reads it the same way); the lateral
-    edges fall on the centre and singles lines, so a bin is wholly in or out."""
+    the serve wide (`serve_wide` at each bin's centre); the lateral edges fall on the centre
+    and singles lines, so a bin is wholly in or out."""
     centre = torch.as_tensor(_LATERAL_CENTRES_M, dtype=contact_m.dtype, device=contact_m.device)
-    toward = (torch.sign(contact_m[:, 1]) * torch.sign(contact_m[:, 0]))[:, None] * centre
-    return (toward < 0) | (toward > SINGLES_HALF_WIDTH_M)
+    return serve_wide(contact_m[:, None, :], centre)
 
 
 def serve_dim_bias(table: torch.Tensor, server_id: torch.Tensor, serve: torch.Tensor,
