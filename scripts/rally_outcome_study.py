@@ -2,12 +2,14 @@
 P(server wins the point) from random frames of held-out rallies.
 
     .venv/bin/python scripts/rally_outcome_study.py [--model PATH] [--rallies 60] [--n 32]
-        [--seed 0] [--out docs/figures/outcome]
+        [--seed 0] [--workers 1 --threads 2] [--out docs/figures/outcome]
 
 Held-out rallies: freshly generated synthetic points (a generator seed the training data never
 used) of Roger Federer v Rafael Nadal on hard. For each sampled rally, branch points at a few
 fixed times after the start (1, 2, 3, 4 and 6 s, those inside the rally), `--n` rollouts each
-(`sportsngen.sim.whatif.rally_win_probabilities`); the outcome is the recorded winner. Beside
+(`sportsngen.sim.whatif.rally_win_probabilities`; with `--chunk-items K` in fixed chunks of K
+branch points, which `--workers` processes share: `sportsngen.sim.outcome_pool`, whose results
+do not depend on the number of workers); the outcome is the recorded winner. Beside
 two baselines: the base rate (the server's share of points won in the generator's ground truth
 for this matchup) and the Markov model with per-player serve probabilities (the bundled 2011
 serve models, opponent-adjusted: P(server wins | first serve in play) or on a second serve).
@@ -41,7 +43,8 @@ from sportsngen.eval.calibration import (
 )
 from sportsngen.sim import Simulator
 from sportsngen.sim.cli import serve_model
-from sportsngen.sim.whatif import rally_win_probabilities
+from sportsngen.sim.outcome_pool import pooled_rally_win_probabilities
+from sportsngen.sim.simulator import model_path
 from sportsngen.synth.generate import generate_matches
 
 PLAYERS = ("Roger Federer", "Rafael Nadal")
@@ -54,14 +57,22 @@ def main() -> None:
     ap.add_argument("--rallies", type=int, default=60)
     ap.add_argument("--n", type=int, default=32)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--threads", type=int, default=None)
+    ap.add_argument("--threads", type=int, default=None, help="threads a process")
+    ap.add_argument("--workers", type=int, default=1,
+                    help="processes rolling the branch points out (each loads the model)")
+    ap.add_argument("--chunk-items", type=int, default=0,
+                    help="branch points a chunk (one seed each; the results depend on it); "
+                         "0: all in one call, as before there were workers")
     ap.add_argument("--out", type=Path, default=Path("docs/figures/outcome"))
     ap.add_argument("--save-calibrator", action="store_true",
                     help="store the isotonic map in the model file (outcome_calibrator)")
     args = ap.parse_args()
     if args.threads:
         torch.set_num_threads(args.threads)
-    sim = Simulator.from_pretrained(args.model)
+    if args.workers < 1 or args.chunk_items < 0:
+        ap.error("--workers must be at least 1 and --chunk-items at least 0")
+    model_file = str(model_path(args.model))
+    Simulator.from_pretrained(model_file)          # fails early on a file it cannot simulate
     truth = generate_matches([PLAYERS], "hard", 3000, seed=10_000 + args.seed, workers=2)
     held = generate_matches([PLAYERS], "hard", 4 * args.rallies, seed=20_000 + args.seed,
                             workers=1)
@@ -79,7 +90,9 @@ def main() -> None:
                              float(row["winner"] == row["server"]), b))
                 half.append(k % 2)
     t0 = time.perf_counter()
-    res = rally_win_probabilities(sim, held, items, n=args.n, seed=args.seed)
+    res = pooled_rally_win_probabilities(model_file, held, items, n=args.n, seed=args.seed,
+                                         workers=args.workers, threads=args.threads or 1,
+                                         chunk_items=args.chunk_items)
     wall = time.perf_counter() - t0
     ok = ~res["p"].isna().to_numpy()
     y = np.array([m[3] for m in meta])[ok]
@@ -100,9 +113,6 @@ def main() -> None:
              "SportsNGEN recalibrated (isotonic)": cal(p_model[test]),
              "base rate": p_base[test], "Markov (serve model)": p_markov[test]}
     args.out.mkdir(parents=True, exist_ok=True)
-    plot_reliability(preds, y[test], args.out / "reliability.png",
-                     title=f"{int(test.sum())} branch points of {len(pick) // 2} held-out "
-                           f"rallies, {args.n} rollouts each")
     rows = {name: {"ece": expected_calibration_error(p, y[test]),
                    "brier": brier_score(p, y[test])} for name, p in preds.items()}
     rows["SportsNGEN rollouts, all branch points"] = {
@@ -117,7 +127,8 @@ def main() -> None:
                                  server_won=[m[3] for m in meta])
     lines = ["# Rally outcome prediction", "",
              f"`python scripts/rally_outcome_study.py --rallies {args.rallies} --n {args.n} "
-             f"--seed {args.seed}`: {len(items)} branch points ({int(ok.sum())} with at least "
+             f"--seed {args.seed} --chunk-items {args.chunk_items}` ({args.workers} "
+             f"process(es)): {len(items)} branch points ({int(ok.sum())} with at least "
              f"one realistic decided rollout) of {len(pick)} held-out synthetic rallies "
              f"(Federer v Nadal, hard), {args.n} rollouts each, {wall:.0f} s. The isotonic "
              f"map is fitted on the {int(fit.sum())} branch points of half the rallies; the "
@@ -143,11 +154,13 @@ def main() -> None:
                                for k, v in floor.items()}}, indent=2))
     items_out.to_csv(args.out / "branch_points.csv", index=False)
     print("\n".join(lines))
+    plot_reliability(preds, y[test], args.out / "reliability.png",
+                     title=f"{int(test.sum())} branch points of {len(pick) // 2} held-out "
+                           f"rallies, {args.n} rollouts each")
     if args.save_calibrator:
         from sportsngen.model.export import update_extra
-        from sportsngen.sim.simulator import model_path
 
-        path = update_extra(model_path(args.model), outcome_calibrator=cal.to_dict())
+        path = update_extra(model_file, outcome_calibrator=cal.to_dict())
         print(f"stored the calibrator ({len(cal.x)} blocks) in {path}")
 
 

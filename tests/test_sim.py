@@ -641,3 +641,27 @@ def test_set_defaults_stores_sampling_defaults_that_from_pretrained_applies(tiny
     assert Simulator.from_pretrained(path, strike_in_reach_m=1.2).strike_in_reach_m == 1.2
     with pytest.raises(ArgumentError, match="reach_metres"):
         Simulator.set_defaults(path, reach_metres=1.5)
+
+
+def test_pooled_rally_win_probabilities_do_not_depend_on_the_workers(tiny_model_file):
+    from sportsngen.sim.outcome_pool import chunk_jobs, pooled_rally_win_probabilities
+    from sportsngen.sim.whatif import rally_win_probabilities
+
+    data = make_toy_rallies(4, seed=3)
+    items = [(int(r), f) for r in data.rallies["rally_id"].iloc[:3] for f in (5, 10)]
+    kw = dict(n=4, seed=2, chunk_items=4, sim_kwargs={"max_duration_s": 1.2},
+              progress=False)
+    one = pooled_rally_win_probabilities(str(tiny_model_file), data, items, workers=1, **kw)
+    two = pooled_rally_win_probabilities(str(tiny_model_file), data, items, workers=2, **kw)
+    assert list(zip(one["rally_id"], one["frame"])) == items
+    pd.testing.assert_frame_equal(one, two)
+    # Chunk k is one direct call with seed + 7919 k: 6 items in chunks of 4 and 2.
+    jobs = chunk_jobs(items, 4, 2, 4)
+    assert [(len(j[0]), j[2]) for j in jobs] == [(4, 2), (2, 2 + 7919)]
+    sim = _LOAD(str(tiny_model_file), max_duration_s=1.2)
+    direct = rally_win_probabilities(sim, data, jobs[1][0], n=4, seed=jobs[1][2])
+    pd.testing.assert_frame_equal(one.iloc[4:].reset_index(drop=True), direct)
+    # Chunks of 0: one call of all the items with the seed itself.
+    whole = pooled_rally_win_probabilities(str(tiny_model_file), data, items,
+                                           **{**kw, "chunk_items": 0})
+    pd.testing.assert_frame_equal(whole, rally_win_probabilities(sim, data, items, n=4, seed=2))
