@@ -17,11 +17,10 @@ import time
 
 import torch
 
-from sportsngen.data.tokens import N_SPECIAL_IDS, rally_arrays
+from sportsngen.data.tokens import N_SPECIAL_IDS
 from sportsngen.model.export import load_model, read_extra, save_model
 from sportsngen.sim.simulator import model_path
-from sportsngen.train.datamodule import load_rally_data, split_rallies
-from sportsngen.train.evaluate import data_config
+from sportsngen.train.evaluate import training_arrays
 from sportsngen.train.head_fit import HeadStates, collect_head_states
 from sportsngen.train.serve_bias import fit_serve_bias, with_serve_bias
 
@@ -42,16 +41,12 @@ def main() -> None:
     if model.serve_head is None:
         raise SystemExit(f"{path} has no serve head (model.serve_head)")
     extra = read_extra(path)
-    split = extra.get("split")
-    if not split or "data" not in split:
-        raise SystemExit(f"{path} records no training data split (extra.split)")
     t0 = time.time()
-    train, _ = split_rallies(rally_arrays(load_rally_data(split["data"]), vocab),
-                             float(split["val_fraction"]), int(split["seed"]))
-    parts = [collect_head_states(model, train, "serve", flip=True)]
-    if args.more_data:
-        more = rally_arrays(load_rally_data(data_config(args.more_data)), vocab)
-        parts.append(collect_head_states(model, more, "serve", flip=True))
+    try:
+        arrays = training_arrays(path, vocab, args.more_data)
+    except ValueError as exc:
+        raise SystemExit(str(exc)) from None
+    parts = [collect_head_states(model, a, "serve", flip=True) for a in arrays]
     states = HeadStates.concat(parts)
     print(f"{len(states)} recorded serves read ({time.time() - t0:.0f} s)")
     model = with_serve_bias(model)

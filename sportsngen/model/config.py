@@ -94,6 +94,11 @@ class ModelConfig:
     # then): the head reads the server only through the ball's state and draws every named
     # player's faults near the average player's (docs/evaluation.md, twenty-fourth part).
     serve_bias: bool = False
+    # A table of per-server shifts of the receiver's odds of starting his run while the serve
+    # flies at him (`model.receiver_start`, fitted by `train.receiver_start`; zero until
+    # then): the truth's receivers wait longer against a server who disguises his serve, the
+    # model's start alike against all (docs/evaluation.md, twenty-fifth part).
+    receiver_start: bool = False
     player_max_speed_mps: float = 10.0   # bin range: offsets up to this speed over one frame
     ball_max_speed_mps: tuple[float, float, float] = (80.0, 40.0, 40.0)
     window_s: float = 6.0
@@ -151,6 +156,9 @@ class ModelConfig:
         if self.serve_bias and not self.serve_head:
             raise ValueError("model.serve_bias shifts the serve head's odds: it needs "
                              "serve_head=True")
+        if self.receiver_start and self.head != "factorised":
+            raise ValueError("model.receiver_start shifts the players' factorised head: it "
+                             "needs head='factorised'")
         if self.n_bins < 3 or self.n_bins % 2 == 0:
             raise ValueError(f"model.n_bins must be odd and >= 3 (a bin centred on 0), "
                              f"got {self.n_bins}")

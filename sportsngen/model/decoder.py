@@ -25,7 +25,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from sportsngen.data.tokens import BALL, GENERIC_ID, N_FEATURES, N_OBJECTS, N_SPECIAL_IDS
-from sportsngen.model import serve_bias, strike, strike_heads
+from sportsngen.model import receiver_start, serve_bias, strike, strike_heads
 from sportsngen.model.bins import Bins
 from sportsngen.model.centre import object_centres_m
 from sportsngen.model.config import FEATURE_GROUPS, ModelConfig
@@ -210,6 +210,10 @@ class SportsNGEN(nn.Module):
         self.register_buffer("serve_bias", torch.zeros(cfg.n_ids, serve_bias.N_SERVES,
                                                        serve_bias.N_KINDS)
                              if cfg.serve_bias else None)
+        self.register_buffer("receiver_start",
+                             torch.zeros(cfg.n_ids, receiver_start.N_SERVES,
+                                         receiver_start.N_WAIT)
+                             if cfg.receiver_start else None)
 
     # --- inputs -------------------------------------------------------------------------------
     def _ident(self, ident: torch.Tensor) -> torch.Tensor:
@@ -436,6 +440,19 @@ class SportsNGEN(nn.Module):
         return serve_bias.serve_dim_bias(self.serve_bias, self._ident(server_ident), serve,
                                          contact_m)
 
+    def receiver_start_bias(self, server_ident: torch.Tensor | None,
+                            serve: torch.Tensor | None,
+                            wait_count: torch.Tensor) -> torch.Tensor | None:
+        """The players' head's logit shifts (B, 2, 2, n_bins) for rallies served by
+        `server_ident` (B,) on serve `serve` (B,) whose receivers have waited `wait_count`
+        (B,) frames for the serve (`receiver_start.wait_frames`; 0: not waiting): his centre
+        bin shifted by `model.receiver_start`; None where the model has no table or the server
+        or the serve is not given."""
+        if self.receiver_start is None or server_ident is None or serve is None:
+            return None
+        return receiver_start.player_dim_bias(self.receiver_start, self._ident(server_ident),
+                                              serve, wait_count, self.cfg.n_bins)
+
     @torch.no_grad()
     def place_strikes(self, h: torch.Tensor, pos_m: torch.Tensor, vel_mps: torch.Tensor,
                       nxt: torch.Tensor, generator: torch.Generator | None = None,
@@ -481,9 +498,12 @@ class SportsNGEN(nn.Module):
                     generator: torch.Generator | None = None,
                     prev_vel_mps: torch.Tensor | None = None,
                     contact_odds: bool = False,
-                    top_p_contact: float | None = None) -> torch.Tensor:
+                    top_p_contact: float | None = None,
+                    player_bias: torch.Tensor | None = None) -> torch.Tensor:
         """Next positions (..., 3, 3) from output states h (..., 3, d): nucleus per object
         kind, then uniform inside the chosen bin. Players stay on the ground (z = 0).
+        `player_bias` (..., 2, 2, n_bins): added to the players' head's logits (the
+        receiver's start, `receiver_start_bias`).
 
         With the physics centre, a ball dimension that falls in the centre bin takes the
         centre itself: that step reads the acceleration from the track's last three frames, so
@@ -499,7 +519,8 @@ class SportsNGEN(nn.Module):
         (with `contact_odds`; default `top_p_ball`): the nucleus of every dimension of a
         ball that is struck, so a strike keeps more of the spread a flight does not need."""
         centre = self.centres(pos_m, vel_mps, prev_vel_mps)
-        pi = self.player_head.sample(h[..., :BALL, :], top_p_player, generator)
+        shift = {} if player_bias is None else {"dim_bias": player_bias}   # factorised only
+        pi = self.player_head.sample(h[..., :BALL, :], top_p_player, generator, **shift)
         bi = self.ball_head.sample(h[..., BALL, :], top_p_ball, generator,
                                    self.contact_bins() if contact_odds else None,
                                    top_p_contact if contact_odds else None)

@@ -30,6 +30,7 @@ from tqdm.auto import tqdm
 
 from sportsngen.data.tokens import BALL, object_features
 from sportsngen.model.decoder import SportsNGEN
+from sportsngen.model.receiver_start import receiver_waiting, wait_frames
 
 MODES = ("cache", "recompute", "window")
 # Up to this many rallies a rollout runs on one CPU thread: a step is then ~100 tiny operations
@@ -116,7 +117,8 @@ class Constraint(Protocol):
 
 
 def _constrain(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top_p_player,
-               top_p_ball, generator, contact_odds=False, top_p_contact=None):
+               top_p_ball, generator, contact_odds=False, top_p_contact=None,
+               player_bias=None):
     """Resample the rows `constraint` rejects: up to its max_tries from the nucleus, then as
     many from the whole distribution. -> (frames, redraws per live row, (B,) bool: the rows
     given up on whose ball the constraint wants struck anyway)."""
@@ -130,7 +132,8 @@ def _constrain(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top_p_pl
         again = model.sample_next(h[idx], pos[idx], vel[idx],
                                   1.0 if wide else top_p_player, 1.0 if wide else top_p_ball,
                                   generator, prev_vel[idx], contact_odds,
-                                  1.0 if wide else top_p_contact)
+                                  1.0 if wide else top_p_contact,
+                                  None if player_bias is None else player_bias[idx])
         nxt[idx] = again
         drawn[idx.cpu().numpy()] += 1
         ok = constraint.accept(alive[idx.cpu().numpy()], n, pos[idx], again, vel[idx])
@@ -172,6 +175,18 @@ def _follow_strikes(model: SportsNGEN, h: torch.Tensor, pos: torch.Tensor, vel: 
                                    top_p_serve=top_p_serve, serve=serve,
                                    server_ident=server_ident)
     return nxt, torch.where(torch.isnan(new[:, :1, :1]), plan, new)
+
+
+def _wait_step(tracker, alive: np.ndarray, pos: torch.Tensor, vel: torch.Tensor,
+               wait: torch.Tensor) -> torch.Tensor:
+    """The live rows' receivers' waits for the serve after the frame `pos`, `vel`
+    (`model.receiver_start`): a frame more where he waits and, where the tracker counts shots,
+    the return is not yet struck (`n_shots` at most 1, the serve)."""
+    waiting = receiver_waiting(pos, vel)
+    shots = getattr(tracker, "n_shots", None)
+    if shots is not None:
+        waiting = waiting & torch.as_tensor(np.asarray(shots)[alive] <= 1, device=pos.device)
+    return wait_frames(wait, waiting)
 
 
 class _NoTracker:
@@ -259,8 +274,16 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
         alive = np.arange(b)                      # original row of each live batch row
 
         done = np.zeros(b, dtype=bool)
+        # The receivers' waits for the serve (`model.receiver_start`), counted over the initial
+        # frames but the last, which the loop's first step counts.
+        wait = None if model.receiver_start is None else \
+            torch.zeros(b, dtype=torch.long, device=dev)
         for k in range(t0):
             done = tracker.update(inputs.init_pos_m[:, k], ~done)
+            if wait is not None and k < t0 - 1:
+                prev_k = hist[:, k - 1] if k else hist[:, 0]
+                wait = _wait_step(tracker, np.arange(b), hist[:, k],
+                                  (hist[:, k] - prev_k) * fps, wait)
         latest = inputs.init_pos_m[:, -1].astype(np.float32)   # every rally's newest frame
         cache, h = None, None
         if mode == "cache":
@@ -281,6 +304,7 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                 kt = torch.as_tensor(keep, device=dev)
                 hist, ident, ctx, plan = hist[kt], ident[kt], ctx[kt], plan[kt]
                 serve = serve[kt]
+                wait = None if wait is None else wait[kt]
                 if cache is not None:
                     cache, h = cache.select(kt), h[kt]
             if n >= max_frames:
@@ -299,13 +323,17 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             prev = hist[:, n - 2] if n >= 2 else pos
             vel = (pos - prev) * fps
             prev_vel = (prev - hist[:, n - 3]) * fps if n >= 3 else torch.zeros_like(vel)
+            p_bias = None
+            if wait is not None:
+                wait = _wait_step(tracker, alive, pos, vel, wait)
+                p_bias = model.receiver_start_bias(ident[:, 0], serve, wait)
             nxt = model.sample_next(h, pos, vel, top_p_player, top_p_ball, generator, prev_vel,
-                                    contact_odds, top_p_contact)
+                                    contact_odds, top_p_contact, p_bias)
             forced = None
             if constraint is not None:
                 nxt, drawn, forced = _constrain(model, constraint, alive, n, h, pos, vel,
                                                 prev_vel, nxt, top_p_player, top_p_ball,
-                                                generator, contact_odds, top_p_contact)
+                                                generator, contact_odds, top_p_contact, p_bias)
                 resampled[alive] += drawn
                 if model.strike_head is not None:
                     forced_strikes[alive] += forced

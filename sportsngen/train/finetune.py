@@ -91,9 +91,10 @@ def add_player(model: SportsNGEN, vocab: Vocab, name: str):
     state = model.state_dict()
     old_w = state["embed.identity.weight"]
     state["embed.identity.weight"] = torch.cat([old_w, old_w[GENERIC_ID:GENERIC_ID + 1]])
-    if state.get("serve_bias") is not None:    # a new server draws the head's own serve
-        table = state["serve_bias"]
-        state["serve_bias"] = torch.cat([table, torch.zeros_like(table[:1])])
+    # A new server draws the head's own serve, and his receivers start as the model has them.
+    for key in ("serve_bias", "receiver_start"):
+        if state.get(key) is not None:
+            state[key] = torch.cat([state[key], torch.zeros_like(state[key][:1])])
     new.load_state_dict(state)
     return new, new_vocab, new_vocab.player_index(name)
 

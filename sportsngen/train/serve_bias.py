@@ -41,18 +41,27 @@ def _odds(logits: torch.Tensor, mask: torch.Tensor, weight: torch.Tensor,
     return (lg.softmax(-1) * weight[None]).sum(-1).mean(-1)
 
 
-def _solve(logits: torch.Tensor, mask: torch.Tensor, weight: torch.Tensor, target: float,
-           iters: int = 40) -> float:
-    """The shift in [-MAX_SHIFT, MAX_SHIFT] whose mean odds (`_odds`) equal `target`
-    (bisection; the odds rise with the shift, and the mean speed with the tilt)."""
-    lo, hi = -MAX_SHIFT, MAX_SHIFT
+def bisect_shift(odds_of, target: float, max_shift: float, rising: bool = True,
+                 iters: int = 40) -> float:
+    """The shift in [-max_shift, max_shift] at which `odds_of(shift)` (monotone: rising with
+    the shift, or falling with `rising=False`) equals `target`, by bisection; the bound where
+    the target lies beyond it. Shared by the per-player tables fitted by matching."""
+    lo, hi = -max_shift, max_shift
     for _ in range(iters):
         mid = 0.5 * (lo + hi)
-        if float(_odds(logits, mask, weight, torch.tensor([mid]))[0]) < target:
+        if (odds_of(mid) < target) == rising:
             lo = mid
         else:
             hi = mid
     return 0.5 * (lo + hi)
+
+
+def _solve(logits: torch.Tensor, mask: torch.Tensor, weight: torch.Tensor,
+           target: float) -> float:
+    """The shift whose mean odds (`_odds`) equal `target` (they rise with the shift, and the
+    mean speed with the tilt)."""
+    return bisect_shift(lambda s: float(_odds(logits, mask, weight, torch.tensor([s]))[0]),
+                        target, MAX_SHIFT)
 
 
 @torch.no_grad()
