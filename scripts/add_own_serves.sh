@@ -10,10 +10,10 @@
 # generator's players' reach; docs/evaluation.md, twenty-third part). Then the per-server
 # shifts of the serve head's odds of a long and a wide serve (scripts/fit_serve_bias.py on the
 # training split's serves and those of conf/data/synthetic_named.yaml; twenty-fourth part).
-# Then the rally-outcome calibrator refitted on the new file (200 rallies, 32 rollouts each;
-# WORKERS=W with CHUNK=K spreads them over W processes, other estimates). As run: about 10 minutes at two threads for the fit, 5 for the shifts,
-# 60-90 for the calibrator. (The bundled file's calibrator is the one fitted before the shifts
-# were added: the calibrator stage was not re-run for them.) The stage `receiver`, not among the
+# Then the rally-outcome calibrator refitted on the new file (200 rallies, 32 rollouts each, in
+# chunks of CHUNK=32 branch points over WORKERS=2 processes of one thread; twenty-fifth part).
+# As run: about 10 minutes at two threads for the fit, 5 for the shifts, 21 for the
+# calibrator. The stage `receiver`, not among the
 # defaults and not in the bundled file, adds the per-server start time of the receivers
 # (scripts/fit_receiver_start.py; docs/evaluation.md, twenty-fifth part: no check statistic
 # moved).
@@ -29,8 +29,8 @@ DEST=${DEST:-sportsngen/model/bundled/sportsngen-small.pt}
 FORCE=${FORCE:-1}
 REACH=${REACH:-1.5}
 STAGES=${STAGES:-"fit bias calibrator"}
-WORKERS=${WORKERS:-1}
-CHUNK=${CHUNK:-0}
+WORKERS=${WORKERS:-2}
+CHUNK=${CHUNK:-32}
 mkdir -p "$RUN"
 BASE="$RUN/base.pt"
 [ -f "$BASE" ] || git show 0b2b131:sportsngen/model/bundled/sportsngen-small.pt > "$BASE"
@@ -54,7 +54,7 @@ for s in $STAGES; do
             --out "$DEST" 2>&1 | grep -v "it/s"
         ;;
     calibrator)
-        RALLIES=200 N=32 WORKERS="$WORKERS" CHUNK="$CHUNK" PYTHON="$PY" \
+        RALLIES=200 N=32 WORKERS="$WORKERS" CHUNK="$CHUNK" THREADS=1 PYTHON="$PY" \
             scripts/fit_calibrator.sh "$DEST" ;;
     *)  echo "unknown stage $s" >&2; exit 2 ;;
     esac
