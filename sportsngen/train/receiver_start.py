@@ -146,7 +146,7 @@ def fit_receiver_start(model: SportsNGEN, states: WaitStates, prior_frames: floa
     for (sid, srv, k), g in keys.groupby(["server_id", "serve", "wait"]):
         if len(g) < min_frames or not 0 <= srv < receiver_start.N_SERVES:
             continue
-        i = torch.as_tensor(g.index.to_numpy())
+        i = torch.as_tensor(g.index.to_numpy(copy=True))
         first, second = _logits(model, states.h[i])
         n = len(i)
         record = float(states.start[i.numpy()].mean())

@@ -87,7 +87,7 @@ def fit_serve_bias(model: SportsNGEN, states: HeadStates, prior_serves: float = 
     for (sid, srv), g in keys.groupby(["server_id", "serve"]):
         if len(g) < min_serves or not 0 <= srv < serve_bias.N_SERVES:
             continue
-        i = torch.as_tensor(g.index.to_numpy())
+        i = torch.as_tensor(g.index.to_numpy(copy=True))
         h, bins = states.h[i], states.bins[i]
         n = len(i)
         depth = head.dim_logits(h, bins, 0)
