@@ -3,10 +3,11 @@
 In the generator a receiver reads a serve from its flight, later against a server who
 disguises it (`serve_disguise_s`: Serena Williams +0.11 s, Nadal -0.20 s): facing Williams the
 truth's receivers stand still until 5 frames after the contact, facing Sharapova until 3. The
-model's receivers start 2-4 frames after every server's contact alike, so they reach serves the
-truth's do not (Williams' aces 3 % against 13 %: docs/evaluation.md, twenty-fifth part); the
-decoder sees the server's identity but its loss hardly weighs a frame or two of one player's
-serves. `ModelConfig.receiver_start` adds a table of logit shifts, per server identity and
+model's receivers start 2-4 frames after every server's contact alike: the decoder sees the
+server's identity but its loss hardly weighs a frame or two of one player's serves. (Righting
+the start did not bring back Williams' missing aces, 3 % against 13 %: the rule for balls in
+reach returns them; docs/evaluation.md, twenty-fifth part. The bundled file does not carry the
+table.) `ModelConfig.receiver_start` adds a table of logit shifts, per server identity and
 serve (first, second) and frames he has waited so far, added to the receiver's centre bin (no
 change of velocity) on both axes while he waits: the serve struck and flying toward his end,
 he standing still, the return not yet struck. `sportsngen.train.receiver_start` fits it by
