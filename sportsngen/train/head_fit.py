@@ -73,6 +73,26 @@ def _turned(batch: dict) -> dict:
     return {k: flip_xy(v) if k in _TURNED else v for k, v in batch.items()}
 
 
+def window_batches(model: SportsNGEN, arrays: RallyArrays, first_only: bool, flip: bool,
+                   batch_size: int = 32):
+    """Collated training windows of `arrays` (each rally's first window only, or all that tile
+    it), and with `flip` each also turned as training's augmentation turns half of them (in
+    the world frame only: the server's frame undoes the turn) -> (an iterator of batches,
+    their number)."""
+    ds = WindowDataset(arrays, model.cfg.window_frames, None)
+    if first_only:
+        ds = Subset(ds, ds.first_windows())
+    loader = DataLoader(ds, batch_size=batch_size, shuffle=False, collate_fn=default_collate)
+    turns = (False, True) if flip and model.cfg.frame == "world" else (False,)
+    return ((_turned(b) if t else b) for t in turns for b in loader), len(loader) * len(turns)
+
+
+def cut_batch(batch: dict, t: int) -> dict:
+    """A batch's windows cut after their first `t` frames: a frame's states see only the
+    frames up to it, so the decoder need run no further than the last frame read."""
+    return {k: v[:, :t] if k in _PER_FRAME else v for k, v in batch.items()}
+
+
 @torch.no_grad()
 def collect_head_states(model: SportsNGEN, arrays: RallyArrays, which: str = "serve",
                         flip: bool = False, batch_size: int = 32,
@@ -84,15 +104,10 @@ def collect_head_states(model: SportsNGEN, arrays: RallyArrays, which: str = "se
     _head(model, which)
     was_training = model.training
     model.eval()
-    ds = WindowDataset(arrays, model.cfg.window_frames, None)
-    if which == "serve":   # a rally's serve lies in its first window
-        ds = Subset(ds, ds.first_windows())
-    loader = DataLoader(ds, batch_size=batch_size, shuffle=False, collate_fn=default_collate)
-    turns = (False, True) if flip and model.cfg.frame == "world" else (False,)
-    batches = ((_turned(b) if t else b) for t in turns for b in loader)
+    # A rally's serve lies in its first window.
+    batches, total = window_batches(model, arrays, which == "serve", flip, batch_size)
     hs, bins, rid, srv, contact, receiver, server_id = [], [], [], [], [], [], []
-    for batch in tqdm(batches, desc=f"{which} states", total=len(loader) * len(turns),
-                      disable=not progress):
+    for batch in tqdm(batches, desc=f"{which} states", total=total, disable=not progress):
         mask, b = model.strike_targets(batch["pos_m"], batch["vel_mps"], batch["next_pos_m"],
                                        batch["has_next"], serves=which == "serve")
         if not bool(mask.any()):
@@ -100,7 +115,7 @@ def collect_head_states(model: SportsNGEN, arrays: RallyArrays, which: str = "se
         # A frame's states see only the frames up to it: the decoder runs up to the last
         # target (a serve comes within the first second or two of a 6 s window).
         t = int(mask.nonzero()[:, 1].max()) + 1
-        cut = {k: v[:, :t] if k in _PER_FRAME else v for k, v in batch.items()}
+        cut = cut_batch(batch, t)
         h = window_states(model, cut)
         hs.append(h[..., BALL, :][mask[:, :t]])
         bins.append(b[mask])

@@ -20,14 +20,13 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 import torch
-from torch.utils.data import DataLoader, Subset, default_collate
 from tqdm.auto import tqdm
 
-from sportsngen.data.tokens import RallyArrays, WindowDataset
+from sportsngen.data.tokens import RallyArrays
 from sportsngen.model import receiver_start
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.train.finetune import with_flag
-from sportsngen.train.head_fit import _PER_FRAME, _turned
+from sportsngen.train.head_fit import cut_batch, window_batches
 from sportsngen.train.metrics import window_states
 from sportsngen.train.serve_bias import bisect_shift
 
@@ -71,15 +70,10 @@ def collect_wait_states(model: SportsNGEN, arrays: RallyArrays, flip: bool = Fal
     window turned as training's augmentation turns half of them (world frame only)."""
     was_training = model.training
     model.eval()
-    ds = WindowDataset(arrays, model.cfg.window_frames, None)
-    loader = DataLoader(Subset(ds, ds.first_windows()), batch_size=batch_size, shuffle=False,
-                        collate_fn=default_collate)
-    turns = (False, True) if flip and model.cfg.frame == "world" else (False,)
-    batches = ((_turned(b) if t else b) for t in turns for b in loader)
+    batches, total = window_batches(model, arrays, True, flip, batch_size)
     centre = model.cfg.n_bins // 2
     parts = []
-    for batch in tqdm(batches, desc="receiver states", total=len(loader) * len(turns),
-                      disable=not progress):
+    for batch in tqdm(batches, desc="receiver states", total=total, disable=not progress):
         served, _ = model.strike_targets(batch["pos_m"], batch["vel_mps"], batch["next_pos_m"],
                                          batch["has_next"], serves=True)
         has = served.any(1)
@@ -95,7 +89,7 @@ def collect_wait_states(model: SportsNGEN, arrays: RallyArrays, flip: bool = Fal
         if not bool(wait.any()):
             continue
         t = int(wait.nonzero()[:, 1].max()) + 1
-        cut = {k: v[:, :t] if k in _PER_FRAME else v for k, v in batch.items()}
+        cut = cut_batch(batch, t)
         h = window_states(model, cut)[..., receiver_start.RECEIVER, :]
         w = wait[:, :t]
         pbins, _ = model.target_bins(cut["pos_m"], cut["vel_mps"], cut["next_pos_m"],
