@@ -16,7 +16,11 @@
 # calibrator. The stage `receiver`, not among the
 # defaults and not in the bundled file, adds the per-server start time of the receivers
 # (scripts/fit_receiver_start.py; docs/evaluation.md, twenty-fifth part: no check statistic
-# moved).
+# moved). The stage `contact`, likewise left out, adds the shifts of the ball's odds of a
+# contact by where it is from its hitter (scripts/fit_contact_reach.py on the training split,
+# 6 minutes; twenty-sixth part: the checks lost 3 of 96). The file measured there:
+#   cp sportsngen/model/bundled/sportsngen-small.pt x.pt
+#   DEST=x.pt STAGES="receiver contact" scripts/add_own_serves.sh
 #
 #   scripts/add_own_serves.sh                     # the fit, defaults and shifts, then the calibrator
 #   STAGES="fit bias" scripts/add_own_serves.sh   # the fit, defaults and shifts only
@@ -52,6 +56,10 @@ for s in $STAGES; do
     receiver)
         "$PY" scripts/fit_receiver_start.py --model "$DEST" --more-data synthetic_named \
             --out "$DEST" 2>&1 | grep -v "it/s"
+        ;;
+    contact)
+        "$PY" scripts/fit_contact_reach.py --model "$DEST" --out "$DEST" 2>&1 \
+            | grep -v "it/s"
         ;;
     calibrator)
         RALLIES=200 N=32 WORKERS="$WORKERS" CHUNK="$CHUNK" THREADS=1 PYTHON="$PY" \

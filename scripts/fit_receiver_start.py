@@ -12,45 +12,28 @@ file is copied unchanged.
 
 from __future__ import annotations
 
-import argparse
 import time
 
-import torch
-
 from sportsngen.data.tokens import N_SPECIAL_IDS
-from sportsngen.model.export import load_model, read_extra, save_model
-from sportsngen.sim.simulator import model_path
-from sportsngen.train.evaluate import training_arrays
 from sportsngen.train.receiver_start import (
     WaitStates,
     collect_wait_states,
     fit_receiver_start,
     with_receiver_start,
 )
+from sportsngen.train.table_cli import open_table_run, table_parser
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--model", default=None, help="model file (default: the bundled one)")
-    ap.add_argument("--out", required=True, help="where to write the model file")
-    ap.add_argument("--more-data", default=None,
-                    help="also read every rally of this data config (conf/data/NAME.yaml)")
-    ap.add_argument("--prior-frames", type=float, default=200.0,
-                    help="pseudo-frames at the head's own odds added to each server's record")
-    ap.add_argument("--threads", type=int, default=2)
-    args = ap.parse_args()
-    torch.set_num_threads(args.threads)
-    path = model_path(args.model)
-    model, ec, vocab, _ = load_model(path)
-    if model.cfg.head != "factorised":
-        raise SystemExit(f"{path}: the receiver's shift needs the factorised head")
-    extra = read_extra(path)
+    args = table_parser(__doc__, "--prior-frames", 200.0,
+                        "pseudo-frames at the head's own odds added to each server's record",
+                        "also read every rally of this data config (conf/data/NAME.yaml)"
+                        ).parse_args()
+    run = open_table_run(args, lambda m: None if m.cfg.head == "factorised"
+                         else "the receiver's shift needs the factorised head")
+    model, vocab = run.model, run.vocab
     t0 = time.time()
-    try:
-        arrays = training_arrays(path, vocab, args.more_data)
-    except ValueError as exc:
-        raise SystemExit(str(exc)) from None
-    parts = [collect_wait_states(model, a, flip=True) for a in arrays]
+    parts = [collect_wait_states(model, a, flip=True) for a in run.arrays]
     states = WaitStates.concat(parts)
     print(f"{len(states)} recorded waiting frames read ({time.time() - t0:.0f} s)")
     model = with_receiver_start(model)
@@ -60,8 +43,7 @@ def main() -> None:
     for col in ("record", "head", "shift"):
         wide = table.pivot_table(index=["server", "serve"], columns="wait", values=col)
         print(f"\n{col} by frames waited:\n{wide.round(2).to_string()}")
-    save_model(args.out, model, vocab, ec, extra=extra)
-    print(f"wrote {args.out}")
+    run.save(model, args.out)
 
 
 if __name__ == "__main__":

@@ -46,8 +46,15 @@ def test_the_generators_players_answer_the_good_balls_they_can_reach(points):
     assert fast[["n (receiver)", "n (server)"]].sum().sum() == len(rows)
     np.testing.assert_allclose(rows["need_speed_mps"] * rows["time_s"], rows["need_m"])
     assert (rows["time_s"] > 0).all()
+    # By how close the ball came as he moved: the generator's players answer the balls that
+    # come within a racket's reach and none that pass beyond any player's (3 m).
+    by_gap = answered_by_need(rows, by="gap_m").set_index("gap (m)")
+    assert by_gap[["n (receiver)", "n (server)"]].sum().sum() == len(rows)
+    near = rows[rows["gap_m"] <= 1.2]
+    assert near["answered"].mean() > 0.95
+    assert not rows.loc[rows["gap_m"] > 3.0, "answered"].any()
     with pytest.raises(ValueError, match="by must be"):
-        answered_by_need(rows, by="gap_m")
+        answered_by_need(rows, by="speed")
     speeds = toward_speeds(rows)
     assert list(speeds["frames after the contact"]) == ["receiver", "server"]
     # Running toward a ball 3-7 m away: at least 2 m/s half a second after the contact.

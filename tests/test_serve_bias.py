@@ -51,8 +51,18 @@ def test_a_dimensions_bias_is_added_to_its_logits():
         head.sample(hh, 1.0, torch.Generator().manual_seed(3)),
         head.sample(hh, 1.0, torch.Generator().manual_seed(3),
                     dim_bias=torch.zeros(400, 2, 5)))
-    with pytest.raises(ValueError, match="regions"):
-        head.sample(hh, 0.9, None, regions=torch.ones(5, dtype=torch.bool), dim_bias=bias)
+    # With regions (the contact odds' split), the regions' odds are read after the bias: a
+    # region holding only bins shifted far down is never chosen.
+    regions = torch.tensor([True, True, False, False, False])
+    bias = torch.zeros(400, 2, 5)
+    bias[:, 0, :2] = -50.0
+    got = head.sample(hh, 0.9, torch.Generator().manual_seed(0), regions=regions,
+                      dim_bias=bias)
+    assert (got[:, 0] >= 2).all()
+    bias[:, 0, :2] = 50.0
+    got = head.sample(hh, 0.9, torch.Generator().manual_seed(0), regions=regions,
+                      dim_bias=bias)
+    assert (got[:, 0] < 2).all()
 
 
 def test_the_long_bins_are_those_beyond_the_service_line():

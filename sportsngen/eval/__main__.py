@@ -342,12 +342,17 @@ def run_reach(args: argparse.Namespace) -> int:
         fmt = {"index": False, "float_format": lambda v: f"{v:.3f}"}
         notes = ["by the mean speed the ball asks for (its need over the time it gives):",
                  answered_by_need(rows, by="need_speed_mps").to_string(**fmt),
+                 "by how close the ball came to him as he moved (beyond 1.5 m: where he was, "
+                 "not whether he struck it):",
+                 answered_by_need(rows, by="gap_m").to_string(**fmt),
                  "mean speed toward the ball's nearest point (m/s), needs of 3-7 m:",
                  speeds.to_string(index=False, float_format=lambda v: f"{v:.2f}")]
         if (rows["shot"] == 0).any():
             serves = toward_speeds(rows, need_m=(1.0, 7.0), shots="serve")
             notes += ["good serves, returned by need (a miss is an ace):",
                       answered_by_need(rows, shots="serve").to_string(**fmt),
+                      "good serves, returned by how close they came to him:",
+                      answered_by_need(rows, by="gap_m", shots="serve").to_string(**fmt),
                       "the receiver's speed toward the serve (m/s), needs of 1-7 m:",
                       serves.to_string(index=False, float_format=lambda v: f"{v:.2f}")]
         contacts = contact_rows(data)

@@ -13,10 +13,17 @@ REVERSAL_M = CONTACT_OFFSET_M
 VOLLEY_GAP_FRAMES = 3     # a volley's approach starts this long after the previous contact
 
 
-def far_probability(model, h: torch.Tensor) -> torch.Tensor:
+def far_probability(model, h: torch.Tensor, pos_m: torch.Tensor | None = None,
+                    vel_mps: torch.Tensor | None = None,
+                    prev_vel_mps: torch.Tensor | None = None) -> torch.Tensor:
     """P(contact) of ball output states h (N, d): the next ball frame more than `REVERSAL_M`
-    from its bin centre along x (the decoder's `contact_bins`)."""
+    from its bin centre along x (the decoder's `contact_bins`). Given the frames (N, 3, 3)
+    (positions, velocities and the velocities a frame earlier), a model's contact table
+    (`model.contact_reach`) shifts the odds as a rollout's draw has them."""
     p0 = model.ball_head.dim_logits(h, torch.zeros(len(h), 3, dtype=torch.long), 0)
+    if pos_m is not None and getattr(model, "contact_reach", None) is not None:
+        centre = model.centres(pos_m, vel_mps, prev_vel_mps)
+        p0 = p0 + model.contact_reach_bias(pos_m, vel_mps, centre)[:, 0]
     return p0.softmax(-1)[:, model.contact_bins()].sum(-1)
 
 

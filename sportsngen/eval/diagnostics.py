@@ -271,12 +271,17 @@ def first_windows(sim, truth: RallyData, batch_size: int = 32) -> FirstWindows:
 
 @torch.no_grad()
 def window_contact_probabilities(model, windows: list, batch_size: int = 32) -> np.ndarray:
-    """Teacher-forced P(contact) (`far_probability`) of every ball token of `windows`
-    (`WindowDataset` items of one length T) -> (len(windows), T); token t predicts frame t+1."""
+    """Teacher-forced P(contact) (`far_probability`, with the model's contact table where it
+    has one) of every ball token of `windows` (`WindowDataset` items of one length T) ->
+    (len(windows), T); token t predicts frame t+1."""
     out = []
     for b0 in range(0, len(windows), batch_size):
-        h = window_states(model, default_collate(windows[b0:b0 + batch_size]))[:, :, BALL]
-        out.append(far_probability(model, h.reshape(-1, h.shape[-1])).reshape(h.shape[:2]))
+        batch = default_collate(windows[b0:b0 + batch_size])
+        h = window_states(model, batch)[:, :, BALL]
+        frames = [None if batch.get(k) is None else batch[k].reshape(-1, 3, 3)
+                  for k in ("pos_m", "vel_mps", "prev_vel_mps")]
+        out.append(far_probability(model, h.reshape(-1, h.shape[-1]), *frames)
+                   .reshape(h.shape[:2]))
     t = model.cfg.window_frames
     return torch.cat(out).numpy() if out else np.zeros((0, t), dtype=np.float32)
 

@@ -44,6 +44,9 @@ TOWARD_FRAMES = 40
 NEED_BINS_M = (0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 7.0, 30.0)
 # Bins of the mean speed a ball asks for (need over the time it gives, m/s).
 NEED_SPEED_BINS_MPS = (0.0, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 100.0)
+# Bins of how close the ball came to him as he moved (m): within a racket's reach (0.8-1.2 m
+# at the truth's contacts) to out of any player's (the generator's reach 1.7-1.95 m).
+GAP_BINS_M = (0.0, 0.8, 1.2, 1.5, 1.8, 2.2, 3.0, 30.0)
 SHOTS = {"rally": lambda shot: shot >= 1, "serve": lambda shot: shot == 0}
 
 
@@ -131,8 +134,10 @@ def _pick(rows: pd.DataFrame, shots: str) -> pd.DataFrame:
 def answered_by_need(rows: pd.DataFrame, by: str = "need_m",
                      shots: str = "rally") -> pd.DataFrame:
     """Share answered and count per bin of `by` ("need_m": `NEED_BINS_M`, "need_speed_mps":
-    `NEED_SPEED_BINS_MPS`) and role of the player due, over rally balls or serves (`shots`)."""
-    bins = {"need_m": NEED_BINS_M, "need_speed_mps": NEED_SPEED_BINS_MPS}
+    `NEED_SPEED_BINS_MPS`, "gap_m": `GAP_BINS_M`) and role of the player due, over rally balls
+    or serves (`shots`). By `gap_m` it separates where the players are (how many balls pass
+    beyond a racket's reach) from whether the ball is struck when they are there."""
+    bins = {"need_m": NEED_BINS_M, "need_speed_mps": NEED_SPEED_BINS_MPS, "gap_m": GAP_BINS_M}
     if by not in bins:
         raise ValueError(f"by must be one of {sorted(bins)}, got {by!r}")
     rows = _pick(rows, shots)
@@ -145,7 +150,8 @@ def answered_by_need(rows: pd.DataFrame, by: str = "need_m",
     t["count"] = t["count"].fillna(0).astype(int)      # a role with no ball in a bin: 0
     t.columns = [f"{'answered' if a == 'mean' else 'n'} ({b})" for a, b in t.columns]
     t.index = [f"{iv.left:g}-{iv.right:g}" for iv in t.index]
-    return t.rename_axis("need (m)" if by == "need_m" else "need (m/s)").reset_index()
+    names = {"need_m": "need (m)", "need_speed_mps": "need (m/s)", "gap_m": "gap (m)"}
+    return t.rename_axis(names[by]).reset_index()
 
 
 def toward_speeds(rows: pd.DataFrame, need_m: tuple[float, float] = (3.0, 7.0),

@@ -99,6 +99,11 @@ class ModelConfig:
     # then): the truth's receivers wait longer against a server who disguises his serve, the
     # model's start alike against all (docs/evaluation.md, twenty-fifth part).
     receiver_start: bool = False
+    # A table of shifts of the ball's odds of a racket contact by where the ball is from the
+    # player due to strike it (`model.contact_reach`, fitted by `train.contact_reach`; zero
+    # until then): the decoder's odds hardly read the hitter's reach (docs/evaluation.md,
+    # twenty-sixth part).
+    contact_reach: bool = False
     player_max_speed_mps: float = 10.0   # bin range: offsets up to this speed over one frame
     ball_max_speed_mps: tuple[float, float, float] = (80.0, 40.0, 40.0)
     window_s: float = 6.0
@@ -159,6 +164,9 @@ class ModelConfig:
         if self.receiver_start and self.head != "factorised":
             raise ValueError("model.receiver_start shifts the players' factorised head: it "
                              "needs head='factorised'")
+        if self.contact_reach and self.head != "factorised":
+            raise ValueError("model.contact_reach shifts the ball's factorised head: it needs "
+                             "head='factorised'")
         if self.n_bins < 3 or self.n_bins % 2 == 0:
             raise ValueError(f"model.n_bins must be odd and >= 3 (a bin centred on 0), "
                              f"got {self.n_bins}")

@@ -25,7 +25,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from sportsngen.data.tokens import BALL, GENERIC_ID, N_FEATURES, N_OBJECTS, N_SPECIAL_IDS
-from sportsngen.model import receiver_start, serve_bias, strike, strike_heads
+from sportsngen.model import contact_reach, receiver_start, serve_bias, strike, strike_heads
 from sportsngen.model.bins import Bins
 from sportsngen.model.centre import object_centres_m
 from sportsngen.model.config import FEATURE_GROUPS, ModelConfig
@@ -186,6 +186,7 @@ class SportsNGEN(nn.Module):
         self.ball_bins = Bins(cfg.ball_bin_half_ranges_m, cfg.n_bins, cfg.bin_spacing)
         mid = (self.ball_bins.edges[0, :-1] + self.ball_bins.edges[0, 1:]) / 2
         self.register_buffer("_contact_bins", mid.abs() > CONTACT_OFFSET_M, persistent=False)
+        self.register_buffer("_ball_bin_x_m", mid, persistent=False)
         turn = torch.ones(N_FEATURES)
         turn[list(TURNED_FEATURES)] = -1.0
         self.register_buffer("_turn", turn, persistent=False)   # the object features turned
@@ -214,6 +215,10 @@ class SportsNGEN(nn.Module):
                              torch.zeros(cfg.n_ids, receiver_start.N_SERVES,
                                          receiver_start.N_WAIT)
                              if cfg.receiver_start else None)
+        self.register_buffer("contact_reach",
+                             torch.zeros(contact_reach.N_KINDS, contact_reach.N_FRAMES_CELLS,
+                                         contact_reach.N_ASIDE_CELLS)
+                             if cfg.contact_reach else None)
 
     # --- inputs -------------------------------------------------------------------------------
     def _ident(self, ident: torch.Tensor) -> torch.Tensor:
@@ -453,6 +458,29 @@ class SportsNGEN(nn.Module):
         return receiver_start.player_dim_bias(self.receiver_start, self._ident(server_ident),
                                               serve, wait_count, self.cfg.n_bins)
 
+    def contact_bin_kinds(self, pos_m: torch.Tensor, centre_m: torch.Tensor
+                          ) -> tuple[torch.Tensor, torch.Tensor]:
+        """Frames (..., 3, 3) whose bins are centred at `centre_m` -> which of the ball's
+        first-axis bins strike it and which only jolt it ((..., n_bins) bool each,
+        `contact_reach.bin_kinds`)."""
+        sign = self.frame_sign(pos_m)
+        bin_x = self._ball_bin_x_m if sign is None else self._ball_bin_x_m * sign[..., 0, :]
+        step_x = centre_m[..., BALL, 0] - pos_m[..., BALL, 0]
+        return contact_reach.bin_kinds(pos_m, step_x, bin_x.expand(*step_x.shape, -1),
+                                       self.contact_bins(), self.cfg.fps)
+
+    def contact_reach_bias(self, pos_m: torch.Tensor, vel_mps: torch.Tensor,
+                           centre_m: torch.Tensor) -> torch.Tensor | None:
+        """The ball head's logit shifts (..., 3, n_bins) for frames (..., 3, 3) whose bins are
+        centred at `centre_m` (`centres`): a strike's and a jolt's contact bins shifted by
+        `model.contact_reach` at where each ball is from its hitter; None where the model has
+        no table."""
+        if self.contact_reach is None:
+            return None
+        strike, jolt = self.contact_bin_kinds(pos_m, centre_m)
+        return contact_reach.ball_dim_bias(self.contact_reach, pos_m, vel_mps, strike, jolt,
+                                           self.cfg.fps)
+
     @torch.no_grad()
     def place_strikes(self, h: torch.Tensor, pos_m: torch.Tensor, vel_mps: torch.Tensor,
                       nxt: torch.Tensor, generator: torch.Generator | None = None,
@@ -503,7 +531,8 @@ class SportsNGEN(nn.Module):
         """Next positions (..., 3, 3) from output states h (..., 3, d): nucleus per object
         kind, then uniform inside the chosen bin. Players stay on the ground (z = 0).
         `player_bias` (..., 2, 2, n_bins): added to the players' head's logits (the
-        receiver's start, `receiver_start_bias`).
+        receiver's start, `receiver_start_bias`). With `cfg.contact_reach` the ball's odds of
+        a contact are shifted by where it is from its hitter (`contact_reach_bias`).
 
         With the physics centre, a ball dimension that falls in the centre bin takes the
         centre itself: that step reads the acceleration from the track's last three frames, so
@@ -521,9 +550,11 @@ class SportsNGEN(nn.Module):
         centre = self.centres(pos_m, vel_mps, prev_vel_mps)
         shift = {} if player_bias is None else {"dim_bias": player_bias}   # factorised only
         pi = self.player_head.sample(h[..., :BALL, :], top_p_player, generator, **shift)
+        reach = self.contact_reach_bias(pos_m, vel_mps, centre)
         bi = self.ball_head.sample(h[..., BALL, :], top_p_ball, generator,
                                    self.contact_bins() if contact_odds else None,
-                                   top_p_contact if contact_odds else None)
+                                   top_p_contact if contact_odds else None,
+                                   **({} if reach is None else {"dim_bias": reach}))
         p_off = self.player_bins.value(pi, uniform_in_bin(pi.shape, h.device, generator))
         u_ball = uniform_in_bin(bi.shape, h.device, generator)
         if self.ball_sub_head is not None:

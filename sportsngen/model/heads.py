@@ -110,20 +110,20 @@ class FactorisedHead(nn.Module):
                dim_bias: torch.Tensor | None = None) -> torch.Tensor:
         """Dimension by dimension, each with its own nucleus (the first inside `regions`).
         `top_p_regions`: the nucleus of every dimension of a row whose first falls in
-        `regions` (default `top_p`); `dim_bias` as in `dim_logits` (without `regions`)."""
+        `regions` (default `top_p`); `dim_bias` as in `dim_logits` (the regions' odds are
+        read after it)."""
         if regions is None:
             return self._decode(h, lambda lg: sample_top_p(lg, top_p, generator), dim_bias)
-        if dim_bias is not None:
-            raise ValueError("dim_bias is not taken with regions")
         chosen = torch.zeros(*h.shape[:-1], self.dims, dtype=torch.long, device=h.device)
-        chosen[..., 0] = sample_top_p_in_regions(self.dim_logits(h, chosen, 0), regions, top_p,
-                                                 generator, top_p_regions)
+        chosen[..., 0] = sample_top_p_in_regions(self.dim_logits(h, chosen, 0, dim_bias),
+                                                 regions, top_p, generator, top_p_regions)
         row_p = top_p
         if top_p_regions is not None and top_p_regions != top_p:
             inside = regions.to(h.device)[chosen[..., 0]]
             row_p = torch.where(inside, float(top_p_regions), float(top_p))
         for k in range(1, self.dims):
-            chosen[..., k] = sample_top_p(self.dim_logits(h, chosen, k), row_p, generator)
+            chosen[..., k] = sample_top_p(self.dim_logits(h, chosen, k, dim_bias), row_p,
+                                          generator)
         return chosen
 
 

@@ -106,15 +106,21 @@ __all__ = ["data_config", "evaluate_held_out", "metrics_table"]
 
 
 
+def split_arrays(model_path: str | Path, vocab) -> tuple:
+    """The model file's own training and validation rallies (`extra.split`) -> (train, val)
+    RallyArrays."""
+    split = read_extra(model_path).get("split")
+    if not split or "data" not in split:
+        raise ValueError(f"{model_path} records no training data split (extra.split)")
+    return split_rallies(rally_arrays(load_rally_data(split["data"]), vocab),
+                         float(split["val_fraction"]), int(split["seed"]))
+
+
 def training_arrays(model_path: str | Path, vocab, more_data: str | None = None) -> list:
     """The recorded rallies a per-player table is fitted on (`scripts/fit_serve_bias.py`,
     `scripts/fit_receiver_start.py`): the model file's own training split (`extra.split`) and,
     with `more_data`, every rally of that data config -> [RallyArrays, ...]."""
-    split = read_extra(model_path).get("split")
-    if not split or "data" not in split:
-        raise ValueError(f"{model_path} records no training data split (extra.split)")
-    train, _ = split_rallies(rally_arrays(load_rally_data(split["data"]), vocab),
-                             float(split["val_fraction"]), int(split["seed"]))
+    train, _ = split_arrays(model_path, vocab)
     if not more_data:
         return [train]
     return [train, rally_arrays(load_rally_data(data_config(more_data)), vocab)]
