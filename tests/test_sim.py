@@ -492,6 +492,23 @@ def test_strike_in_reach_rejects_a_good_ball_leaving_the_due_players_reach_unstr
     # The player keeping the ball in reach (he moved with it) is a possible frame too.
     nxt[0, 1, 0] -= 0.8
     assert bool(con.accept(np.arange(1), 10, pos[:1], nxt[:1])[0])
+    # Given the velocities, a ball braked in mid-air in his reach (20 m/s to 2.5 m/s: it
+    # would hang there until the end rules called it an ace) is rejected like a pass; flying
+    # on within reach, or sent back, it is not.
+    vel = torch.zeros(n, 3, 3)
+    vel[:, 2, 0] = -20.0
+    vel[6:, 2, 0] = 20.0
+    braked = pos.clone()
+    braked[:, 2, 0] -= 0.1
+    braked[6:, 2, 0] += 0.2                              # the server's: braked to 5 m/s
+    braked[5, 2, 0] = pos[5, 2, 0] + 0.6                 # sent back
+    got = con.accept(np.arange(n), 10, pos, braked, vel)
+    assert got.tolist() == [False, False, True, True, True, True, False, False]
+    assert con.accept(np.arange(n), 10, pos, braked).tolist() == [True] * n    # no velocities
+    flying = pos.clone()
+    flying[:, 2, 0] -= 0.8
+    flying[:, 1, 0] -= 0.8                               # he moves with it: still in reach
+    assert bool(con.accept(np.arange(1), 10, pos[:1], flying[:1], vel[:1])[0])
     # From the server's first rally ball on, the return is left to the model.
     rally = StrikeInReach(tracker, reach_m=1.2, max_z_m=2.3, fps=25.0, from_shot=2)
     assert rally.accept(np.arange(n), 10, pos, nxt).tolist() == [True] * 6 + [False, True]

@@ -282,6 +282,44 @@ def test_a_forced_strike_is_struck_from_where_the_ball_is(monkeypatch):
     np.testing.assert_allclose(plan[1].numpy(), launch[1:], atol=1e-5)
 
 
+def test_a_forced_strike_whose_launch_is_not_found_is_drawn_again(monkeypatch):
+    from sportsngen.model import strike_heads
+    from sportsngen.sim.rollout import _follow_strikes
+
+    model, want, ball, pos, vel = _two_incoming_balls(monkeypatch)
+    real = S.solve_launch
+    calls = []
+
+    def failing_first(contact, side, values, fps):
+        """The first two solves find nothing; the third (a third draw) solves as before."""
+        calls.append(len(contact))
+        v0, found = real(contact, side, values, fps)
+        return v0, found & (len(calls) > 2)
+
+    monkeypatch.setattr(S, "solve_launch", failing_first)
+    nxt = pos.clone()
+    nxt[:, 2, 0] += 0.9                                 # both rows: flies on past
+    nxt[0, 2] = pos[0, 2] + torch.tensor([-1.1, 0.0, 0.1])   # row 0: the model's own strike
+    h = torch.randn(2, 3, model.cfg.d_model)
+    plan = torch.full((2, 2, 3), float("nan"))
+    out, plan = _follow_strikes(model, h, pos, vel, nxt.clone(), plan,
+                                torch.Generator().manual_seed(0), np.array([False, True]))
+    # The sampled strike keeps its own frame when its one draw fails; the forced row is drawn
+    # again, alone, until a launch is found (the third solve).
+    assert calls == [2, 1, 1]
+    assert torch.equal(out[0], nxt[0]) and torch.isnan(plan[0]).all()
+    assert out[1, 2, 0] < pos[1, 2, 0] and not torch.isnan(plan[1]).any()
+    # Never found: the forced row gives up after FORCED_DRAWS draws and the ball flies on.
+    calls.clear()
+    monkeypatch.setattr(S, "solve_launch", lambda c, s_, v, f: (np.zeros((len(c), 3)),
+                                                                   np.zeros(len(c), bool)))
+    plan = torch.full((2, 2, 3), float("nan"))
+    out, plan = _follow_strikes(model, h, pos, vel, nxt.clone(), plan,
+                                torch.Generator().manual_seed(0), np.array([False, True]))
+    assert torch.equal(out[1], nxt[1]) and torch.isnan(plan).all()
+    assert strike_heads.FORCED_DRAWS == 8
+
+
 def test_recorded_serves_are_found_once_and_read_where_they_bounced():
     from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
 

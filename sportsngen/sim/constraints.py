@@ -57,6 +57,25 @@ def reverses(vx_in: torch.Tensor, vx_out: torch.Tensor) -> torch.Tensor:
         (vx_out.abs() > SHOT_MIN_VX_MPS)
 
 
+def ball_jolted(pos_m: torch.Tensor, next_pos_m: torch.Tensor, vel_mps: torch.Tensor,
+                fps: float) -> torch.Tensor:
+    """(B,) bool: inside the fences, the ball changes velocity by more than `JOLT_MPS` between
+    `pos_m` and `next_pos_m` (B, 3, 3) where falling freely it would not come down to
+    `JOLT_MIN_Z_M` (a bounce inside the frame is left alone), or at any height loses more of
+    its speed along the ground than a bounce can (keeps less than `BOUNCE_MIN_KEEP` of it,
+    from over `JOLT_MPS`). `PhysicalLimits.jolted`, `StrikeInReach.passes`."""
+    ball, nxt = pos_m[:, BALL], next_pos_m[:, BALL]
+    v_in, dt = vel_mps[:, BALL], 1.0 / fps
+    change = torch.linalg.vector_norm((nxt - ball) * fps - v_in, dim=-1)
+    low = ball[:, 2] + v_in[:, 2] * dt - 0.5 * GRAVITY_MPS2 * dt * dt
+    inside = (ball[:, 0].abs() < FENCE_X_M - 1.0) & (ball[:, 1].abs() < FENCE_Y_M - 1.0)
+    along_in = torch.linalg.vector_norm(v_in[:, :2], dim=-1)
+    along_out = torch.linalg.vector_norm(nxt[:, :2] - ball[:, :2], dim=-1) * fps
+    braked = (along_in > JOLT_MPS) & (along_out < BOUNCE_MIN_KEEP * along_in)
+    in_air = (change > JOLT_MPS) & (low > JOLT_MIN_Z_M) & (ball[:, 2] > JOLT_MIN_Z_M)
+    return (in_air | braked) & inside
+
+
 class PhysicalLimits:
     """Reject a sampled frame whose ball is below the ground, or crossed the net's plane
     below the cord since the previous frame, or (`reach_m` not None) reverses along x, as a
@@ -125,16 +144,7 @@ class PhysicalLimits:
         redraws the contacts that only slowed the ball passed, so 15 % of a check's rallies
         had a ball braking in mid-air (a serve 40 m/s to 13 m/s past the net, then landing
         2.6 m short of where it was served to)."""
-        ball, nxt = pos_m[:, BALL], next_pos_m[:, BALL]
-        v_in, dt = vel_mps[:, BALL], 1.0 / self.fps
-        change = torch.linalg.vector_norm((nxt - ball) * self.fps - v_in, dim=-1)
-        low = ball[:, 2] + v_in[:, 2] * dt - 0.5 * GRAVITY_MPS2 * dt * dt
-        inside = (ball[:, 0].abs() < FENCE_X_M - 1.0) & (ball[:, 1].abs() < FENCE_Y_M - 1.0)
-        along_in = torch.linalg.vector_norm(v_in[:, :2], dim=-1)
-        along_out = torch.linalg.vector_norm(nxt[:, :2] - ball[:, :2], dim=-1) * self.fps
-        braked = (along_in > JOLT_MPS) & (along_out < BOUNCE_MIN_KEEP * along_in)
-        in_air = (change > JOLT_MPS) & (low > JOLT_MIN_Z_M) & (ball[:, 2] > JOLT_MIN_Z_M)
-        return (in_air | braked) & inside
+        return ball_jolted(pos_m, next_pos_m, vel_mps, self.fps)
 
     def give_up(self, rows: np.ndarray) -> None:
         self.given_up += len(rows)
@@ -222,13 +232,16 @@ class StrikeInReach:
         dev = pos_m.device
         return ~(torch.as_tensor(due, device=dev) & self.passes(
             pos_m, next_pos_m, torch.as_tensor(role, device=dev),
-            torch.as_tensor(end, device=dev, dtype=pos_m.dtype)))
+            torch.as_tensor(end, device=dev, dtype=pos_m.dtype), vel_mps))
 
     def passes(self, pos_m: torch.Tensor, next_pos_m: torch.Tensor, role: torch.Tensor,
-               end: torch.Tensor) -> torch.Tensor:
+               end: torch.Tensor, vel_mps: torch.Tensor | None = None) -> torch.Tensor:
         """(B,) bool: between `pos_m` and `next_pos_m` (B, 3, 3) the ball leaves the reach of
         player `role` (B,), whose baseline is at sign `end` (B,) of x, without being sent back
-        toward the net. Within reach: horizontally within `reach_m` and no higher than
+        toward the net, or (given the velocities `vel_mps`) is jolted in his reach without
+        being sent back (`ball_jolted`: braked in mid-air beside him, a ball then left hanging
+        within his reach until the rally's end rules called it an ace; docs/evaluation.md,
+        twenty-sixth part). Within reach: horizontally within `reach_m` and no higher than
         `max_z_m`; leaving: horizontally beyond `reach_m` in the sampled frame (a ball rising
         above a racket is left to come down)."""
         i = torch.arange(len(pos_m), device=pos_m.device)
@@ -237,7 +250,10 @@ class StrikeInReach:
         gap1 = torch.linalg.vector_norm(ball1[:, :2] - next_pos_m[i, role, :2], dim=-1)
         inside = (gap0 <= self.reach_m) & (ball0[:, 2] <= self.max_z_m)
         sent_back = (ball1[:, 0] - ball0[:, 0]) * self.fps * end < -SHOT_MIN_VX_MPS
-        return inside & (gap1 > self.reach_m) & ~sent_back
+        leaves = gap1 > self.reach_m
+        if vel_mps is not None:
+            leaves = leaves | ball_jolted(pos_m, next_pos_m, vel_mps, self.fps)
+        return inside & leaves & ~sent_back
 
     def give_up(self, rows: np.ndarray) -> None:
         self.given_up += len(rows)
