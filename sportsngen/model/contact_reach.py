@@ -30,9 +30,8 @@ from __future__ import annotations
 import torch
 
 from sportsngen.data.tokens import BALL
+from sportsngen.model.strike_heads import ball_on_receivers_end
 
-SERVER = 0
-RECEIVER = 1
 # Frames until the ball reaches the hitter's line across the court (negative: past it), and
 # its distance from him along that line, in metres: the cells' inner edges. The record's share
 # of contacts falls from 0.6-0.8 a frame near (0-1 frames, < 1.3 m) to 0 beyond 2 m aside and
@@ -54,9 +53,8 @@ MIN_INCOMING_MPS = 2.0
 
 def hitter_index(pos_m: torch.Tensor) -> torch.Tensor:
     """Frames' positions (..., 3, 3) -> (...) int64: the player on the ball's end of the court
-    (0 the server, 1 the receiver); players keep to their ends."""
-    other_end = torch.sign(pos_m[..., BALL, 0]) != torch.sign(pos_m[..., SERVER, 0])
-    return other_end.long()
+    (0 the server, 1 the receiver; `strike_heads.ball_on_receivers_end`)."""
+    return ball_on_receivers_end(pos_m).long()
 
 
 def reach_geometry(pos_m: torch.Tensor, vel_mps: torch.Tensor, fps: float
