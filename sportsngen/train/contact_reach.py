@@ -90,11 +90,11 @@ def collect_contact_states(model: SportsNGEN, arrays: RallyArrays, batch_size: i
         if not bool(keep.any()):
             continue
         h = window_states(model, batch)[..., BALL, :][keep]
-        prev = batch.get("prev_vel_mps")
-        centre = model.centres(batch["pos_m"], batch["vel_mps"], prev)[keep]
-        _, ball_bins = model.target_bins(batch["pos_m"], batch["vel_mps"], batch["next_pos_m"],
-                                         prev)
-        logits, strike, jolt = kind_logits(model, h, batch["pos_m"][keep], centre)
+        # One centre for the head's bin kinds and the record's target bin.
+        centre = model.centres(batch["pos_m"], batch["vel_mps"], batch.get("prev_vel_mps"))
+        _, ball_bins = model.offset_bins(model.to_model_frame(batch["next_pos_m"] - centre,
+                                                              batch["pos_m"]))
+        logits, strike, jolt = kind_logits(model, h, batch["pos_m"][keep], centre[keep])
         target = ball_bins[..., 0][keep]
         rows = torch.arange(len(target))
         kind = torch.where(strike[rows, target], 0, torch.where(jolt[rows, target], 1, 2))
