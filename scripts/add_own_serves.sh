@@ -16,11 +16,13 @@
 # calibrator. The stage `receiver`, not among the
 # defaults and not in the bundled file, adds the per-server start time of the receivers
 # (scripts/fit_receiver_start.py; docs/evaluation.md, twenty-fifth part: no check statistic
-# moved). The stage `contact`, likewise left out, adds the shifts of the ball's odds of a
-# contact by where it is from its hitter (scripts/fit_contact_reach.py on the training split,
-# 6 minutes; twenty-sixth part: 82 of 96 check statistics against 84). The file measured there:
-#   cp sportsngen/model/bundled/sportsngen-small.pt x.pt
-#   DEST=x.pt STAGES="receiver contact" scripts/add_own_serves.sh
+# moved). The stage `contact` adds the shifts of the ball's odds of a contact by where it is
+# from its hitter (scripts/fit_contact_reach.py on the training split, 6 minutes), and `chase`
+# stores the rule that a player late for the ball does not slow down (keep_chasing). Since the
+# twenty-seventh part the bundled file is the twenty-sixth part's (commit 92f6781's, itself
+# this script's default stages) with those two and the calibrator refitted:
+#   git show 92f6781:sportsngen/model/bundled/sportsngen-small.pt > x.pt
+#   DEST=x.pt STAGES="contact chase calibrator" scripts/add_own_serves.sh
 #
 #   scripts/add_own_serves.sh                     # the fit, defaults and shifts, then the calibrator
 #   STAGES="fit bias" scripts/add_own_serves.sh   # the fit, defaults and shifts only
@@ -60,6 +62,9 @@ for s in $STAGES; do
     contact)
         "$PY" scripts/fit_contact_reach.py --model "$DEST" --out "$DEST" 2>&1 \
             | grep -v "it/s"
+        ;;
+    chase)
+        "$PY" scripts/set_sim_defaults.py "$DEST" keep_chasing=true
         ;;
     calibrator)
         RALLIES=200 N=32 WORKERS="$WORKERS" CHUNK="$CHUNK" THREADS=1 PYTHON="$PY" \

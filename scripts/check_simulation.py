@@ -119,7 +119,8 @@ def main() -> None:
           f"cache refresh {sim.refresh_frames}, strike in reach {sim.strike_in_reach}"
           + (f" from shot {sim.strike_in_reach_from}" if sim.strike_in_reach else "")
           + (", forced where it gives up" if sim.strike_in_reach_force else "")
-          + (f", reach {sim.strike_in_reach_m} m" if sim.strike_in_reach else ""))
+          + (f", reach {sim.strike_in_reach_m} m" if sim.strike_in_reach else "")
+          + (", keep chasing" if sim.keep_chasing else ""))
     t0 = time.perf_counter()
     simd = sim.simulate_both_serving(*players, args.surface, args.points, seed=args.seed)
     if args.save_sim is not None:
@@ -196,7 +197,8 @@ def main() -> None:
                        "top_p_serve": sim.top_p_serve,
                        "strike_in_reach": sim.strike_in_reach,
                        "strike_in_reach_from": sim.strike_in_reach_from,
-                       "strike_in_reach_force": sim.strike_in_reach_force},
+                       "strike_in_reach_force": sim.strike_in_reach_force,
+                       "keep_chasing": sim.keep_chasing},
                       fh, indent=2)
 
 

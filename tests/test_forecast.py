@@ -15,8 +15,12 @@ from sportsngen.model.centre import GRAVITY_MPS2
 from sportsngen.model.forecast import (
     BOUNCE_KEEP_XY,
     FORECAST_FEATURES,
+    INTERCEPT_FEATURES,
+    INTERCEPT_HORIZON_S,
+    STEP_S,
     ball_forecast,
     forecast_columns,
+    nearest_playable,
 )
 from sportsngen.tennis.court import BALL_RADIUS_M
 from tests.conftest import REPO
@@ -209,3 +213,90 @@ def test_graft_strike_head_joins_two_heads_trained_apart():
     other = SportsNGEN(tiny_cfg(ball_centre="physics", strike_head=True)).eval()
     with pytest.raises(ValueError, match="transformer blocks differ"):
         graft_strike_head(forecast, other)
+
+
+def test_the_flight_flown_on_keeps_the_columns_and_follows_the_same_physics():
+    pos = torch.tensor([[-11.0, 1.0, 1.0], [11.0, -2.0, 1.0]])
+    vel = torch.tensor([[14.0, -1.0, 9.0], [-25.0, 2.0, 3.0]])
+    prev = vel + torch.tensor([[0.0, 0.0, 0.39], [0.1, 0.0, 0.35]])
+    columns, track = ball_forecast(pos, vel, prev, path=True)
+    assert torch.equal(columns, ball_forecast(pos, vel, prev))
+    assert track.shape == (2, round(INTERCEPT_HORIZON_S / STEP_S), 3)
+    # Its rows at 0.4 and 0.8 s are the columns' positions; the lob (no bounce in 1.6 s) is
+    # within 10 cm of a fine integration 1.6 s on (the 0.04 s steps' own error: 8 cm).
+    for i, t in enumerate((0.4, 0.8)):
+        torch.testing.assert_close(track[:, round(t / STEP_S) - 1], columns[:, 3 * i:3 * i + 3])
+    lob = ball_forecast(pos[:1], vel[:1], path=True)[1][0, -1].numpy()
+    assert np.abs(lob - _fine_flight(pos[0].tolist(), vel[0].tolist(), 1.6)).max() < 0.1
+    assert (track[..., 2] >= BALL_RADIUS_M - 1e-5).all()
+
+
+def test_nearest_playable_ball_for_each_player():
+    # A ball flying from x = 10 to x = -10 along y = 0, a step a row, at 1 m except rows too
+    # high (2.5 m) near x = -6.
+    x = torch.linspace(10.0, -10.0, 41)
+    z = torch.where((x < -5.5) & (x > -6.5), torch.tensor(2.5), torch.tensor(1.0))
+    track = torch.stack([x, torch.zeros_like(x), z], dim=-1)[None]           # (1, 41, 3)
+    players = torch.tensor([[[-8.0, 1.5], [-6.0, 0.4], [9.0, 0.0], [-12.0, -3.0]]])
+    out = nearest_playable(track, players)[0]
+    # Beside the flight: the point level with him, its time the row's (from one step on).
+    k = int(torch.argmin((x + 8.0).abs()))
+    torch.testing.assert_close(out[0], torch.tensor([0.0, -1.5, (k + 1) * STEP_S]))
+    # Where the ball flies too high to strike, the nearest playable point either side.
+    assert out[1, 0].abs().item() == pytest.approx(0.5, abs=1e-5)
+    assert out[1, 1].item() == pytest.approx(-0.4)
+    # The hitter's own ball going away offers him nothing.
+    torch.testing.assert_close(out[2], torch.tensor([0.0, 0.0, -1.0]))
+    # Behind the flight's end: its last point, 2 m in front of him and 3 m across.
+    torch.testing.assert_close(out[3], torch.tensor([2.0, 3.0, 41 * STEP_S]))
+
+
+def test_a_model_given_the_nearest_playable_ball_starts_from_the_same_function():
+    from sportsngen.model.embedding import widen_for_extra
+    torch.manual_seed(0)
+    base = SportsNGEN(tiny_cfg(ball_forecast=True)).eval()
+    wide = SportsNGEN(tiny_cfg(ball_forecast=True, ball_intercept=True)).eval()
+    wide.load_state_dict(widen_for_extra(base.state_dict(), "embed.", INTERCEPT_FEATURES))
+    gen = torch.Generator().manual_seed(1)
+    pos = torch.randn(2, 6, 3, 3, generator=gen) * 3
+    vel = torch.randn(2, 6, 3, 3, generator=gen) * 5
+    feats = object_features(pos, vel, torch.arange(6.0)[None].expand(2, -1) / 25)
+    ident = torch.tensor([[2, 3, 1], [3, 4, 1]])
+    ctx = base.context_tokens(torch.tensor([0, 1]), torch.tensor([0, 1]), torch.tensor([0, 1]),
+                              torch.zeros(2, 7))
+    torch.testing.assert_close(wide(feats, ident, ctx), base(feats, ident, ctx))
+    extra = forecast_columns(feats, None, 25.0, intercept=True)
+    assert extra.shape == (2, 6, 3, FORECAST_FEATURES + INTERCEPT_FEATURES)
+    assert torch.equal(extra[..., :FORECAST_FEATURES], forecast_columns(feats, None, 25.0))
+    assert torch.equal(extra[..., 2, :], torch.zeros_like(extra[..., 2, :]))
+    with torch.no_grad():
+        wide.embed.mlp[0].weight[:, -INTERCEPT_FEATURES:] = 0.5
+    h_full = wide(feats, ident, ctx)
+    assert not torch.allclose(h_full, base(feats, ident, ctx))
+    cache = wide.init_cache(ident, ctx)
+    for k in range(6):
+        h, cache = wide.forward_step(feats[:, k], cache)
+    torch.testing.assert_close(h, h_full[:, -1], atol=1e-4, rtol=1e-4)
+    with pytest.raises(ValueError, match="needs ball_forecast"):
+        tiny_cfg(ball_intercept=True)
+
+
+def test_init_ball_intercept_widens_a_model_with_the_forecast(tmp_path, tiny_model_file):
+    from sportsngen.train.run import train_from_config
+    over = ["experiment=tiny", "data=toy", "data.n_rallies=16", "trainer.val_check_interval=3",
+            "trainer.limit_val_batches=1", "trainer.enable_progress_bar=false",
+            "events.enabled=false", f"init={tiny_model_file}", "trainer.max_steps=0"]
+    with initialize_config_dir(config_dir=str(REPO / "conf"), version_base=None):
+        cfg = compose(config_name="train", overrides=[*over, "init_ball_intercept=true"])
+    with pytest.raises(ValueError, match="init_ball_forecast"):
+        train_from_config(cfg, tmp_path / "refused")
+    with initialize_config_dir(config_dir=str(REPO / "conf"), version_base=None):
+        cfg = compose(config_name="train", overrides=[*over, "init_ball_forecast=true",
+                                                      "init_ball_intercept=true"])
+    model, _, _, mcfg = load_model(train_from_config(cfg, tmp_path / "both")["model_file"])
+    base = load_model(tiny_model_file)[0].state_dict()["embed.mlp.0.weight"]
+    w = model.state_dict()["embed.mlp.0.weight"]
+    n = FORECAST_FEATURES + INTERCEPT_FEATURES
+    assert mcfg.ball_forecast and mcfg.ball_intercept
+    assert w.shape[1] == base.shape[1] + n
+    assert torch.equal(w[:, :-n], base) and torch.equal(w[:, -n:], torch.zeros_like(w[:, -n:]))

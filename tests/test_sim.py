@@ -522,7 +522,7 @@ def test_a_forced_strike_is_asked_for_only_where_the_rule_itself_gave_up():
     from types import SimpleNamespace
 
     from sportsngen.sim.constraints import AllOf, StrikeInReach
-    from sportsngen.sim.rollout import _constrain
+    from sportsngen.sim.rollout import redraw_rejected
 
     n = 3     # every row: the receiver due to return a good serve
     tracker = SimpleNamespace(ended=np.zeros(n, dtype=bool), hitter=np.zeros(n, dtype=np.int64),
@@ -559,7 +559,7 @@ def test_a_forced_strike_is_asked_for_only_where_the_rule_itself_gave_up():
         h = torch.zeros(n, 1)
         h[1, 0] = 1
         zero = torch.zeros_like(pos)
-        nxt, drawn, strike = _constrain(Model(), con, np.arange(n), 10, h, pos, zero, zero,
+        nxt, drawn, strike = redraw_rejected(Model(), con, np.arange(n), 10, h, pos, zero, zero,
                                         passed.clone(), 1.0, 1.0, None)
         # Row 1 found a frame that keeps the ball in reach; rows 0 and 2 gave up, and each
         # rule is told only the rows it rejected.

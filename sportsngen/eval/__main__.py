@@ -13,6 +13,7 @@
     python -m sportsngen.eval strike-draws [--model PATH] [--points 1000] [--draws 6] [--seed 0]
     python -m sportsngen.eval movement [--model PATH] [--shot 2] [--chase] [--points 600]
         [--server NAME] [--seed 0] [--csv PATH] [sampling options as diagnose]
+    python -m sportsngen.eval chase [--model PATH] [--points 400] [--seed 0] [--csv PATH]
     python -m sportsngen.eval expert [FOLDER] [--shot 3] [--after 8] [--unplayed]
         [--points 1000] [--seed 0] [--csv PATH]
 
@@ -27,7 +28,9 @@ the shared data is present; without it the report is written without them and a 
 teacher-forced at recorded rally strikes, its errors by shot and serve beside the record's
 (`sportsngen.eval.strike_draws`); `movement` the hitter's run after his shot,
 teacher-forced and rolled out against the record, or with `--chase` the answering player's run
-to the ball, teacher-forced against the record (`sportsngen.eval.movement`); `expert` the
+to the ball, teacher-forced against the record (`sportsngen.eval.movement`); `chase` the
+model's players rolled out on the record's ball, how often it passes beyond their reach
+(`sportsngen.eval.chase`); `expert` the
 generator's players on a folder's own rally states, their next shot beside the folder's
 (`sportsngen.eval.expert_answers`; without a folder, on generated points: the kernel's own
 fidelity). `leaks` prints the AUC table of
@@ -277,6 +280,25 @@ def run_movement(args: argparse.Namespace) -> int:
         sim, truth_points(setup), shot=shot, seed=args.seed))
 
 
+def run_chase(args: argparse.Namespace) -> int:
+    """The model's players on the record's ball: prints the shares of balls out of reach."""
+    import pandas as pd
+
+    from sportsngen.eval.chase import along_table, chase_table, players_on_the_record
+    from sportsngen.eval.diagnostics import truth_points
+
+    def compute(sim, setup):
+        rows = players_on_the_record(sim.model, sim.vocab, truth_points(setup),
+                                     top_p_player=sim.top_p_player, seed=setup.seed,
+                                     keep_chasing=sim.keep_chasing)
+        along = along_table(rows)
+        with pd.option_context("display.width", 160):
+            print(along.to_string(index=False, float_format=lambda v: f"{v:.2f}"))
+        return chase_table(rows)
+
+    return _run_model_table(args, "chase", compute)
+
+
 def run_expert(args: argparse.Namespace) -> int:
     """The kernel's next shot on a folder's (or generated points') own states: prints it."""
     import time
@@ -442,6 +464,11 @@ def build_parser() -> argparse.ArgumentParser:
     move.add_argument("--chase", action="store_true",
                       help="the answering player's run to the ball, record and teacher-forced, "
                            "by how far he had to go")
+    chase = sub.add_parser("chase", parents=[model_opts],
+                           help="the model's players on the record's ball: how often it passes "
+                                "out of their reach, by shot and by how far the record ran")
+    chase.add_argument("--points", type=int, default=400,
+                       help="ground-truth points generated (default 400)")
     for name, points, what, help_text in (
             ("serves", 600, "serve", "the serve head teacher-forced at recorded serves: faults "
                                      "(long, wide, net) and speed by serve, beside the record"),
@@ -488,7 +515,8 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     runners = {"leaks": run_leaks, "diagnose": run_diagnose, "strikes": run_strikes,
                "movement": run_movement, "serves": run_serves, "expert": run_expert,
-               "reach": run_reach, "strike-draws": run_strike_draws}
+               "reach": run_reach, "strike-draws": run_strike_draws,
+               "chase": run_chase}
     try:
         if args.command in runners:
             return runners[args.command](args)

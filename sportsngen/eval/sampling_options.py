@@ -10,7 +10,7 @@ from sportsngen.errors import ArgumentError
 
 _NUCLEI = ("top_p_ball", "top_p_contact", "top_p_serve")
 _FLAGS = ("contact_odds", "strike_in_reach", "strike_in_reach_from", "strike_in_reach_force",
-          "strike_in_reach_m", "ball_net")
+          "strike_in_reach_m", "ball_net", "keep_chasing")
 
 
 def add_sampling_options(parser: argparse.ArgumentParser) -> None:
@@ -39,6 +39,9 @@ def add_sampling_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--strike-in-reach-m", type=float, default=None,
                         help="with --strike-in-reach: the reach (m, the ball horizontally from "
                              "the player's centre; default: the model file's, else 1.2)")
+    parser.add_argument("--keep-chasing", action=argparse.BooleanOptionalAction, default=None,
+                        help="the player due to play the ball does not slow down while he is "
+                             "late for it (default: the model file's, else off)")
     parser.add_argument("--ball-net", action=argparse.BooleanOptionalAction, default=None,
                         help="the ball's physics centre meets the net (default: as the model "
                              "was trained)")

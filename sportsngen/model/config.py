@@ -66,6 +66,12 @@ class ModelConfig:
     # the ball's own features: the reading of a flight that a player runs on, given rather
     # than learned.
     ball_forecast: bool = False
+    # With the forecast, three more columns in each player's token: the point of the ball's
+    # flight (flown on 1.6 s) nearest him at a height he can strike, from where he stands, and
+    # the time to it (`forecast.nearest_playable`). Fed the ball the record played, the model's
+    # players ran the first 0.8-1 s of a long chase as the record's did and then slowed early:
+    # 30 % of 4-6 m chases passed beyond 1.5 m of them, 2 % of the record's (issue 17).
+    ball_intercept: bool = False
     # Each ball bin split again into this many equal parts by a head of its own
     # (`heads.SubBinHead`, p(part | bins)), 0: none, uniform inside the bin. A strike's offset
     # lies where the bins are 10-17 cm wide, and a track drawn uniformly inside them puts
@@ -164,6 +170,9 @@ class ModelConfig:
         if self.receiver_start and self.head != "factorised":
             raise ValueError("model.receiver_start shifts the players' factorised head: it "
                              "needs head='factorised'")
+        if self.ball_intercept and not self.ball_forecast:
+            raise ValueError("model.ball_intercept adds columns to the ball's forecast: it needs "
+                             "ball_forecast=True")
         if self.contact_reach and self.head != "factorised":
             raise ValueError("model.contact_reach shifts the ball's factorised head: it needs "
                              "head='factorised'")

@@ -30,7 +30,7 @@ from sportsngen.model.bins import Bins
 from sportsngen.model.centre import object_centres_m
 from sportsngen.model.config import FEATURE_GROUPS, ModelConfig
 from sportsngen.model.embedding import ContextEmbedding, ObjectEmbedding, run_mlp
-from sportsngen.model.forecast import FORECAST_FEATURES, forecast_columns
+from sportsngen.model.forecast import extra_columns, forecast_columns
 from sportsngen.model.heads import FactorisedHead, SubBinHead, make_head
 from sportsngen.model.sampling import uniform_in_bin
 
@@ -174,7 +174,7 @@ class SportsNGEN(nn.Module):
         super().__init__()
         self.cfg = cfg
         self._compiled_step = None      # `compile_step`
-        self.embed = ObjectEmbedding(cfg, n_extra=FORECAST_FEATURES if cfg.ball_forecast else 0)
+        self.embed = ObjectEmbedding(cfg, n_extra=extra_columns(cfg))
         self.context = ContextEmbedding(cfg)
         self.blocks = nn.ModuleList(Block(cfg.d_model, cfg.n_heads, cfg.ff_mult, cfg.dropout,
                                           cfg.attn_dropout)
@@ -270,7 +270,8 @@ class SportsNGEN(nn.Module):
         feats = self._frame_features(feats)
         # The frame before turned as its own frame: NaN rows stay NaN.
         prev = torch.where(torch.isnan(prev), prev, self._frame_features(prev.nan_to_num()))
-        return self.embed(feats, ident, forecast_columns(feats, prev, self.cfg.fps))
+        return self.embed(feats, ident, forecast_columns(feats, prev, self.cfg.fps,
+                                                        self.cfg.ball_intercept))
 
     def context_tokens(self, surface, tournament, serve, score) -> torch.Tensor:
         return self.context(surface, tournament, serve, score)

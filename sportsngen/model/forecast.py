@@ -37,20 +37,31 @@ HORIZON_S = 1.2               # the bounce searched for this far ahead
 # restitution 0.8 takes a 25 m/s groundstroke arriving at 12 degrees to 17-18 m/s).
 BOUNCE_KEEP_XY = 0.7
 FORECAST_FEATURES = 3 * len(HORIZONS_S) + 3
+# The playable ball nearest each player (`nearest_playable`): searched this far ahead, at a
+# height a groundstroke meets (the generator's players take it at 0.15-2.3 m after its bounce).
+INTERCEPT_HORIZON_S = 1.6
+PLAYABLE_Z_M = (0.2, 2.3)
+INTERCEPT_FEATURES = 3
 # Made once, not on every rollout frame: what a bounce keeps of each velocity component, and
 # the scales of the columns (positions as the features' positions, the bounce's time over the
 # horizon).
 _BOUNCE_KEEP = torch.tensor([BOUNCE_KEEP_XY, BOUNCE_KEEP_XY, -BOUNCE_RESTITUTION])
 _COLUMN_SCALE = torch.tensor([*POS_SCALE_M * len(HORIZONS_S), *POS_SCALE_M[:2], HORIZON_S])
+_INTERCEPT_SCALE = torch.tensor([*POS_SCALE_M[:2], INTERCEPT_HORIZON_S])
 
 
 def ball_forecast(pos_m: torch.Tensor, vel_mps: torch.Tensor,
-                  prev_vel_mps: torch.Tensor | None = None, fps: float = 25.0) -> torch.Tensor:
+                  prev_vel_mps: torch.Tensor | None = None, fps: float = 25.0,
+                  path: bool = False):
     """(..., 3) ball positions and velocities (and the frame before's velocities, for the spin;
     None or NaN rows: no spin) -> (..., FORECAST_FEATURES): the positions `HORIZONS_S` ahead,
-    then the next bounce's x, y and time (s)."""
+    then the next bounce's x, y and time (s). With `path`, also the flight flown on to
+    `INTERCEPT_HORIZON_S`, (..., N, 3), one row a `STEP_S` from `STEP_S` on (the columns are
+    the same either way)."""
     dt = STEP_S
     n_steps = int(round(HORIZON_S / dt))
+    n_path = max(n_steps, int(round(INTERCEPT_HORIZON_S / dt))) if path else n_steps
+    track = []
     marks = {int(round(h / dt)): i for i, h in enumerate(HORIZONS_S)}
     p, v = pos_m.clone(), vel_mps.clone()
     if prev_vel_mps is None:
@@ -70,7 +81,8 @@ def ball_forecast(pos_m: torch.Tensor, vel_mps: torch.Tensor,
     # are skipped on steps where no row needs them (a zero lift turns to zero; no row down,
     # nothing to change), which keeps every value and cuts a third of its time for one ball.
     spin = bool(lift.any())
-    for k in range(1, n_steps + 1):
+    at_horizon = p
+    for k in range(1, n_path + 1):
         v_new = v + (flight_acceleration_mps2(v) + lift) * dt
         p = p + 0.5 * (v + v_new) * dt     # the trapezoid: exact for constant acceleration
         if spin:
@@ -79,8 +91,9 @@ def ball_forecast(pos_m: torch.Tensor, vel_mps: torch.Tensor,
         down = (p[..., 2] < BALL_RADIUS_M) & (v[..., 2] < 0)
         if bool(down.any()):
             first = down & ~found
-            bounce_xy = torch.where(first[..., None], p[..., :2], bounce_xy)
-            bounce_t = torch.where(first, torch.full_like(bounce_t, k * dt), bounce_t)
+            if k <= n_steps:   # the columns' bounce: the first within `HORIZON_S`
+                bounce_xy = torch.where(first[..., None], p[..., :2], bounce_xy)
+                bounce_t = torch.where(first, torch.full_like(bounce_t, k * dt), bounce_t)
             found = found | down
             v = torch.where(down[..., None], v * keep, v)
             # A bounce changes the spin in ways the track has not shown yet: flown on without.
@@ -91,23 +104,69 @@ def ball_forecast(pos_m: torch.Tensor, vel_mps: torch.Tensor,
                                                    p[..., 2])[..., None]], dim=-1)
         if k in marks:
             ahead[marks[k]] = p
-    bounce_xy = torch.where(found[..., None], bounce_xy, p[..., :2])
-    return torch.cat([*ahead, bounce_xy, bounce_t[..., None]], dim=-1)
+        if k == n_steps:
+            at_horizon, found_by_horizon = p, found
+        if path:
+            track.append(p)
+    bounce_xy = torch.where(found_by_horizon[..., None], bounce_xy, at_horizon[..., :2])
+    columns = torch.cat([*ahead, bounce_xy, bounce_t[..., None]], dim=-1)
+    if not path:
+        return columns
+    return columns, torch.stack(track, dim=-2)
+
+
+def extra_columns(cfg) -> int:
+    """The number of input columns a model config's forecast adds to each token."""
+    if not cfg.ball_forecast:
+        return 0
+    return FORECAST_FEATURES + (INTERCEPT_FEATURES if cfg.ball_intercept else 0)
+
+
+def nearest_playable(track_m: torch.Tensor, players_xy_m: torch.Tensor) -> torch.Tensor:
+    """(..., N, 3) a flight one `STEP_S` a row, (..., P, 2) players -> (..., P, 3): for each
+    player, the point of the flight nearest him (x, y less his own, m) among those on his side
+    of the net, flying toward his end, at a height he can strike (`PLAYABLE_Z_M`), and the
+    time to it (s; the earliest of equals); (0, 0, -1) where the flight offers him none (the
+    hitter's own ball going away)."""
+    z = track_m[..., 2]
+    playable = (z >= PLAYABLE_Z_M[0]) & (z <= PLAYABLE_Z_M[1])               # (..., N)
+    side = torch.sign(players_xy_m[..., 0])                                   # (..., P)
+    step_x = torch.diff(track_m[..., 0], dim=-1)
+    step_x = torch.cat([step_x[..., :1], step_x], dim=-1)                     # (..., N)
+    # On his side of the net, flying toward his end: a ball coming to him.
+    mine = playable[..., None, :] & (track_m[..., None, :, 0] * side[..., None] > 0.5) & \
+        (step_x[..., None, :] * side[..., None] > 0)
+    rel = track_m[..., None, :, :2] - players_xy_m[..., :, None, :]          # (..., P, N, 2)
+    gap = torch.linalg.vector_norm(rel, dim=-1).masked_fill(~mine, float("inf"))
+    k = gap.argmin(dim=-1, keepdim=True)                                      # (..., P, 1)
+    best = torch.gather(rel, -2, k[..., None].expand(*k.shape, 2))[..., 0, :]
+    t_s = (k[..., 0] + 1).to(track_m.dtype) * STEP_S
+    found = mine.any(dim=-1)
+    best = torch.where(found[..., None], best, torch.zeros_like(best))
+    t_s = torch.where(found, t_s, torch.full_like(t_s, -1.0))
+    return torch.cat([best, t_s[..., None]], dim=-1)
 
 
 def forecast_columns(feats: torch.Tensor, prev_feats: torch.Tensor | None,
-                     fps: float) -> torch.Tensor:
+                     fps: float, intercept: bool = False) -> torch.Tensor:
     """Object features (..., 3, N_FEATURES) (and the frame before's, NaN rows or None where
     there is none) -> the forecast as each player's token sees it (..., 3, FORECAST_FEATURES):
     the forecast positions less his own, scaled as the features' positions (the bounce's time
-    over `HORIZON_S`); zeros on the ball's own token, whose bins follow its flight already."""
+    over `HORIZON_S`); zeros on the ball's own token, whose bins follow its flight already.
+    With `intercept`, `INTERCEPT_FEATURES` more columns: the playable ball nearest him
+    (`nearest_playable`, scaled the same way, its time over `INTERCEPT_HORIZON_S`)."""
     scale = _COLUMN_SCALE.to(feats.device)
     ball = feats[..., BALL, :].float()
     prev = None if prev_feats is None else prev_feats[..., BALL, 3:6].float() * VEL_SCALE_MPS
-    ahead = ball_forecast(ball[..., 0:3] * scale[:3], ball[..., 3:6] * VEL_SCALE_MPS, prev,
-                          fps) / scale
+    flown = ball_forecast(ball[..., 0:3] * scale[:3], ball[..., 3:6] * VEL_SCALE_MPS, prev,
+                          fps, path=intercept)
+    ahead = (flown[0] if intercept else flown) / scale
     own = feats[..., :BALL, 0:3].float()
     own = torch.cat([own] * len(HORIZONS_S) + [own[..., :2], torch.zeros_like(own[..., :1])],
                     dim=-1)
-    out = torch.cat([ahead[..., None, :] - own, torch.zeros_like(ahead[..., None, :])], dim=-2)
+    columns = [ahead[..., None, :] - own]
+    if intercept:
+        near = nearest_playable(flown[1], own[..., :2] * scale[:2])
+        columns = [torch.cat([columns[0], near / _INTERCEPT_SCALE.to(feats.device)], dim=-1)]
+    out = torch.cat([*columns, torch.zeros_like(columns[0][..., :1, :])], dim=-2)
     return out.to(feats.dtype)

@@ -20,6 +20,7 @@ import numpy as np
 import torch
 
 from sportsngen.model.centre import GRAVITY_MPS2, net_cord_m
+from sportsngen.model.forecast import ball_forecast, nearest_playable
 from sportsngen.tennis.court import (
     FENCE_X_M,
     FENCE_Y_M,
@@ -48,6 +49,11 @@ JOLT_MIN_Z_M = 0.1              # a flight that would come this low within the f
 # A bounce keeps 0.53-0.87 of the ball's speed along the ground (1st-99th percentiles over
 # 17,571 bounces of generated points); less than this in one frame is not a bounce.
 BOUNCE_MIN_KEEP = 0.45
+# `KeepChasing`: a player this near the point where he could strike the ball has reached it
+# (the generator's players strike 0.75-0.99 m from their centre, medians by shot), and one
+# this fast is running flat out (the generator's fastest, 7-8 m/s).
+CHASE_REACH_M = 1.0
+CHASE_MAX_SPEED_MPS = 7.0
 
 
 def reverses(vx_in: torch.Tensor, vx_out: torch.Tensor) -> torch.Tensor:
@@ -262,6 +268,113 @@ class StrikeInReach:
         """(rows,) bool: of the rows this rule gave up on (`give_up`'s), those whose ball is to
         be struck anyway: all of them with `force`."""
         return np.full(len(rows), self.force, dtype=bool)
+
+
+class KeepChasing:
+    """Reject a sampled frame in which the player due to play the ball slows down along his
+    way to it while he is late for it: after his reaction time (`react_frames` from the last
+    contact) he reads the ball's flight (`model.forecast`: gravity, drag, the spin read from
+    its last three frames), finds the point nearest him where he could strike it
+    (`forecast.nearest_playable`: his side, flying toward his end, a playable height) and
+    how long it takes to get there; he is late when, beyond `reach_m` of it, at his speed
+    toward it he would not cover the distance in that time. Then a frame that lowers that
+    speed (below `max_speed_mps`) is drawn again from the model's distribution, so how he
+    runs stays the model's; after `max_tries` draws of a row in a frame the frame stands.
+
+    Why: fed the ball the record played (`eval.chase`), the bundled model's players ran the
+    first 0.8-1 s of a long chase as the record's did and then slowed, as players on shorter
+    runs do: beyond 1.5 m of 21-24 % of the balls that sent the record's player 3 m or more,
+    and of 11.9 % of all rally balls, where the record's missed 1.0 %. Teacher-forced on the
+    record's own runs it brakes barely more than the record (0.01-0.03 m/s a frame); the
+    rollout compounds it. A player who sees he will not get there does not brake, whatever he
+    did in frames before; the rule leaves the when and where of his strike to the model."""
+
+    def __init__(self, tracker, reach_m: float = CHASE_REACH_M, react_frames: int = 5,
+                 max_speed_mps: float = CHASE_MAX_SPEED_MPS, max_tries: int = 3,
+                 fps: float = 25.0):
+        if not reach_m > 0 or not max_speed_mps > 0 or int(react_frames) < 0:
+            raise ValueError(f"reach_m and max_speed_mps must be positive and react_frames "
+                             f">= 0, got {reach_m}, {max_speed_mps}, {react_frames}")
+        self.tracker = tracker
+        self.reach_m = float(reach_m)
+        self.react_frames = int(react_frames)
+        self.max_speed_mps = float(max_speed_mps)
+        self.max_tries = max_tries
+        self.fps = float(fps)
+        self.offset = 0
+        self.given_up = 0
+        self._frame: int | None = None
+        self._rows: np.ndarray | None = None
+        self._late: tuple = ()
+        self._tries_frame: int | None = None
+        self._tries: dict = {}
+
+    def late(self, rows: np.ndarray, pos_m: torch.Tensor, vel_mps: torch.Tensor,
+             frame: int | None = None):
+        """-> (B,) bool late rows, (B,) role of the player due, (B, 2) unit direction to his
+        nearest playable ball, (B,) his speed along it (m/s). With `frame`, read once a frame:
+        the redraws of a frame ask again for some of its rows, in the same state."""
+        rows = np.asarray(rows)
+        if frame is not None and self._frame == frame and self._rows is not None:
+            at = {r: i for i, r in enumerate(self._rows.tolist())}
+            if all(r in at for r in rows.tolist()):
+                i = torch.as_tensor([at[r] for r in rows.tolist()], dtype=torch.long,
+                                    device=pos_m.device)
+                return tuple(x[i] for x in self._late)
+        t = self.tracker
+        dev, dtype = pos_m.device, pos_m.dtype
+        due = ~t.ended[rows] & (t.hitter[rows] >= 0) & (t.n_bounces[rows] <= 1) & \
+            (t.frames_since_contact(rows) >= self.react_frames)
+        role = torch.as_tensor(1 - np.clip(t.hitter[rows], 0, 1), device=dev)
+        late = torch.zeros(len(rows), dtype=torch.bool, device=dev)
+        unit = torch.zeros(len(rows), 2, dtype=dtype, device=dev)
+        along = torch.zeros(len(rows), dtype=dtype, device=dev)
+        if due.any():
+            i = torch.as_tensor(np.flatnonzero(due), device=dev)
+            recent = torch.as_tensor(t.recent_frames(rows[due]), dtype=dtype, device=dev)
+            prev_vel = (recent[:, -2, BALL] - recent[:, -3, BALL]) * self.fps
+            _, track = ball_forecast(pos_m[i, BALL], vel_mps[i, BALL], prev_vel, self.fps,
+                                     path=True)
+            me = pos_m[i, role[i], :2]
+            near = nearest_playable(track, me[:, None])[:, 0]          # (n, 3)
+            dist = torch.linalg.vector_norm(near[:, :2], dim=-1)
+            u = near[:, :2] / dist.clamp_min(1e-6)[:, None]
+            v_along = (vel_mps[i, role[i], :2] * u).sum(-1)
+            need = dist - self.reach_m
+            late[i] = (near[:, 2] > 0) & (need > 0) & (v_along * near[:, 2] < need)
+            unit[i], along[i] = u, v_along
+        out = (late, role, unit, along)
+        if frame is not None:
+            self._frame, self._rows, self._late = frame, rows.copy(), out
+        return out
+
+    def accept(self, rows: np.ndarray, frame: int, pos_m: torch.Tensor,
+               next_pos_m: torch.Tensor, vel_mps: torch.Tensor | None = None) -> torch.Tensor:
+        rows = np.asarray(rows)
+        ok = torch.ones(len(rows), dtype=torch.bool, device=pos_m.device)
+        if vel_mps is None or not len(rows):
+            return ok
+        late, role, unit, along = self.late(rows, pos_m, vel_mps, frame)
+        if not late.any():
+            return ok
+        # Each row is judged at most `max_tries` times a frame: the rollout keeps redrawing
+        # while any row of the batch is rejected, up to twice the largest `max_tries` of its
+        # constraints, and one player the model insists on braking held a whole batch of
+        # rollouts there (four times slower).
+        if self._tries_frame != frame:
+            self._tries_frame, self._tries = frame, {}
+        judged = np.array([self._tries.get(r, 0) for r in rows.tolist()])
+        for r in rows.tolist():
+            self._tries[r] = self._tries.get(r, 0) + 1
+        fresh = torch.as_tensor(judged < self.max_tries, device=pos_m.device)
+        i = torch.arange(len(rows), device=pos_m.device)
+        step = next_pos_m[i, role, :2] - pos_m[i, role, :2]
+        new_along = (step * unit).sum(-1) * self.fps
+        slows = (new_along < along) & (along < self.max_speed_mps)
+        return ~(late & slows & fresh)
+
+    def give_up(self, rows: np.ndarray) -> None:
+        self.given_up += len(rows)
 
 
 class AllOf:

@@ -116,9 +116,9 @@ class Constraint(Protocol):
     def give_up(self, rows: np.ndarray) -> None: ...
 
 
-def _constrain(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top_p_player,
-               top_p_ball, generator, contact_odds=False, top_p_contact=None,
-               player_bias=None):
+def redraw_rejected(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top_p_player,
+                    top_p_ball, generator, contact_odds=False, top_p_contact=None,
+                    player_bias=None):
     """Resample the rows `constraint` rejects: up to its max_tries from the nucleus, then as
     many from the whole distribution. -> (frames, redraws per live row, (B,) bool: the rows
     given up on whose ball the constraint wants struck anyway)."""
@@ -196,7 +196,7 @@ class _NoTracker:
         return np.zeros(len(pos_m), dtype=bool)
 
 
-def _features(hist: torch.Tensor, n: int, fps: float) -> torch.Tensor:
+def step_features(hist: torch.Tensor, n: int, fps: float) -> torch.Tensor:
     """Object tokens of frame n-1 given positions hist[:, :n] -> (B, 3, F)."""
     pos = hist[:, n - 1]
     vel = (pos - hist[:, n - 2]) * fps if n >= 2 else torch.zeros_like(pos)
@@ -315,7 +315,7 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                                       return_cache=True)
                     h = hs[:, -1]
                 elif steps:
-                    h = model.forward_step(_features(hist, n, fps), cache)[0]
+                    h = model.forward_step(step_features(hist, n, fps), cache)[0]
             else:
                 lo = max(0, n - window) if mode == "window" else 0
                 h = model(window_features(hist, lo, n, fps), ident, ctx)[:, -1]
@@ -331,9 +331,10 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                                     contact_odds, top_p_contact, p_bias)
             forced = None
             if constraint is not None:
-                nxt, drawn, forced = _constrain(model, constraint, alive, n, h, pos, vel,
-                                                prev_vel, nxt, top_p_player, top_p_ball,
-                                                generator, contact_odds, top_p_contact, p_bias)
+                nxt, drawn, forced = redraw_rejected(model, constraint, alive, n, h, pos, vel,
+                                                     prev_vel, nxt, top_p_player, top_p_ball,
+                                                     generator, contact_odds, top_p_contact,
+                                                     p_bias)
                 resampled[alive] += drawn
                 if model.strike_head is not None:
                     forced_strikes[alive] += forced

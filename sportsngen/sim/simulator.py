@@ -39,7 +39,13 @@ from sportsngen.model.event_classifier import EventClassifier
 from sportsngen.model.export import load_model, read_extra, update_extra
 from sportsngen.sim import whatif
 from sportsngen.sim.assemble import PLAN_COLUMNS, assemble
-from sportsngen.sim.constraints import STRIKE_REACH_M, AllOf, PhysicalLimits, StrikeInReach
+from sportsngen.sim.constraints import (
+    STRIKE_REACH_M,
+    AllOf,
+    KeepChasing,
+    PhysicalLimits,
+    StrikeInReach,
+)
 from sportsngen.sim.events import frame_labels
 from sportsngen.sim.initial import InitialConditions
 from sportsngen.sim.match import MatchResult, simulate_matches
@@ -91,7 +97,7 @@ class Simulator:
                  refresh_frames: int | None = None, strike_in_reach: bool = False,
                  strike_in_reach_from: int = 1, strike_in_reach_force: bool = False,
                  top_p_serve: float = 1.0, strike_in_reach_m: float = STRIKE_REACH_M,
-                 ball_net: bool | None = None):
+                 ball_net: bool | None = None, keep_chasing: bool = False):
         if abs(initial.fps - model.cfg.fps) > 1e-6:
             raise ValueError(f"initial conditions at {initial.fps} Hz, model at {model.cfg.fps}")
         for name, p in (("top_p_player", top_p_player), ("top_p_ball", top_p_ball),
@@ -135,6 +141,9 @@ class Simulator:
         if not float(strike_in_reach_m) > 0:
             raise ArgumentError(f"strike_in_reach_m must be positive, got {strike_in_reach_m!r}")
         self.strike_in_reach_m = float(strike_in_reach_m)
+        # The player due to play the ball does not slow down while he is late for it
+        # (`KeepChasing`).
+        self.keep_chasing = bool(keep_chasing)
         # The ball's physics centre meets the net (`ModelConfig.ball_net`; None: as the model
         # was trained). Set on a file trained without it, the rollouts' flight stops at the net
         # where its training targets flew through; for measuring what the net does. It is the
@@ -248,7 +257,9 @@ class Simulator:
                                    from_shot=self.strike_in_reach_from,
                                    force=self.strike_in_reach_force) \
                 if self.strike_in_reach else None
-            con = AllOf(limits, strike, constraint) if (limits or strike or constraint) else None
+            chase = KeepChasing(tracker, fps=self.fps) if self.keep_chasing else None
+            con = AllOf(limits, strike, chase, constraint) \
+                if (limits or strike or chase or constraint) else None
             if con is not None:
                 con.offset = lo
             gen = torch.Generator(device=next(self.model.parameters()).device)

@@ -214,6 +214,18 @@ class RallyTracker:
     def __len__(self) -> int:
         return len(self.server_end)
 
+    def recent_frames(self, rows: np.ndarray) -> np.ndarray:
+        """(rows, 6, 3, 3) the last frames fed for these rallies, oldest first (NaN before
+        the first)."""
+        return self._hist[np.asarray(rows)].copy()
+
+    def frames_since_contact(self, rows: np.ndarray) -> np.ndarray:
+        """(rows,) frames from the last racket contact to the newest frame fed (a large
+        number before the serve)."""
+        rows = np.asarray(rows)
+        last = self.contact_frame[rows, np.clip(self.n_shots[rows] - 1, 0, None)]
+        return np.where(self.n_shots[rows] > 0, self.seen[rows] - 1 - last, 10 ** 6)
+
     # -- results -----------------------------------------------------------------------------
     @property
     def end_reason(self) -> np.ndarray:

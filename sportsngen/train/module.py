@@ -12,7 +12,7 @@ from sportsngen.data.tokens import BALL, Vocab, check_finite, object_features
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.model.event_classifier import EventClassifier
-from sportsngen.model.forecast import FORECAST_FEATURES
+from sportsngen.model.forecast import extra_columns
 from sportsngen.train.closed_loop import ClosedLoopConfig, mix_closed_loop
 from sportsngen.train.metrics import NextFrameMetrics, window_states
 
@@ -74,7 +74,8 @@ def freeze_except(model: torch.nn.Module, prefix: str) -> None:
     """Freeze every parameter whose name does not start with `prefix` (`train_only`: e.g. a
     new sub-bin head trained on a trained decoder, which stays as it was); several prefixes
     joined by "+" (Hydra reads a comma as a sweep). `FORECAST_ONLY` stands for the object
-    embedding's weights on the ball forecast's columns alone (the rest of that layer's
+    embedding's weights on the ball forecast's columns alone, with `ball_intercept` its
+    nearest playable ball's too (the rest of that layer's
     gradient is masked; train them without weight decay, which would move the rest)."""
     parts = [p.strip() for p in prefix.split("+") if p.strip()]
     for p in model.parameters():
@@ -86,7 +87,7 @@ def freeze_except(model: torch.nn.Module, prefix: str) -> None:
                                  "(init_ball_forecast=true)")
             w = model.embed.mlp[0].weight
             mask = torch.zeros_like(w)
-            mask[:, -FORECAST_FEATURES:] = 1.0
+            mask[:, -extra_columns(model.cfg):] = 1.0
             w.requires_grad_(True)
             w.register_hook(lambda g, mask=mask: g * mask)
             continue

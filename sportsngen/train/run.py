@@ -22,7 +22,7 @@ from sportsngen.errors import ModelFileError
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.embedding import widen_for_extra
 from sportsngen.model.export import is_model_file, read_extra, save_model
-from sportsngen.model.forecast import FORECAST_FEATURES
+from sportsngen.model.forecast import FORECAST_FEATURES, INTERCEPT_FEATURES
 from sportsngen.sim.initial import InitialConditions
 from sportsngen.train.datamodule import TrackingDataModule, data_fingerprint, load_rally_data
 from sportsngen.train.expert import load_expert
@@ -180,6 +180,12 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
             # starts from the init's function and learns how much to use them.
             model_cfg = ModelConfig.from_dict({**model_cfg.to_dict(), "ball_forecast": True})
             init_state = widen_for_extra(init_state, "embed.", FORECAST_FEATURES)
+        if cfg.get("init_ball_intercept") and not model_cfg.ball_intercept:
+            if not model_cfg.ball_forecast:
+                raise ValueError("init_ball_intercept=true adds columns to the ball's forecast: "
+                                 "the init needs model.ball_forecast (or init_ball_forecast=true)")
+            model_cfg = ModelConfig.from_dict({**model_cfg.to_dict(), "ball_intercept": True})
+            init_state = widen_for_extra(init_state, "embed.", INTERCEPT_FEATURES)
         check_data_matches(model_cfg, vocab, data)
     else:
         if cfg.get("player"):
