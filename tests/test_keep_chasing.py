@@ -69,6 +69,12 @@ def test_a_late_player_may_not_slow_down_toward_the_ball():
     assert slower.tolist() == [False, True, True]
     faster = rule.accept(rows, 50, pos, _moved(pos, [[0.0, 2.5], [0.0, 0.0], [0.0, 8.0]]), vel)
     assert faster.tolist() == [True, True, True]
+    # Away from the ball: rejected for the late one.
+    away = rule.accept(rows, 50, pos, _moved(pos, [[0.0, -1.0], [0.0, -1.0], [0.0, -1.0]]), vel)
+    assert away.tolist() == [False, True, True]
+    # Judged `max_tries` (3) times in this frame, the late row's next draw stands.
+    assert rule.accept(rows, 50, pos, _moved(pos, [[0.0, -1.0]] * 3), vel).all()
+    assert not rule.accept(rows, 51, pos, _moved(pos, [[0.0, -1.0]] * 3), vel)[0]
     # A frame's redraws ask for some of its rows again: read from the frame's first reading,
     # the same as read afresh.
     rule.late(rows, pos, vel, frame=7)
@@ -77,12 +83,6 @@ def test_a_late_player_may_not_slow_down_toward_the_ball():
     fresh = KeepChasing(_Tracker(hist, np.full(3, 10)), fps=FPS).late(sub, pos[sub], vel[sub])
     for a, b in zip(again, fresh):
         assert torch.equal(a, b)
-    # Away from the ball: rejected for the late one.
-    away = rule.accept(rows, 50, pos, _moved(pos, [[0.0, -1.0], [0.0, -1.0], [0.0, -1.0]]), vel)
-    assert away.tolist() == [False, True, True]
-    # Judged `max_tries` (3) times in this frame, the late row's next draw stands.
-    assert rule.accept(rows, 50, pos, _moved(pos, [[0.0, -1.0]] * 3), vel).all()
-    assert not rule.accept(rows, 51, pos, _moved(pos, [[0.0, -1.0]] * 3), vel)[0]
 
 
 def test_before_his_reaction_time_and_after_the_ball_passes_the_rule_is_silent():

@@ -303,11 +303,13 @@ class KeepChasing:
         self.fps = float(fps)
         self.offset = 0
         self.given_up = 0
+        # Per frame, by the rollout's row: where a row sits in the frame's first reading (-1:
+        # not read) and how often it has been judged.
+        n = len(tracker.ended)
         self._frame: int | None = None
-        self._rows: np.ndarray | None = None
+        self._at = np.full(n, -1, dtype=np.int64)
         self._late: tuple = ()
-        self._tries_frame: int | None = None
-        self._tries: dict = {}
+        self._tries = np.zeros(n, dtype=np.int64)
 
     def late(self, rows: np.ndarray, pos_m: torch.Tensor, vel_mps: torch.Tensor,
              frame: int | None = None):
@@ -315,12 +317,9 @@ class KeepChasing:
         nearest playable ball, (B,) his speed along it (m/s). With `frame`, read once a frame:
         the redraws of a frame ask again for some of its rows, in the same state."""
         rows = np.asarray(rows)
-        if frame is not None and self._frame == frame and self._rows is not None:
-            at = {r: i for i, r in enumerate(self._rows.tolist())}
-            if all(r in at for r in rows.tolist()):
-                i = torch.as_tensor([at[r] for r in rows.tolist()], dtype=torch.long,
-                                    device=pos_m.device)
-                return tuple(x[i] for x in self._late)
+        if frame is not None and self._frame == frame and (self._at[rows] >= 0).all():
+            i = torch.as_tensor(self._at[rows], device=pos_m.device)
+            return tuple(x[i] for x in self._late)
         t = self.tracker
         dev, dtype = pos_m.device, pos_m.dtype
         due = ~t.ended[rows] & (t.hitter[rows] >= 0) & (t.n_bounces[rows] <= 1) & \
@@ -345,7 +344,10 @@ class KeepChasing:
             unit[i], along[i] = u, v_along
         out = (late, role, unit, along)
         if frame is not None:
-            self._frame, self._rows, self._late = frame, rows.copy(), out
+            self._frame, self._late = frame, out
+            self._at[:] = -1
+            self._at[rows] = np.arange(len(rows))
+            self._tries[:] = 0
         return out
 
     def accept(self, rows: np.ndarray, frame: int, pos_m: torch.Tensor,
@@ -361,12 +363,8 @@ class KeepChasing:
         # while any row of the batch is rejected, up to twice the largest `max_tries` of its
         # constraints, and one player the model insists on braking held a whole batch of
         # rollouts there (four times slower).
-        if self._tries_frame != frame:
-            self._tries_frame, self._tries = frame, {}
-        judged = np.array([self._tries.get(r, 0) for r in rows.tolist()])
-        for r in rows.tolist():
-            self._tries[r] = self._tries.get(r, 0) + 1
-        fresh = torch.as_tensor(judged < self.max_tries, device=pos_m.device)
+        fresh = torch.as_tensor(self._tries[rows] < self.max_tries, device=pos_m.device)
+        self._tries[rows] += 1
         i = torch.arange(len(rows), device=pos_m.device)
         step = next_pos_m[i, role, :2] - pos_m[i, role, :2]
         new_along = (step * unit).sum(-1) * self.fps
