@@ -23,6 +23,8 @@
 # this script's default stages) with those two and the calibrator refitted:
 #   git show 92f6781:sportsngen/model/bundled/sportsngen-small.pt > x.pt
 #   DEST=x.pt STAGES="contact chase calibrator" scripts/add_own_serves.sh
+# (twenty-eighth part: the rule behind keep_chasing changed in the code, so at that commit the
+# same command gives the bundled file; as run, the stage calibrator alone on the file before.)
 #
 #   scripts/add_own_serves.sh                     # the fit, defaults and shifts, then the calibrator
 #   STAGES="fit bias" scripts/add_own_serves.sh   # the fit, defaults and shifts only

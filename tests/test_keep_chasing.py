@@ -21,6 +21,7 @@ class _Tracker:
         self.ended = np.zeros(n, dtype=bool)
         self.hitter = np.zeros(n, dtype=np.int64)          # the server struck last
         self.n_bounces = np.zeros(n, dtype=np.int64)
+        self.n_shots = np.full(n, 3)                        # a rally ball
         self.seen = np.full(n, 50)
         self._hist, self._since = pos_hist, np.asarray(since)
 
@@ -59,8 +60,9 @@ def test_a_late_player_may_not_slow_down_toward_the_ball():
     # 2 m/s), one on it (not late), one late but flat out (7.5 m/s).
     pos, vel, hist = _state([[-12.0, -2.0], [-12.0, 3.0], [-12.0, -2.0]],
                             [[0.0, 2.0], [0.0, 2.0], [0.0, 7.5]])
-    rule = KeepChasing(_Tracker(hist, np.full(3, 10)), fps=FPS)
-    late, role, unit, along = rule.late(np.arange(3), pos, vel)
+    rule = KeepChasing(_Tracker(hist, np.full(3, 10)), fps=FPS, accel_mps2=0.0)
+    late, role, unit, along, least = rule.late(np.arange(3), pos, vel)
+    assert torch.equal(least[0], along[0])              # no `accel_mps2`: his own speed
     assert late.tolist() == [True, False, False]
     assert role.tolist() == [1, 1, 1]
     assert unit[0, 1].item() > 0.95 and along[0].item() == pytest.approx(2.0 * unit[0, 1].item())
@@ -80,9 +82,95 @@ def test_a_late_player_may_not_slow_down_toward_the_ball():
     rule.late(rows, pos, vel, frame=7)
     sub = np.array([2, 0])
     again = rule.late(sub, pos[sub], vel[sub], frame=7)
-    fresh = KeepChasing(_Tracker(hist, np.full(3, 10)), fps=FPS).late(sub, pos[sub], vel[sub])
+    fresh = KeepChasing(_Tracker(hist, np.full(3, 10)), fps=FPS,
+                        accel_mps2=0.0).late(sub, pos[sub], vel[sub])
     for a, b in zip(again, fresh):
         assert torch.equal(a, b)
+
+
+def test_once_his_tries_run_out_a_late_player_holds_his_speed_toward_the_ball():
+    pos, vel, hist = _state([[-12.0, -2.0], [-12.0, 3.0], [-12.0, -2.0]],
+                            [[1.0, 2.0], [0.0, 2.0], [1.0, 2.0]])
+    rows = np.arange(3)
+    rule = KeepChasing(_Tracker(hist, np.full(3, 10)), fps=FPS, accel_mps2=0.0)
+    late, _, unit, along, _ = rule.late(rows, pos, vel, frame=50)
+    assert late.tolist() == [True, False, True]
+    # Row 0 stops, row 1 (not late) stops, row 2 runs faster than before.
+    nxt = _moved(pos, [[0.0, 0.0], [0.0, 0.0], [2.0, 4.0]])
+    out = rule.settle(rows, pos, nxt)
+    step = (out[0, 1, :2] - pos[0, 1, :2]) * FPS
+    u = unit[0]
+    assert (step * u).sum().item() == pytest.approx(along[0].item(), abs=1e-4)
+    across = torch.tensor([-u[1], u[0]])
+    assert (step * across).sum().item() == pytest.approx(0.0, abs=1e-4)  # the model's: 0
+    assert torch.equal(out[1:], nxt[1:]) and torch.equal(out[0, [0, 2]], nxt[0, [0, 2]])
+    assert rule.held == 1
+    # A row not read this frame, or the rule without `hold`, leaves the draw alone.
+    fresh = KeepChasing(_Tracker(hist, np.full(3, 10)), fps=FPS)
+    assert torch.equal(fresh.settle(rows, pos, nxt), nxt)
+    off = KeepChasing(_Tracker(hist, np.full(3, 10)), fps=FPS, hold=False)
+    off.late(rows, pos, vel, frame=50)
+    assert torch.equal(off.settle(rows, pos, nxt), nxt)
+
+
+def test_with_an_acceleration_a_late_player_must_speed_up_toward_the_ball():
+    pos, vel, hist = _state([[-12.0, -2.0], [-12.0, 3.0]], [[0.0, 2.0], [0.0, 2.0]])
+    rows = np.arange(2)
+    rule = KeepChasing(_Tracker(hist, np.full(2, 10)), fps=FPS, accel_mps2=6.0)
+    late, _, unit, along, least = rule.late(rows, pos, vel, frame=50)
+    assert late.tolist() == [True, False]
+    assert least[0].item() == pytest.approx(along[0].item() + 6.0 / FPS, abs=1e-5)
+    u = unit[0, 1].item()                          # nearly all along y
+    same = rule.accept(rows, 50, pos, _moved(pos, [[0.0, 2.0], [0.0, 2.0]]), vel)
+    assert same.tolist() == [False, True]         # holding his speed is not enough now
+    faster = rule.accept(rows, 50, pos, _moved(pos, [[0.0, 2.0 + 7.0 / FPS / u]] * 2), vel)
+    assert faster.tolist() == [True, True]
+    out = rule.settle(rows, pos, _moved(pos, [[0.0, 0.0], [0.0, 0.0]]))
+    step = (out[0, 1, :2] - pos[0, 1, :2]) * FPS
+    assert (step * unit[0]).sum().item() == pytest.approx(least[0].item(), abs=1e-4)
+    # What he needs caps it: standing 5 m from the ball's line, with any acceleration he must
+    # only reach (within 1 m of) its nearest playable point in the time the ball takes there.
+    from sportsngen.model.forecast import ball_forecast, nearest_playable
+    pos2, vel2, hist2 = _state([[-12.0, -2.0]], [[0.0, 0.0]])
+    keen = KeepChasing(_Tracker(hist2, np.full(1, 10)), fps=FPS, accel_mps2=1000.0)
+    late2, _, _, along2, least2 = keen.late(np.arange(1), pos2, vel2)
+    prev = torch.as_tensor((hist2[:, -2, 2] - hist2[:, -3, 2]) * FPS, dtype=torch.float32)
+    track = ball_forecast(pos2[:, 2], vel2[:, 2], prev, FPS, path=True)[1]
+    near = nearest_playable(track, pos2[:, 1:2, :2])[0, 0]
+    wanted = (torch.linalg.vector_norm(near[:2]) - 1.0) / near[2]
+    assert late2[0] and along2[0].item() == 0.0
+    assert least2[0].item() == pytest.approx(wanted.item(), rel=1e-5) and wanted.item() < 7.0
+    # A serve (one contact so far) asks for no acceleration from the shot 2 on default.
+    tracker = _Tracker(hist, np.full(2, 10))
+    tracker.n_shots[:] = 1
+    serve = KeepChasing(tracker, fps=FPS, accel_mps2=6.0).late(rows, pos, vel)
+    assert serve[0][0] and torch.equal(serve[4][0], serve[3][0])
+    with pytest.raises(ValueError, match="accel_mps2"):
+        KeepChasing(rule.tracker, accel_mps2=-1.0)
+
+
+def test_the_rollout_settles_the_rows_whose_redraws_all_slow():
+    from sportsngen.sim.constraints import AllOf
+    from sportsngen.sim.rollout import redraw_rejected
+
+    pos, vel, hist = _state([[-12.0, -2.0], [-12.0, 3.0]], [[0.0, 2.0], [0.0, 2.0]])
+    stop = _moved(pos, [[0.0, 0.0], [0.0, 0.0]])
+
+    class Braking:                               # every draw: both receivers stand still
+        calls = 0
+
+        def sample_next(self, h, pos_m, *args):
+            Braking.calls += 1
+            return stop[: len(pos_m)].clone()
+
+    rule = AllOf(KeepChasing(_Tracker(hist, np.full(2, 10)), fps=FPS, accel_mps2=0.0))
+    rows = np.arange(2)
+    h = torch.zeros(2, 4)
+    out, drawn, strike = redraw_rejected(Braking(), rule, rows, 50, h, pos, vel, vel, stop.clone(),
+                                         0.9, 0.9, None)
+    assert drawn.tolist() == [3, 0] and Braking.calls == 3 and not strike.any()
+    speed = torch.linalg.vector_norm(out[:, 1, :2] - pos[:, 1, :2], dim=-1) * FPS
+    assert speed[0].item() == pytest.approx(2.0, abs=0.05) and speed[1].item() == 0.0
 
 
 def test_before_his_reaction_time_and_after_the_ball_passes_the_rule_is_silent():

@@ -148,6 +148,8 @@ def redraw_rejected(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top
             nxt[idx] = constraint.project(pos[idx], nxt[idx])
         if hasattr(constraint, "strike_rows"):
             strike[given] = constraint.strike_rows(alive[given])
+    if hasattr(constraint, "settle"):            # e.g. rows accepted once their tries ran out
+        nxt = constraint.settle(alive, pos, nxt)
     return nxt, drawn, strike
 
 
