@@ -397,11 +397,14 @@ class KeepChasing:
         # rollouts there (four times slower).
         fresh = torch.as_tensor(self._tries[rows] < self.max_tries, device=pos_m.device)
         self._tries[rows] += 1
-        i = torch.arange(len(rows), device=pos_m.device)
-        step = next_pos_m[i, role, :2] - pos_m[i, role, :2]
-        new_along = (step * unit).sum(-1) * self.fps
-        slows = (new_along < least) & (along < self.max_speed_mps)
+        slows = (self._speed_along(pos_m, next_pos_m, role, unit) < least) & \
+            (along < self.max_speed_mps)
         return ~(late & slows & fresh)
+
+    def _speed_along(self, pos_m, next_pos_m, role, unit) -> torch.Tensor:
+        """(B,) the player due's speed in the sampled frame along his way to the ball (m/s)."""
+        i = torch.arange(len(role), device=pos_m.device)
+        return ((next_pos_m[i, role, :2] - pos_m[i, role, :2]) * unit).sum(-1) * self.fps
 
     def give_up(self, rows: np.ndarray) -> None:
         self.given_up += len(rows)
@@ -412,7 +415,8 @@ class KeepChasing:
         toward the ball (`late`) has his step along his way to it lengthened to that speed
         (never shortened), from this frame's reading; `held` counts them. Rows this frame did
         not read, or read as not late, are left alone."""
-        if not self.hold or not len(rows) or self._frame is None:
+        if not self.hold or not len(rows) or self._frame is None or \
+                not bool(self._late[0].any()):               # most frames: nobody late
             return next_pos_m
         rows = np.asarray(rows)
         at = self._at[rows]
@@ -421,9 +425,7 @@ class KeepChasing:
             return next_pos_m
         i = torch.as_tensor(np.where(at >= 0, at, 0), device=pos_m.device)
         late, role, unit, along, least = (x[i] for x in self._late)
-        k = torch.arange(len(rows), device=pos_m.device)
-        step = next_pos_m[k, role, :2] - pos_m[k, role, :2]
-        short_mps = least - (step * unit).sum(-1) * self.fps
+        short_mps = least - self._speed_along(pos_m, next_pos_m, role, unit)
         fix = read & late & (short_mps > 0) & (along < self.max_speed_mps)
         if not bool(fix.any()):
             return next_pos_m
