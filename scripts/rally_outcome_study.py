@@ -3,6 +3,7 @@ P(server wins the point) from random frames of held-out rallies.
 
     .venv/bin/python scripts/rally_outcome_study.py [--model PATH] [--rallies 60] [--n 32]
         [--seed 0] [--workers 1 --threads 2] [--out docs/figures/outcome]
+        [--calibrator logistic|isotonic] [--save-calibrator] [--from-points CSV]
 
 Held-out rallies: freshly generated synthetic points (a generator seed the training data never
 used) of Roger Federer v Rafael Nadal on hard. For each sampled rally, branch points at a few
@@ -15,13 +16,17 @@ two baselines: the base rate (the server's share of points won in the generator'
 for this matchup) and the Markov model with per-player serve probabilities (the bundled 2011
 serve models, opponent-adjusted: P(server wins | first serve in play) or on a second serve).
 
-Recalibration: the rallies are split in two halves (alternately, in sampling order); an
-isotonic map (`sportsngen.eval.calibration.IsotonicCalibrator`) fitted on the first half's
-rollout probabilities is judged on the second half, beside the raw rollouts and the baselines
-on the same half. Writes reliability.png (diagram + histogram, second half), outcome.md,
-outcome.json and branch_points.csv (every branch point's rollout share `p`, its count `n`
-and the outcome) into --out. `--save-calibrator` also stores the fitted map in the model file, where
-`Simulator.rally_win_probability(..., calibrated=True)` uses it.
+Recalibration, judged out of fold: the rallies are split in two halves (alternately, in
+sampling order; a rally's branch points share its outcome, so they stay together) and each
+half's rollout probabilities are mapped by a calibrator fitted on the other half
+(`sportsngen.eval.calibration.cross_fitted`), for both kinds: logistic on the log-odds (two
+numbers) and isotonic. Every row of the table is over all branch points. Writes
+reliability.png (diagram + histogram), outcome.md, outcome.json and branch_points.csv (every
+branch point's rollout share `p`, its count `n` and the outcome) into --out.
+`--save-calibrator` also stores a `--calibrator` map fitted on all branch points in the model
+file, where `Simulator.rally_win_probability(..., calibrated=True)` uses it. `--from-points`
+reads the branch points an earlier run of the same model wrote instead of rolling out again
+(the table and the map only).
 """
 
 from __future__ import annotations
@@ -36,10 +41,12 @@ import pandas as pd
 import torch
 
 from sportsngen.eval.calibration import (
-    IsotonicCalibrator,
+    CALIBRATORS,
     brier_score,
+    cross_fitted,
     ece_if_calibrated,
     expected_calibration_error,
+    fit_calibrator,
     plot_reliability,
 )
 from sportsngen.eval.rules import analyse_rally_data
@@ -71,8 +78,12 @@ def main() -> None:
                     help="branch points a chunk (one seed each; the results depend on it); "
                          "0: all in one call, as before there were workers")
     ap.add_argument("--out", type=Path, default=Path("docs/figures/outcome"))
+    ap.add_argument("--calibrator", choices=sorted(CALIBRATORS), default="logistic",
+                    help="the map --save-calibrator stores (fitted on all branch points)")
     ap.add_argument("--save-calibrator", action="store_true",
-                    help="store the isotonic map in the model file (outcome_calibrator)")
+                    help="store the --calibrator map in the model file (outcome_calibrator)")
+    ap.add_argument("--from-points", type=Path, default=None,
+                    help="branch_points.csv of an earlier run of this model: no rollouts")
     args = ap.parse_args()
     if args.threads:
         torch.set_num_threads(args.threads)
@@ -81,6 +92,17 @@ def main() -> None:
     model_file = str(model_path(args.model))
     Simulator.from_pretrained(model_file)          # fails early on a file it cannot simulate
     truth = generate_matches([PLAYERS], "hard", 3000, seed=10_000 + args.seed, workers=2)
+    if args.from_points is not None:
+        points, wall = pd.read_csv(args.from_points), float("nan")
+        n_rallies = points["rally_id"].nunique()
+    else:
+        points, wall, n_rallies = _branch_points(model_file, args)
+    base = float((truth.points()["winner"] == truth.points()["server"]).mean())
+    _report(points, base, model_file, wall, n_rallies, args)
+
+
+def _branch_points(model_file: str, args) -> tuple[pd.DataFrame, float, int]:
+    """Branch points of held-out rallies and their rollouts' share of server wins."""
     held = generate_matches([PLAYERS], "hard", 4 * args.rallies, seed=20_000 + args.seed,
                             workers=1)
     r = held.rallies[held.rallies["winner"] != ""]     # decided rallies (no first-serve faults)
@@ -88,7 +110,7 @@ def main() -> None:
     pick = r.iloc[rng.permutation(len(r))[:args.rallies]]
     length = held.frames.groupby("rally_id")["frame"].max()
     contacts = analyse_rally_data(held)["contact_frames"]
-    items, meta, half = [], [], []
+    rows = []
     for k, (_, row) in enumerate(pick.iterrows()):
         served = list(contacts.loc[row["rally_id"]])
         for b in BRANCH_S:
@@ -96,83 +118,84 @@ def main() -> None:
             if served:
                 f = max(f, int(served[0]) + AFTER_SERVE_FRAMES)
             if f < int(length[row["rally_id"]]) - 2:
-                items.append((int(row["rally_id"]), f))
-                meta.append((row["server"], row["receiver"], int(row["serve_number"]),
-                             float(row["winner"] == row["server"]), b))
-                half.append(k % 2)
+                rows.append({"rally_id": int(row["rally_id"]), "frame": f,
+                             "server": row["server"], "receiver": row["receiver"],
+                             "serve_number": int(row["serve_number"]), "branch_s": b,
+                             "half": k % 2,
+                             "server_won": float(row["winner"] == row["server"])})
+    points = pd.DataFrame(rows)
     t0 = time.perf_counter()
-    res = pooled_rally_win_probabilities(model_file, held, items, n=args.n, seed=args.seed,
-                                         workers=args.workers, threads=args.threads or 1,
-                                         chunk_items=args.chunk_items)
-    wall = time.perf_counter() - t0
-    ok = ~res["p"].isna().to_numpy()
-    y = np.array([m[3] for m in meta])[ok]
-    p_model = res["p"].to_numpy()[ok]
-    tp = truth.points()
-    base = float((tp["winner"] == tp["server"]).mean())
-    p_base = np.full(len(y), base)
-    p_markov = []
-    for (s, rcv, serve, _, _), keep in zip(meta, ok):
-        if not keep:
-            continue
-        m = serve_model(s).adjusted_against(serve_model(rcv))
-        p_markov.append(m.first_serve_won if serve == 1 else m.second_serve_won)
-    p_markov = np.asarray(p_markov)
-    fit, test = np.asarray(half)[ok] == 0, np.asarray(half)[ok] == 1
-    cal = IsotonicCalibrator(p_model[fit], y[fit])
-    preds = {"SportsNGEN rollouts": p_model[test],
-             "SportsNGEN recalibrated (isotonic)": cal(p_model[test]),
-             "base rate": p_base[test], "Markov (serve model)": p_markov[test]}
-    args.out.mkdir(parents=True, exist_ok=True)
-    rows = {name: {"ece": expected_calibration_error(p, y[test]),
-                   "brier": brier_score(p, y[test])} for name, p in preds.items()}
-    rows["SportsNGEN rollouts, all branch points"] = {
-        "ece": expected_calibration_error(p_model, y), "brier": brier_score(p_model, y)}
-    n_ok = res["n"].to_numpy()[ok]
-    floor = {"held-out half": ece_if_calibrated(p_model[test], n_ok[test], seed=args.seed),
-             "all branch points": ece_if_calibrated(p_model, n_ok, seed=args.seed)}
-    items_out = pd.DataFrame(
-        [(rid, f, m[0], m[2], m[4], h) for (rid, f), m, h in zip(items, meta, half)],
-        columns=["rally_id", "frame", "server", "serve_number", "branch_s", "half"])
-    items_out = items_out.assign(p=res["p"].to_numpy(), n=res["n"].to_numpy(),
-                                 server_won=[m[3] for m in meta])
+    res = pooled_rally_win_probabilities(
+        model_file, held, list(zip(points["rally_id"], points["frame"])), n=args.n,
+        seed=args.seed, workers=args.workers, threads=args.threads or 1,
+        chunk_items=args.chunk_items)
+    points = points.assign(p=res["p"].to_numpy(), n=res["n"].to_numpy())
+    return points, time.perf_counter() - t0, len(pick)
+
+
+def _report(points: pd.DataFrame, base: float, model_file: str, wall: float, n_rallies: int,
+            args) -> None:
+    """The table, the figure, the files and (with --save-calibrator) the stored map."""
+    if "receiver" not in points:     # files written before the column: the other player
+        points = points.assign(receiver=[PLAYERS[1] if s == PLAYERS[0] else PLAYERS[0]
+                                         for s in points["server"]])
+    ok = points[points["p"].notna()]
+    y, p_model, half = (ok[c].to_numpy() for c in ("server_won", "p", "half"))
+    p_markov = np.array([
+        (lambda m: m.first_serve_won if serve == 1 else m.second_serve_won)(
+            serve_model(s).adjusted_against(serve_model(rcv)))
+        for s, rcv, serve in zip(ok["server"], ok["receiver"], ok["serve_number"])])
+    preds = {"SportsNGEN rollouts": p_model}
+    for kind in ("logistic", "isotonic"):
+        preds[f"SportsNGEN recalibrated ({kind}, out of fold)"] = cross_fitted(
+            kind, p_model, y, half)
+    preds |= {"base rate": np.full(len(y), base), "Markov (serve model)": p_markov}
+    rows = {name: {"ece": expected_calibration_error(p, y), "brier": brier_score(p, y)}
+            for name, p in preds.items()}
+    floor = ece_if_calibrated(p_model, ok["n"].to_numpy(), seed=args.seed)
+    source = (f"branch points read from {args.from_points}" if args.from_points is not None
+              else f"{args.n} rollouts each, {wall:.0f} s")
     lines = ["# Rally outcome prediction", "",
              f"`python scripts/rally_outcome_study.py --rallies {args.rallies} --n {args.n} "
              f"--seed {args.seed} --chunk-items {args.chunk_items}` ({args.workers} "
-             f"process(es)): {len(items)} branch points ({int(ok.sum())} with at least "
-             f"one realistic decided rollout) of {len(pick)} held-out synthetic rallies "
-             f"(Federer v Nadal, hard), {args.n} rollouts each, {wall:.0f} s. The isotonic "
-             f"map is fitted on the {int(fit.sum())} branch points of half the rallies; the "
-             f"table's first four rows are the other {int(test.sum())}.", "",
-             "| predictor | ECE | Brier |", "|---|---:|---:|"]
+             f"process(es)): {len(points)} branch points ({len(ok)} with at least one "
+             f"realistic decided rollout) of {n_rallies} held-out synthetic rallies "
+             f"(Federer v Nadal, hard), {source}. Every row is over all {len(ok)}; a "
+             f"recalibrated row maps each half of the rallies by a map fitted on the other.",
+             "", "| predictor | ECE | Brier |", "|---|---:|---:|"]
     for name, v in rows.items():
         lines.append(f"| {name} | {v['ece']:.3f} | {v['brier']:.3f} |")
     lines += ["", f"Mean realistic decided rollouts per branch point: "
-              f"{res['n'].mean():.1f} of {args.n}. The ECE a perfectly calibrated simulator "
-              f"would score with this design (`ece_if_calibrated`: the rollouts' shares taken "
-              f"as the truth, {args.n} rollouts a point; a lower bound, since a rally's branch "
-              f"points share its outcome), mean (90th percentile): "
-              + ", ".join(f"{k} {v.mean():.3f} ({np.percentile(v, 90):.3f})"
-                          for k, v in floor.items()) + ".",
+              f"{points['n'].mean():.1f} of {args.n}; mean prediction "
+              f"{p_model.mean():.3f}, server's share won {y.mean():.3f}. The ECE a perfectly "
+              f"calibrated simulator would score with this design (`ece_if_calibrated`: the "
+              f"rollouts' shares taken as the truth, {args.n} rollouts a point; a lower bound, "
+              f"since a rally's branch points share its outcome), mean (90th percentile): "
+              f"{floor.mean():.3f} ({np.percentile(floor, 90):.3f}).",
               "", "![reliability](reliability.png)"]
+    cal = fit_calibrator(args.calibrator, p_model, y)
+    args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "outcome.md").write_text("\n".join(lines) + "\n")
     (args.out / "outcome.json").write_text(json.dumps(
-        {"metrics": rows, "n_items": len(items), "n_ok": int(ok.sum()), "wall_s": wall,
-         "n_fit": int(fit.sum()), "n_test": int(test.sum()),
-         "calibrator": {"x": cal.x.tolist(), "y": cal.y.tolist()},
-         "mean_ok_rollouts": float(res["n"].mean()), "base_rate": base,
-         "ece_if_calibrated": {k: {"mean": float(v.mean()), "p90": float(np.percentile(v, 90))}
-                               for k, v in floor.items()}}, indent=2))
-    items_out.to_csv(args.out / "branch_points.csv", index=False)
+        {"metrics": rows, "n_items": len(points), "n_ok": len(ok), "wall_s": wall,
+         "calibrator": cal.to_dict(), "mean_ok_rollouts": float(points["n"].mean()),
+         "base_rate": base, "ece_if_calibrated": {"mean": float(floor.mean()),
+                                                  "p90": float(np.percentile(floor, 90))}},
+        indent=2))
+    if args.from_points is None or args.from_points.resolve() != \
+            (args.out / "branch_points.csv").resolve():
+        points.to_csv(args.out / "branch_points.csv", index=False)
     print("\n".join(lines))
-    plot_reliability(preds, y[test], args.out / "reliability.png",
-                     title=f"{int(test.sum())} branch points of {len(pick) // 2} held-out "
-                           f"rallies, {args.n} rollouts each")
+    plot_reliability(preds, y, args.out / "reliability.png",
+                     title=f"{len(ok)} branch points of {n_rallies} held-out rallies, "
+                           f"{args.n} rollouts each")
     if args.save_calibrator:
         from sportsngen.model.export import update_extra
 
         path = update_extra(model_file, outcome_calibrator=cal.to_dict())
-        print(f"stored the calibrator ({len(cal.x)} blocks) in {path}")
+        print(f"stored the {args.calibrator} calibrator ({cal.to_dict()}) in {path}"
+              if args.calibrator == "logistic" else
+              f"stored the isotonic calibrator ({len(cal.x)} blocks) in {path}")
 
 
 if __name__ == "__main__":

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import re
 from pathlib import Path
 
@@ -313,6 +314,11 @@ def test_calibrated_rally_win_probability_maps_the_raw_one(tiny_model_file, monk
     assert sim.rally_win_probability(data, rid, 10, n=2, calibrated=True) == pytest.approx(0.4)
     monkeypatch.setattr(whatif, "rally_win_probability", lambda *a, **k: 0.9)
     assert sim.rally_win_probability(data, rid, 10, n=2, calibrated=True) == pytest.approx(0.5)
+    # A logistic map (the study's default): sigmoid(a + b * logit(p)).
+    update_extra(path, outcome_calibrator={"kind": "logistic", "a": 0.5, "b": 2.0, "eps": 0.01})
+    sim = _sim(path)
+    assert sim.rally_win_probability(data, rid, 10, n=2, calibrated=True) == pytest.approx(
+        1 / (1 + math.exp(-(0.5 + 2.0 * math.log(9)))))
 
 
 def test_counterfactual_plot(tiny_model_file, tmp_path):

@@ -33,7 +33,7 @@ from sportsngen.errors import (
     check_name,
     check_players,
 )
-from sportsngen.eval.calibration import IsotonicCalibrator
+from sportsngen.eval.calibration import IsotonicCalibrator, LogisticCalibrator, calibrator_from_dict
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.model.event_classifier import EventClassifier
 from sportsngen.model.export import load_model, read_extra, update_extra
@@ -156,7 +156,7 @@ class Simulator:
         self._warned: set[str] = set()    # unknown players already warned about
         # Raw rollout win probabilities -> observed frequencies, when the model file has one
         # (`scripts/rally_outcome_study.py --save-calibrator`).
-        self.outcome_calibrator: IsotonicCalibrator | None = None
+        self.outcome_calibrator: LogisticCalibrator | IsotonicCalibrator | None = None
 
     @classmethod
     def from_pretrained(cls, path_or_name: str | Path | None = None, **kwargs) -> Simulator:
@@ -175,7 +175,7 @@ class Simulator:
         sim = cls(model, ec, vocab, InitialConditions.from_dict(extra["initial_conditions"]),
                   **kwargs)
         if extra.get("outcome_calibrator") is not None:
-            sim.outcome_calibrator = IsotonicCalibrator.from_dict(extra["outcome_calibrator"])
+            sim.outcome_calibrator = calibrator_from_dict(extra["outcome_calibrator"])
         return sim
 
     @staticmethod
