@@ -25,6 +25,9 @@
 #   DEST=x.pt STAGES="contact chase calibrator" scripts/add_own_serves.sh
 # (twenty-eighth part: the rule behind keep_chasing changed in the code, so at that commit the
 # same command gives the bundled file; as run, the stage calibrator alone on the file before.)
+# The stage `refresh` stores refresh_frames=REFRESH (25): past the model's window the rollout
+# re-reads the last window every REFRESH frames, training's view (twenty-ninth part); since then
+#   DEST=x.pt STAGES="contact chase refresh calibrator" scripts/add_own_serves.sh
 #
 #   scripts/add_own_serves.sh                     # the fit, defaults and shifts, then the calibrator
 #   STAGES="fit bias" scripts/add_own_serves.sh   # the fit, defaults and shifts only
@@ -39,6 +42,7 @@ REACH=${REACH:-1.5}
 STAGES=${STAGES:-"fit bias calibrator"}
 WORKERS=${WORKERS:-2}
 CHUNK=${CHUNK:-32}
+REFRESH=${REFRESH:-25}
 mkdir -p "$RUN"
 BASE="$RUN/base.pt"
 [ -f "$BASE" ] || git show 0b2b131:sportsngen/model/bundled/sportsngen-small.pt > "$BASE"
@@ -67,6 +71,9 @@ for s in $STAGES; do
         ;;
     chase)
         "$PY" scripts/set_sim_defaults.py "$DEST" keep_chasing=true
+        ;;
+    refresh)
+        "$PY" scripts/set_sim_defaults.py "$DEST" refresh_frames="$REFRESH"
         ;;
     calibrator)
         RALLIES=200 N=32 WORKERS="$WORKERS" CHUNK="$CHUNK" THREADS=1 PYTHON="$PY" \

@@ -33,6 +33,7 @@ import torch
 
 from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.errors import ArgumentError
+from sportsngen.eval.long_rallies import points_after_window
 from sportsngen.eval.physical import shot_quantities
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.eval.sampling_options import add_sampling_options, sampling_kwargs
@@ -172,6 +173,17 @@ def main() -> None:
     hz = {name: rally_hazards(pts["rally"], 6)["hazard"] for name, pts in points.items()}
     print("\npoints ending at rally length L of those reaching it (L = 1 .. 6), sim / truth: " +
           "  ".join(f"{L}: {hz['sim'][L]:.2f} / {hz['truth'][L]:.2f}" for L in range(1, 7)))
+    # Points decided after the serve left the model's window: who served is then out of its
+    # sight (docs/evaluation.md, twenty-ninth part).
+    w = sim.model.cfg.window_frames
+    late = {"sim": points_after_window(real, w), "truth": points_after_window(truth, w)}
+    print(f"\npoints decided {w} frames or more after the serve (out of the model's window), "
+          f"sim / truth: {100 * late['sim'].at['after', 'share']:.1f} / "
+          f"{100 * late['truth'].at['after', 'share']:.1f} % of points, the server won "
+          f"{100 * late['sim'].at['after', 'server_won']:.1f} / "
+          f"{100 * late['truth'].at['after', 'server_won']:.1f} % of them "
+          f"(of the others {100 * late['sim'].at['before', 'server_won']:.1f} / "
+          f"{100 * late['truth'].at['before', 'server_won']:.1f} %)")
     # How each shot is struck and ends over whole points (the strikes table reads one strike
     # at a time from the record; here the rally's drift counts too).
     profiles = {"sim": shot_profile(simd), "truth": shot_profile(truth)}
@@ -190,6 +202,8 @@ def main() -> None:
                        "outside_tolerance": misses,
                        "agreement_sim": agree_sim, "agreement_truth": agree_true,
                        "rally_hazards": {k: [float(v) for v in h] for k, h in hz.items()},
+                       "points_after_window": {k: v.to_dict(orient="index")
+                                               for k, v in late.items()},
                        "shot_profile": {k: p.reset_index().to_dict(orient="records")
                                         for k, p in profiles.items()},
                        "simulate_s": sim_s, "top_p_player": sim.top_p_player,

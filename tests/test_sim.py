@@ -203,6 +203,11 @@ def test_stored_sim_defaults_are_defaults_and_arguments_win(tiny_model_file, tmp
     with pytest.raises(ValueError, match="refresh_frames"):
         Simulator.from_pretrained(tiny_model_file, refresh_frames=0)
     assert Simulator.from_pretrained(tiny_model_file, refresh_frames=25.0).refresh_frames == 25
+    # A stored refresh (the bundled file's, written as a float) is an int; None asked for
+    # explicitly is the band, whatever the file stores.
+    update_extra(path, sim_defaults={"refresh_frames": 25.0})
+    assert Simulator.from_pretrained(path).refresh_frames == 25
+    assert Simulator.from_pretrained(path, refresh_frames=None).refresh_frames is None
 
 
 def test_simulate_py_learned_engine_writes_outputs(tiny_model_file, tmp_path, capsys):

@@ -9,7 +9,10 @@ never gave. `late_shot_contact_odds` measures what that costs where it decides a
 recorded rallies and free of sampling noise: the teacher-forced chance of a racket contact
 over each recorded approach (`sportsngen.eval.contact_odds.approach_frames`) of a shot struck
 after the first window, read once with the band (the rollout's view) and once from a
-truncated window that ends just after the contact (training's view).
+truncated window that ends just after the contact (training's view). `points_after_window`
+counts what it costs the score: past the window the serve is out of the model's sight, and
+nothing else says which player served, so an edge the server keeps all rally (the generator's
+initiative) is the model's to remember and it cannot.
 """
 
 from __future__ import annotations
@@ -55,3 +58,26 @@ def late_shot_contact_odds(sim, truth: RallyData, rules: pd.DataFrame) -> dict:
     nan = float("nan")
     return {"band": float(np.mean(band)) if band else nan,
             "window": float(np.mean(window)) if window else nan, "shots": len(band)}
+
+
+def points_after_window(data: RallyData, window_frames: int) -> pd.DataFrame:
+    """Decided points (a winner recorded) split by whether their last shot came
+    `window_frames` or more after the serve's contact, when the serve has left a window that
+    ends at that shot -> index ("before", "after"): points, share (of the decided points with a
+    serve in the shots table) and server_won (his share of them; NaN where none)."""
+    if window_frames < 1:
+        raise ValueError(f"window_frames must be >= 1, got {window_frames}")
+    r = data.rallies[data.rallies["winner"].fillna("") != ""]
+    shots = data.shots[data.shots["rally_id"].isin(r["rally_id"])]
+    serve = shots[shots["shot_index"] == 0].groupby("rally_id")["frame"].min()
+    last = shots.groupby("rally_id")["frame"].max()
+    gap = (r["rally_id"].map(last) - r["rally_id"].map(serve)).to_numpy(dtype=float)
+    keep = ~np.isnan(gap)
+    after = gap[keep] >= window_frames
+    won = (r["winner"] == r["server"]).to_numpy()[keep]
+    rows = {}
+    for name, sel in (("before", ~after), ("after", after)):
+        n = int(sel.sum())
+        rows[name] = {"points": n, "share": n / max(len(after), 1),
+                      "server_won": float(won[sel].mean()) if n else float("nan")}
+    return pd.DataFrame.from_dict(rows, orient="index")
