@@ -141,10 +141,8 @@ def _report(points: pd.DataFrame, base: float, model_file: str, wall: float, n_r
                                          for s in points["server"]])
     ok = points[points["p"].notna()]
     y, p_model, half = (ok[c].to_numpy() for c in ("server_won", "p", "half"))
-    p_markov = np.array([
-        (lambda m: m.first_serve_won if serve == 1 else m.second_serve_won)(
-            serve_model(s).adjusted_against(serve_model(rcv)))
-        for s, rcv, serve in zip(ok["server"], ok["receiver"], ok["serve_number"])])
+    p_markov = np.array([_markov(s, rcv, serve) for s, rcv, serve in
+                         zip(ok["server"], ok["receiver"], ok["serve_number"])])
     preds = {"SportsNGEN rollouts": p_model}
     for kind in ("logistic", "isotonic"):
         preds[f"SportsNGEN recalibrated ({kind}, out of fold)"] = cross_fitted(
@@ -193,9 +191,13 @@ def _report(points: pd.DataFrame, base: float, model_file: str, wall: float, n_r
         from sportsngen.model.export import update_extra
 
         path = update_extra(model_file, outcome_calibrator=cal.to_dict())
-        print(f"stored the {args.calibrator} calibrator ({cal.to_dict()}) in {path}"
-              if args.calibrator == "logistic" else
-              f"stored the isotonic calibrator ({len(cal.x)} blocks) in {path}")
+        print(f"stored the {args.calibrator} calibrator in {path}")
+
+
+def _markov(server: str, receiver: str, serve_number: int) -> float:
+    """P(server wins | his serve in play) of the opponent-adjusted 2011 serve models."""
+    m = serve_model(server).adjusted_against(serve_model(receiver))
+    return m.first_serve_won if serve_number == 1 else m.second_serve_won
 
 
 if __name__ == "__main__":
