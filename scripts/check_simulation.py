@@ -173,8 +173,8 @@ def main() -> None:
     hz = {name: rally_hazards(pts["rally"], 6)["hazard"] for name, pts in points.items()}
     print("\npoints ending at rally length L of those reaching it (L = 1 .. 6), sim / truth: " +
           "  ".join(f"{L}: {hz['sim'][L]:.2f} / {hz['truth'][L]:.2f}" for L in range(1, 7)))
-    # Points decided after the serve left the model's window: who served is then out of its
-    # sight (docs/evaluation.md, twenty-ninth part).
+    # Points decided after the serve left the model's window, where the rollout's own view
+    # past the window cost the servers (docs/evaluation.md, twenty-ninth part).
     w = sim.model.cfg.window_frames
     late = {"sim": points_after_window(real, w), "truth": points_after_window(truth, w)}
     print(f"\npoints decided {w} frames or more after the serve (out of the model's window), "

@@ -229,20 +229,21 @@ class LogisticCalibrator:
 CALIBRATORS = {"logistic": LogisticCalibrator, "isotonic": IsotonicCalibrator}
 
 
-def fit_calibrator(kind: str, pred, outcome):
-    """A `kind` ("logistic" or "isotonic") calibrator fitted on (prediction, outcome) pairs."""
+def _calibrator_class(kind: str):
     if kind not in CALIBRATORS:
         raise ValueError(f"unknown calibrator {kind!r}: one of {sorted(CALIBRATORS)}")
-    return CALIBRATORS[kind](pred, outcome)
+    return CALIBRATORS[kind]
+
+
+def fit_calibrator(kind: str, pred, outcome):
+    """A `kind` ("logistic" or "isotonic") calibrator fitted on (prediction, outcome) pairs."""
+    return _calibrator_class(kind)(pred, outcome)
 
 
 def calibrator_from_dict(d: dict):
     """The calibrator a `to_dict` wrote; a dict without "kind" is an isotonic map (the files
     written before there was a choice)."""
-    kind = d.get("kind", "isotonic")
-    if kind not in CALIBRATORS:
-        raise ValueError(f"unknown calibrator {kind!r}: one of {sorted(CALIBRATORS)}")
-    return CALIBRATORS[kind].from_dict(d)
+    return _calibrator_class(d.get("kind", "isotonic")).from_dict(d)
 
 
 def cross_fitted(kind: str, pred, outcome, fold) -> np.ndarray:

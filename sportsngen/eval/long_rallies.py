@@ -10,9 +10,10 @@ recorded rallies and free of sampling noise: the teacher-forced chance of a rack
 over each recorded approach (`sportsngen.eval.contact_odds.approach_frames`) of a shot struck
 after the first window, read once with the band (the rollout's view) and once from a
 truncated window that ends just after the contact (training's view). `points_after_window`
-counts what it costs the score: past the window the serve is out of the model's sight, and
-nothing else says which player served, so an edge the server keeps all rally (the generator's
-initiative) is the model's to remember and it cannot.
+counts what a rollout's view past the window costs the score: the share of points decided
+after the serve has left the window and the server's share of them, whose gap to the truth's
+the band opened and a refresh to training's view (`refresh_frames`) mostly closed
+(docs/evaluation.md, twenty-ninth part).
 """
 
 from __future__ import annotations
