@@ -196,7 +196,8 @@ def test_run_diagnostics_on_the_tiny_model(tiny_model_file):
     assert 0.0 < data_side["own serves in the box"] <= 1.0
     third = table.set_index("signal").loc["branch third-shot share (returns in play)"]
     assert 0.8 < third["data"] <= 1.0          # the generator's servers answer their returns
-    assert 0 < third["n"] <= table.set_index("signal").at[
+    # An untrained model may keep none of its branched returns in play (n = 0), not more.
+    assert 0 <= third["n"] <= table.set_index("signal").at[
         "branch returns still in play (returns in play)", "n"]
     leak = table[table["signal"].str.startswith("leak")]
     assert {"lo", "hi"} <= set(table.columns)

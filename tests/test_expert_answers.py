@@ -167,7 +167,7 @@ def test_chase_curves_read_the_run_to_the_strike_from_the_record(tiny_model_file
     from sportsngen.sim import Simulator
 
     sim = Simulator.from_pretrained(tiny_model_file, max_retries=0)
-    truth = truth_points(DiagnosticsSetup(n_points=30, seed=3))
+    truth = truth_points(DiagnosticsSetup(n_points=40, seed=3))
     rules = analyse_rally_data(truth)
     # Along a fixed direction, the record's change of speed is the next frame's speed less
     # this one's, read from the player's own track.

@@ -71,6 +71,12 @@ def test_average_profile_is_the_mean_of_named_men():
     assert avg.rally_noise_deg == pytest.approx(np.mean([p.rally_noise_deg for p in men]))
     with pytest.raises(ValueError, match="gender"):
         average_profile("juniors")
+    # The population keeps the tour's composure on rushed returns, not the named players'.
+    from dataclasses import replace
+
+    calm = [replace(p, rushed_return_noise=1.5) for p in men]
+    assert average_profile("men", profiles=calm).rushed_return_noise == 3.0
+    assert average_profile("men", profiles=calm).rally_noise_deg == avg.rally_noise_deg
 
 
 def test_population_sampler_deterministic_varied_and_plausible():
@@ -174,9 +180,38 @@ def test_hawkeye_step_moves_each_knob_by_its_rule():
                   ("clay", "return_net_z_median", 1.8, 400),
                   ("hard", "serve_contact_z_median", 2.85, 400),
                   ("grass", "serve_contact_z_median", 3.3, 400)])
+    # and 90 % of them below 3.0 m where the real ones stay below 2.6 m: more composure
+    sim = pd.concat([sim, table([("hard", "return_net_z_p90", 3.0, 500)])])
+    real = pd.concat([real, table([("hard", "return_net_z_p90", 2.6, 400)])])
     q = step_hawkeye(p, sim, real, damping=0.5)
     assert q.return_pace == pytest.approx(math.exp(0.5 * -0.45 * -0.2))  # faster, flatter
+    assert q.rushed_return_noise == pytest.approx(3.0 * math.exp(0.5 * 1.7 * -0.4))
     assert q.contact_height_m == pytest.approx(2.8 + 0.5 * 0.15)
     assert q.rally_speed_mps == p.rally_speed_mps and q.serve_wide == p.serve_wide
     # no real figures: unchanged
     assert step_hawkeye(p, sim, real.assign(player="Other"), damping=0.5) == p
+
+
+def test_aces_move_the_serve_margin_only_where_the_disguise_is_at_its_floor():
+    from dataclasses import replace
+
+    import pandas as pd
+
+    from sportsngen.synth.calibrate import DISGUISE_RANGE_S, RALLY_BINS, STAT_KEYS, step_2011
+    from sportsngen.synth.profiles import PlayerProfile
+
+    keys = STAT_KEYS + RALLY_BINS
+    tgt = pd.Series({k: 0.1 for k in keys} | {"first_serve_kmh_median": 185.0,
+                                               "second_serve_kmh_median": 150.0,
+                                               "rally_mean": 4.0, "ace": 0.07})
+    sim = dict(tgt) | {"ace": 0.10}   # three points too many aces
+    floor = PlayerProfile(name="Him", serve_disguise_s=DISGUISE_RANGE_S[0], serve_margin_m=0.5)
+    q = step_2011(floor, sim, tgt, damping=0.5)
+    assert q.serve_margin_m == pytest.approx(0.5 + 4.0 * 0.5 * 0.03)
+    assert q.serve_disguise_s == DISGUISE_RANGE_S[0]
+    free = replace(floor, serve_disguise_s=0.0)
+    q = step_2011(free, sim, tgt, damping=0.5)
+    assert q.serve_margin_m == 0.5 and q.serve_disguise_s == pytest.approx(-0.8 * 0.5 * 0.03)
+    # too few aces at the floor: the margin comes back down, never below every player's 0.45 m
+    q = step_2011(replace(floor, serve_margin_m=0.46), dict(sim, ace=0.0), tgt, damping=0.5)
+    assert q.serve_margin_m == 0.45

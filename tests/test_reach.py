@@ -116,10 +116,14 @@ def test_the_generators_players_strike_from_behind_the_baseline_within_their_rea
     assert ret.at["Rafael Nadal", "behind_m"] > 1.5 > ret.at["Roger Federer", "behind_m"] + 0.5
     assert ((15.0 < ret["in_mps"]) & (ret["in_mps"] < 30.0)).all()
     assert ((20.0 < ret["out_mps"]) & (ret["out_mps"] < 35.0)).all()
-    # The generator's players strike within their reach (1.7-1.95 m, `synth.profiles`; read
-    # on the shots table's frame, which can be the frame beside the racket's), most of them
-    # squarely (a median 0.8 m from their centre over 500 points).
-    assert rows["gap_m"].max() < 2.2 and rows["gap_m"].quantile(0.9) < 1.3
+    # The generator's players strike within their reach (1.8 m for both, `synth.profiles`, and
+    # the kernel's 0.15 m tolerance), read on the shots table's frame, which lies up to half a
+    # frame from the racket's: the ball (the faster of its speeds in and out) and the player
+    # (at most 7 m/s) move on by then. Most strike squarely: they run to a spot 0.3-1.2 m
+    # beside the ball (`rally.CONTACT_LATERAL_RANGE_M`; a median 0.8 m over 500 points).
+    half_frame = 0.5 * (np.maximum(rows["in_mps"], rows["out_mps"]) + 7.0) / points.fps
+    assert (rows["gap_m"] <= 1.8 + 0.15 + half_frame).all()
+    assert rows["gap_m"].quantile(0.9) < 1.2 + half_frame.median()
     assert 0.6 < rows["gap_m"].median() < 1.0
     assert (rows["height_m"] > 0).all()
     assert table["n"].sum() == int((rows["shot"] <= 4).sum())

@@ -50,9 +50,11 @@ def test_the_records_serves_read_as_the_shots_table_says(federer_points_and_head
     first = table[(table["serve"] == "first") & (table["source"] == "record")].iloc[0]
     n_first = int((data.rallies["serve_number"] == 1).sum())
     assert first["n"] == n_first
+    # Read through their bins, a serve or two near a line may flip (the rally-level agreement
+    # above is 0.95 or more): within three first serves of the shots table.
     assert first["fault"] == pytest.approx(
         fault.loc[data.rallies.loc[data.rallies["serve_number"] == 1, "rally_id"]].mean(),
-        abs=0.05)
+        abs=3.0 / n_first)
     assert isinstance(table, pd.DataFrame)
 
 

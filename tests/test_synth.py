@@ -294,3 +294,38 @@ def test_the_side_stream_key_draws_nothing():
     assert key == _stream_key(b)
     assert a.random() == b.random()
     assert _stream_key(a) != key          # the key follows the stream
+
+
+def test_clay_passes_on_less_of_the_serves_weight():
+    from sportsngen.synth.behaviour import SURFACE_SERVE_WEIGHT
+    from sportsngen.synth.rally import _difficulty
+
+    server = dataclasses.replace(get_profile("Roger Federer"), serve_heaviness=4.0)
+    hard = _difficulty(1, 1.0, server, 1, 1.0, "hard")
+    clay = _difficulty(1, 1.0, server, 1, 1.0, "clay")
+    assert hard == 4.0 and SURFACE_SERVE_WEIGHT["clay"] < 1.0
+    assert clay == pytest.approx(4.0 ** SURFACE_SERVE_WEIGHT["clay"])
+    assert _difficulty(1, 1.0, server, 2, 1.0, "clay") == pytest.approx(
+        2.0 ** SURFACE_SERVE_WEIGHT["clay"])   # a second serve: the square root first
+    # Later balls do not depend on the surface.
+    assert _difficulty(3, 2.0, server, 1, 1.2, "clay") == _difficulty(3, 2.0, server, 1, 1.2,
+                                                                         "hard")
+
+
+def test_a_rushed_return_takes_the_returners_composure():
+    from sportsngen.synth.behaviour import plan_rally_shot
+
+    base = get_profile("Rafael Nadal")
+    contact = np.array([14.0, 1.0, 1.0])
+
+    def noise(p, difficulty):
+        return plan_rally_shot(p, 1, "forehand", contact, 0.2, np.array([-12.0, 0.0]), False,
+                               is_return=True, incoming_difficulty=difficulty,
+                               rng=np.random.default_rng(5)).noise_deg
+
+    calm = dataclasses.replace(base, rushed_return_noise=1.5)
+    wild = dataclasses.replace(base, rushed_return_noise=4.5)
+    # A serve this heavy rushes the return (chance 1 - 1e8 ** -0.5): the composure scales it.
+    assert noise(wild, 1e8) == pytest.approx(3.0 * noise(calm, 1e8))
+    # A serve without weight never does: the composure does not show.
+    assert noise(wild, 1.0) == noise(calm, 1.0)

@@ -181,6 +181,12 @@ def strikes_redrawn_in_bins(truth: RallyData, shots: tuple[int, ...] = (1, 2, 3,
             i = row[int(s.rally_id)]
             f = int(s.frame - first[s.rally_id])
             ball = arr.pos_m[arr.start[i]:arr.start[i] + arr.length[i], BALL].astype(np.float64)
+            # The shots table's frame is the contact's, rounded: where the ball there is
+            # still coming in (toward the hitter's baseline), the strike's frames start one
+            # later, else the step read the lift across the contact and flew the ball on
+            # without it (recorded returns landing 2 m long).
+            if 1 <= f < len(ball) and (ball[f, 0] - ball[f - 1, 0]) * np.sign(s.contact_x) > 0:
+                f += 1
             if f < 3 or f + 3 > len(ball):
                 continue
             # An odd shot is the receiver's and lands on the server's half.

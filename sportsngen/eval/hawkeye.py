@@ -15,8 +15,11 @@ keypoint files), in the aligned frame (hitter at x < 0 hitting toward +x):
   the net; depth ``11.885 - x_bounce`` of returns landing in the singles court;
 - rally groundstrokes (strike >= 3, ``|x_hit|`` >= 9.0 m, below 2.0 m, after the incoming ball
   bounced): contact ``|x| - 11.885`` and height; net height quantiles of those that cleared the
-  net; peak height; depth of those landing in and the share of those within 3.0 m of the
-  baseline;
+  net; peak height of those that cleared the net (the real figures' counts say that Hawk-Eye
+  gives a peak keypoint only to balls that crossed the net: in every group the peak's n is
+  within 0.5 % of the net height's, while 7-10 % more strikes have a contact height; counted
+  over every strike, the generator's balls into the net pulled its medians 0.07-0.09 m low);
+  depth of those landing in and the share of those within 3.0 m of the baseline;
 - rally length per service point (per server; slam definition: strikes in play in the point's
   last rally, serve included, 0 on a double fault; points cut short after a first-serve fault
   are left out), shares of 0, 1, 2, 3-4, 5-8 and 9+ and the mean.
@@ -78,7 +81,7 @@ _SPECS: dict[str, tuple[str, str, str]] = {
     "rally_net_z_median": ("rally", "net_z_m", "median"),
     "rally_net_z_p10": ("rally", "net_z_m", "p10"),
     "rally_net_z_p90": ("rally", "net_z_m", "p90"),
-    "rally_peak_z_median": ("rally", "peak_z_m", "median"),
+    "rally_peak_z_median": ("rally_over", "peak_z_m", "median"),
     "rally_depth_m_median": ("rally_in", "depth_m", "median"),
     "rally_deep_share": ("rally_in", "deep", "share"),
 }
@@ -140,6 +143,7 @@ def _measures(strikes: pd.DataFrame) -> pd.DataFrame:
         "serve": serve, "serve1_in": serve_in & first, "serve2_in": serve_in & ~first,
         "return": ret, "return1": ret & first, "return2": ret & ~first,
         "return_in": ret & landed, "rally": rally, "rally_in": rally & landed,
+        "rally_over": rally & np.isfinite(s["net_z_m"].to_numpy(float)),
         "serve_kmh": s["serve_kmh"].to_numpy(float), "hit_z_m": s["hit_z_m"].to_numpy(float),
         "behind_m": abs_x - BASELINE_X_M, "net_z_m": s["net_z_m"].to_numpy(float),
         "peak_z_m": s["peak_z_m"].to_numpy(float),

@@ -32,7 +32,6 @@ import pandas as pd
 
 from sportsngen.data.tracking import RallyData
 from sportsngen.tennis.court import (
-    BALL_RADIUS_M,
     BASELINE_X_M,
     SINGLES_HALF_WIDTH_M,
     is_in_service_box,
@@ -89,8 +88,11 @@ def reach_rows(data: RallyData) -> pd.DataFrame:
                 continue
             side = -np.sign(ball[a, 0])       # the half the ball is sent to
             if k == 0:
+                # The ball's centre decides, as in the generator and the rules
+                # (`tennis.rally.LINE_ALLOWANCE_M`): a ball-radius allowance counted serves
+                # the generator had called faults as good.
                 good = bool(is_in_service_box(bx, by, int(r.at[rid, "server_end"]),
-                                              str(r.at[rid, "side"]), BALL_RADIUS_M))
+                                              str(r.at[rid, "side"])))
             else:
                 good = (np.sign(bx) == side and abs(bx) <= BASELINE_X_M
                         and abs(by) <= SINGLES_HALF_WIDTH_M)

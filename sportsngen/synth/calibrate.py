@@ -9,7 +9,8 @@ Two sources, two sets of knobs that do not overlap:
 
       first serve in %        <- first_serve_noise_deg   (more noise, more faults)
       double faults %         <- second_serve_noise_deg
-      aces %                  <- serve_disguise_s        (the returner starts later)
+      aces %                  <- serve_disguise_s        (the returner starts later; at
+                                                          its floor: serve_margin_m)
       unreturned serves       <- serve_heaviness         (more rushed returns)
       1st serve points won %  <- serve_initiative        (the serve sets up the next ball)
       2nd serve points won %  <- second_serve_initiative
@@ -53,6 +54,8 @@ TOLERANCE_PP = {"first_serve_in": 3, "ace": 3, "double_fault": 3, "first_serve_w
 TOLERANCE_KMH = 5.0
 TOLERANCE_RALLY_MEAN = 0.5
 TOLERANCE_RALLY_BIN_PP = 5
+DISGUISE_RANGE_S = (-0.2, 0.4)
+SERVE_MARGIN_RANGE_M = (0.45, 1.2)  # the lower end: every named player's before version 6.2
 
 
 def load_targets(path: Path = TARGETS_CSV) -> pd.DataFrame:
@@ -139,14 +142,21 @@ def step_2011(p: PlayerProfile, sim: dict[str, float], tgt: pd.Series,
     unret_t = float(tgt["1"]) - float(tgt["ace"])  # serves in play but not returned
     unret_s = sim["1"] - sim["ace"]
     tempo = d * (sim["rally_mean"] - float(tgt["rally_mean"])) / 6.0
+    ace_gap = sim["ace"] - float(tgt["ace"])
+    # The returner already reacts at his floor (`rally.MIN_RETURN_REACTION_S`): the server's
+    # aces follow how far inside the lines he aims (Djokovic, 4,000 service points: margin
+    # 0.45 -> 0.65 m, aces 10.4 -> 6.0 %, first serves in 66 -> 72 % before their noise moves).
+    margin = p.serve_margin_m
+    if p.serve_disguise_s <= DISGUISE_RANGE_S[0] + 1e-9:
+        margin = _clip(margin + 4.0 * d * ace_gap, *SERVE_MARGIN_RANGE_M)
     return replace(
         p,
         first_serve_noise_deg=_clip(p.first_serve_noise_deg * math.exp(
             2.5 * d * (sim["first_serve_in"] - fsi_t)), 0.05, 5.0),
         second_serve_noise_deg=_clip(p.second_serve_noise_deg * math.exp(
             -2.5 * d * (p2_s - p2_t)), 0.05, 5.0),
-        serve_disguise_s=_clip(p.serve_disguise_s + 0.8 * d * (float(tgt["ace"]) - sim["ace"]),
-                               -0.2, 0.4),
+        serve_disguise_s=_clip(p.serve_disguise_s - 0.8 * d * ace_gap, *DISGUISE_RANGE_S),
+        serve_margin_m=margin,
         serve_heaviness=_clip(p.serve_heaviness * math.exp(
             4.0 * d * (unret_t - unret_s)), 0.2, 10.0),
         serve_initiative=_clip(p.serve_initiative * math.exp(
@@ -267,7 +277,9 @@ def acceptance_2011(named: dict[str, PlayerProfile], targets: pd.DataFrame, n_po
 # "log": param *= exp(damping * gain * (real - generated)); clipped to [lo, hi]. Gains are the
 # inverse sensitivities measured on the physics: a contact height or a court position moves
 # its statistic one for one; a second serve crosses the net ~0.02 m higher per m/s of kick; a
-# rally ball or a return ~2.1 m lower per unit of log pace (~0.065 m per m/s at 31-34 m/s).
+# rally ball or a return ~2.1 m lower per unit of log pace (~0.065 m per m/s at 31-34 m/s); the
+# 90 % quantile of a player's return net heights ~0.6 m lower per unit of log rushed-return
+# noise (3 -> 2: 0.13-0.27 m, Federer, Nadal, Djokovic and Williams on hard and clay).
 # Pace follows the net height; topspin stays at the seeds' (men 6, Nadal 8.5, women 4 m/s):
 # fitted too, it chased the opponent's contact height and drove both pace and spin up.
 HAWKEYE_KNOBS: tuple[tuple[str, str, str, float, float, float], ...] = (
@@ -279,6 +291,7 @@ HAWKEYE_KNOBS: tuple[tuple[str, str, str, float, float, float], ...] = (
     ("rally_net_z_median", "rally_speed_mps", "log", -0.45, 24.0, 42.0),
     ("rally_depth_m_median", "rally_depth_margin_m", "add", 1.0, 1.5, 6.0),
     ("return_net_z_median", "return_pace", "log", -0.45, 0.5, 1.3),
+    ("return_net_z_p90", "rushed_return_noise", "log", 1.7, 1.0, 5.0),
 )
 SERVE_ZONE_STATS = ("serve1_wide_share", "serve1_body_share", "serve1_t_share")
 SERVE_ZONE_FIELDS = ("serve_wide", "serve_body", "serve_t")

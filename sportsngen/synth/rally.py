@@ -55,10 +55,11 @@ RALLY_ANTICIPATION_S = 0.05
 
 
 def _difficulty(n_shots: int, previous: float, server: PlayerProfile, serve_number: int,
-                hitter_pressure: float) -> float:
+                hitter_pressure: float, surface: str) -> float:
     """How hard the ball just hit is to play (multiplies the receiver's aim noise).
 
-    The return faces the serve's heaviness (its square root on a second serve). Later balls
+    The return faces the serve's heaviness (its square root on a second serve), to the power of
+    the surface's `behaviour.SURFACE_SERVE_WEIGHT` (clay gives the returner time). Later balls
     face the hitter's rally pressure times the inverse of the difficulty of the ball the hitter
     himself got, to the power `INITIATIVE_CARRY` (a weak reply hands over the initiative; half
     that for the server's first ball after the return, whose weakness is mostly in the
@@ -68,6 +69,7 @@ def _difficulty(n_shots: int, previous: float, server: PlayerProfile, serve_numb
     decaying it by 0.85 a shot piled the receivers' errors on the first rally balls."""
     if n_shots == 1:
         d = server.serve_heaviness if serve_number == 1 else math.sqrt(server.serve_heaviness)
+        d = d ** bh.SURFACE_SERVE_WEIGHT[surface]
     else:
         carry = 0.5 * INITIATIVE_CARRY if n_shots == 2 else INITIATIVE_CARRY
         d = hitter_pressure * previous ** -carry
@@ -183,7 +185,7 @@ class ProfilePolicy:
             self.at_net[role] = False  # lobbed or passed deep: back to the baseline game
         is_return = n_shots == 1
         self.incoming = _difficulty(n_shots, self.incoming, self.profiles[0], self.serve_number,
-                                    self.profiles[other].rally_pressure)
+                                    self.profiles[other].rally_pressure, self.surface)
         plan = bh.plan_rally_shot(p, self.ends[role], self.stroke[role], hit.ball_m,
                                   hit.duress, opponent_m, self.at_net[other],
                                   is_return=is_return, incoming_difficulty=self.incoming,
