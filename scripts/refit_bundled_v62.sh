@@ -7,7 +7,9 @@
 #   serve1   the serve head alone, recorded serves and the model's own tosses (--own-serves)
 #   bias1    the per-server serve shifts (fit_serve_bias.py)
 #   decoder  700 steps of train.py on 12 s windows, every part but the serve head
-#            (train_only), the split's seed 7; the file's extra data copied back
+#            (train_only), the split's seed 7; the sampling defaults and calibrator copied
+#            back from the file before (export_checkpoint.py --from would also bring back its
+#            split and its version 6.1 serve starts, where train.py wrote the new data's)
 #   serve2   the serve head again on the new decoder's states (it served 5-9 points more
 #            first serves in without it)
 #   bias2    the shifts again
