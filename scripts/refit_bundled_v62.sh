@@ -18,7 +18,7 @@
 # As run: 9 + 1, 6, 3, 9, 5, 3, 8 minutes at two threads before the calibrator.
 #
 #   scripts/refit_bundled_v62.sh                 # all stages, then copies the file to DEST
-#   STAGES="contact calibrator" scripts/refit_bundled_v62.sh
+#   STAGES="contact calibrator" scripts/refit_bundled_v62.sh   # DEST gets the last stage run's file
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-.venv/bin/python}
@@ -31,6 +31,7 @@ mkdir -p "$RUN"
 quiet() { tr '\r' '\n' | grep -v "it/s\|^$" || true; }
 # each stage reads the file the stage before it writes (the calibrator refits contact.pt)
 prev="$RUN/base.pt"
+last=""
 for s in strike serve1 bias1 decoder serve2 bias2 contact calibrator; do
     out="$RUN/$s.pt"
     [ "$s" = calibrator ] && out="$prev"
@@ -43,9 +44,10 @@ for s in strike serve1 bias1 decoder serve2 bias2 contact calibrator; do
         "$PY" scripts/fit_head.py --model "$prev" --head serve --own-serves --steps 3000 \
             --lr 3e-4 --eval-every 250 --threads 2 --states "$RUN/${s}_states.pt" \
             --out "$out" 2>&1 | quiet ;;
-    bias1|bias2)
-        "$PY" scripts/fit_serve_bias.py --model "$prev" --more-data synthetic_named \
-            --out "$out" 2>&1 | quiet ;;
+    bias1|bias2|contact)      # the same stages of add_own_serves.sh, on a copy
+        cp "$prev" "$out"
+        DEST="$out" RUN_DIR="$RUN/own" STAGES="${s%[12]}" PYTHON="$PY" \
+            scripts/add_own_serves.sh 2>&1 | quiet ;;
     decoder)
         "$PY" train.py data=synthetic_small model=small init="$prev" windows.length_windows=2 \
             windows.batch_size=8 optim.contact_weight=10 optim.onset_weight=5 optim.lr=2e-4 \
@@ -59,13 +61,12 @@ from sportsngen.model.export import read_extra, update_extra
 e = read_extra(sys.argv[1])
 update_extra(sys.argv[2], sim_defaults=e['sim_defaults'],
              outcome_calibrator=e['outcome_calibrator'])" "$prev" "$out" ;;
-    contact)
-        "$PY" scripts/fit_contact_reach.py --model "$prev" --out "$out" 2>&1 | quiet ;;
     calibrator)
-        RALLIES=200 N=32 WORKERS=2 CHUNK=32 THREADS=1 PYTHON="$PY" \
-            scripts/fit_calibrator.sh "$out" ;;
+        DEST="$out" RUN_DIR="$RUN/own" STAGES=calibrator PYTHON="$PY" scripts/add_own_serves.sh ;;
     esac
     prev="$out"
+    last="$out"
 done
-cp "$prev" "$DEST"
+[ -n "$last" ] || { echo "no stage of $STAGES is known" >&2; exit 2; }
+cp "$last" "$DEST"     # the last stage run
 echo "$DEST: $(stat -c %s "$DEST") bytes"
