@@ -79,6 +79,25 @@ def check_plan(plan: pd.DataFrame) -> None:
         check_choice("surface", surface, SURFACES)
 
 
+def points_plan(server: str, receiver: str, surface: str, n_points: int, seed: int,
+                serve_number: int = 1) -> pd.DataFrame:
+    """A plan of `n_points` service points of `server` against `receiver` on serve
+    `serve_number`: scores within a game drawn at random (seeded by `seed`; the side from the
+    score), ends alternating (`Simulator.simulate_points`)."""
+    rng = np.random.default_rng([seed, 1])
+    sp, rp = rng.integers(0, 4, n_points), rng.integers(0, 4, n_points)
+    return pd.DataFrame({
+        "rally_id": np.arange(n_points), "match_id": "points",
+        "point": np.arange(1, n_points + 1),
+        "server": server, "receiver": receiver, "serve_number": serve_number,
+        "side": np.where((sp + rp) % 2 == 0, "deuce", "ad"),
+        "server_end": np.where(np.arange(n_points) % 2 == 0, 1, -1),
+        "surface": surface, "tournament": TOURNAMENT, "set_no": 1,
+        "server_sets": 0, "receiver_sets": 0, "server_games": 0, "receiver_games": 0,
+        "server_points": sp, "receiver_points": rp, "in_tiebreak": False,
+        "score": [f"{a}-{b}" for a, b in zip(sp, rp)]})
+
+
 def model_path(path_or_name: str | Path | None = None) -> Path:
     """The file of a bundled model name (None: the default bundled model), or the path given."""
     name = DEFAULT_MODEL if path_or_name is None else str(path_or_name)
@@ -295,18 +314,7 @@ class Simulator:
             serve_number = check_int("serve_number", serve_number, 1, 2)
         if top_p is not None and not (isinstance(top_p, (int, float)) and 0 < top_p <= 1):
             raise ArgumentError(f"top_p must be None or a number in (0, 1], got {top_p!r}")
-        rng = np.random.default_rng([seed, 1])
-        sp, rp = rng.integers(0, 4, n_points), rng.integers(0, 4, n_points)
-        plan = pd.DataFrame({
-            "rally_id": np.arange(n_points), "match_id": "points",
-            "point": np.arange(1, n_points + 1),
-            "server": server, "receiver": receiver, "serve_number": serve_number or 1,
-            "side": np.where((sp + rp) % 2 == 0, "deuce", "ad"),
-            "server_end": np.where(np.arange(n_points) % 2 == 0, 1, -1),
-            "surface": surface, "tournament": TOURNAMENT, "set_no": 1,
-            "server_sets": 0, "receiver_sets": 0, "server_games": 0, "receiver_games": 0,
-            "server_points": sp, "receiver_points": rp, "in_tiebreak": False,
-            "score": [f"{a}-{b}" for a, b in zip(sp, rp)]})
+        plan = points_plan(server, receiver, surface, n_points, seed, serve_number or 1)
         saved = self.top_p_player, self.top_p_ball
         if top_p is not None:
             self.top_p_player = self.top_p_ball = float(top_p)
