@@ -12,6 +12,10 @@ with a gain of 1 / (round + 1) (a fault's odds rise monotonically with both shif
 long and wide faults are most of them, so a full step is close to a Newton step; the falling
 gain averages the rollouts' sampling noise). The record's share is read from the rallies
 themselves (a rally with a fault label), not through the bins.
+
+Measured on the bundled file: the named servers' first serves in came within 2 points of the
+truth's on average (+1.99 against +3.44), but the checks fell from 85 to 79 of 96 statistics
+(fewer first serves in, fewer aces), so the bundled recipe does not run it.
 """
 
 from __future__ import annotations
@@ -42,7 +46,7 @@ def recorded_fault_shares(arrays: Sequence[RallyArrays]) -> pd.DataFrame:
         faults = np.add.reduceat(fault_row, a.start) if len(a) else np.zeros(0, np.int64)
         faults = np.where(a.length > 0, faults, 0) > 0
         parts.append(pd.DataFrame({"server_id": a.ident[:, 0], "serve": a.serve,
-                                   "fault": faults, "receiver_id": a.ident[:, 1]}))
+                                   "fault": faults}))
     df = pd.concat(parts, ignore_index=True)
     out = df.groupby(["server_id", "serve"])["fault"].agg(n="size", faults="sum").reset_index()
     out["share"] = out["faults"] / out["n"]
