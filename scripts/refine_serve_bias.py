@@ -15,26 +15,20 @@ record's states).
 
 from __future__ import annotations
 
-import argparse
 import time
 
 from sportsngen.sim import Simulator
 from sportsngen.train.serve_bias_rollouts import refine_serve_bias
-from sportsngen.train.table_cli import open_table_run
+from sportsngen.train.table_cli import open_table_run, table_parser
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--model", default=None, help="model file (default: the bundled one)")
-    ap.add_argument("--out", required=True, help="where to write the model file")
-    ap.add_argument("--more-data", default=None,
-                    help="also read every rally of this data config (conf/data/NAME.yaml)")
+    ap = table_parser(__doc__)
     ap.add_argument("--players", default=None,
                     help="comma-separated servers (default: the training data's named players)")
     ap.add_argument("--serves", type=int, default=400, help="rollouts a server, serve, round")
     ap.add_argument("--rounds", type=int, default=3, help="updates before the last measurement")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--csv", default=None, help="write the rounds table here")
     args = ap.parse_args()
     run = open_table_run(args, lambda m: None if m.serve_bias is not None

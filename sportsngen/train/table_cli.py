@@ -18,14 +18,17 @@ from sportsngen.sim.simulator import model_path
 from sportsngen.train.evaluate import training_arrays
 
 
-def table_parser(doc: str, prior_flag: str, prior_default: float, prior_help: str,
-                 data_help: str) -> argparse.ArgumentParser:
-    """--model, --out, --more-data, the prior's flag (`--prior-...`) and --threads."""
+def table_parser(doc: str, prior_flag: str | None = None, prior_default: float = 0.0,
+                 prior_help: str = "", data_help: str = "also read every rally of this data "
+                 "config (conf/data/NAME.yaml)") -> argparse.ArgumentParser:
+    """--model, --out, --more-data, the prior's flag (`--prior-...`, where one is named) and
+    --threads."""
     ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument("--model", default=None, help="model file (default: the bundled one)")
     ap.add_argument("--out", required=True, help="where to write the model file")
     ap.add_argument("--more-data", default=None, help=data_help)
-    ap.add_argument(prior_flag, type=float, default=prior_default, help=prior_help)
+    if prior_flag:
+        ap.add_argument(prior_flag, type=float, default=prior_default, help=prior_help)
     ap.add_argument("--threads", type=int, default=2)
     return ap
 
