@@ -15,7 +15,9 @@ of non-realistic rallies (and which checks failed), then per server first serve 
 double faults %, serve points won % (over the realistic points), median first-serve speed and
 mean rally length, simulated beside ground truth (serve speeds from the ball tracks for both:
 all first serves, faults included, `sportsngen.eval.physical.shot_quantities`), and which of
-them miss the acceptance tolerances (5 points, 8 km/h, 1 shot); and how often
+them miss the acceptance tolerances (5 points, 8 km/h, 0.5 shot; earlier parts of
+docs/evaluation.md counted the rally at 1 shot, and the count at 1 shot is printed beside);
+non-realistic rallies against the issue's 5 % (15 % with --no-physical-limits); and how often
 the event classifier's point winner agrees with the rules' winner on simulated rallies and on
 ground-truth rallies.
 """
@@ -51,7 +53,11 @@ COLUMNS = (("first_serve_in", "1st in %", 100), ("ace", "ace %", 100),
            ("first_serve_kmh_median", "1st km/h", 1), ("rally_mean", "rally", 1))
 # The simulation issue's acceptance: |sim - truth| at most this, in the printed units.
 TOLERANCE = {"first_serve_in": 5.0, "ace": 5.0, "double_fault": 5.0, "serve_points_won": 5.0,
-             "first_serve_kmh_median": 8.0, "rally_mean": 1.0}
+             "first_serve_kmh_median": 8.0, "rally_mean": 0.5}
+# Up to the thirty-first part of docs/evaluation.md the check counted the rally at 1 shot.
+RALLY_TOLERANCE_BEFORE = 1.0
+# Non-realistic rallies: the issue's limit with the physical limits on, and without them.
+NON_REALISTIC_MAX = {True: 0.05, False: 0.15}
 
 
 def classifier_agreement_on_truth(sim: Simulator, data) -> float:
@@ -158,14 +164,21 @@ def main() -> None:
             n_pts = int(np.nan_to_num(st.loc[p, "n_points"]))
             rows.append({"server": p, "source": name, "n_points": n_pts,
                          **{c: float(st.loc[p, c]) for c, _, _ in COLUMNS}})
-    misses = []
+    misses, rally_gaps = [], []
     for p in players:
         for c, h, f in COLUMNS:
             gap = abs(s_sim.loc[p, c] - s_true.loc[p, c]) * f
+            if c == "rally_mean":
+                rally_gaps.append(gap)
             if not gap <= TOLERANCE[c]:
-                misses.append(f"{p} {h} off by {gap:.1f} (tolerance {TOLERANCE[c]:g})")
-    print(f"\nwithin tolerance: {2 * len(COLUMNS) - len(misses)} of {2 * len(COLUMNS)}; "
-          f"non-realistic {'under' if unreal < 0.10 else 'NOT under'} 10 %")
+                misses.append(f"{p} {h} off by {gap:.2f} (tolerance {TOLERANCE[c]:g})")
+    within = int(2 * len(COLUMNS) - len(misses))
+    # The rallies that miss 0.5 but not 1 shot, to compare with the earlier parts' counts.
+    lenient = int(sum(TOLERANCE["rally_mean"] < g <= RALLY_TOLERANCE_BEFORE for g in rally_gaps))
+    limit = NON_REALISTIC_MAX[not args.no_physical_limits]
+    print(f"\nwithin tolerance: {within} of {2 * len(COLUMNS)} (rally 0.5 shot; "
+          f"{within + lenient} with the rally at 1 shot); non-realistic "
+          f"{'under' if unreal < limit else 'NOT under'} {100 * limit:.0f} %")
     for m in misses:
         print(f"  outside: {m}")
     # Shot by shot, where the points end: odd lengths are the server's wins, even ones the
@@ -199,7 +212,8 @@ def main() -> None:
     if args.json:
         with open(args.json, "w") as fh:
             json.dump({"non_realistic": unreal, "failed_checks": dict(failed), "stats": rows,
-                       "outside_tolerance": misses,
+                       "outside_tolerance": misses, "within_tolerance": within,
+                       "within_rally_1_shot": within + lenient,
                        "agreement_sim": agree_sim, "agreement_truth": agree_true,
                        "rally_hazards": {k: [float(v) for v in h] for k, h in hz.items()},
                        "points_after_window": {k: v.to_dict(orient="index")
