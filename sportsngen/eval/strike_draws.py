@@ -71,7 +71,7 @@ def teacher_forced_strikes(model, arrays: RallyArrays, truth: RallyData, draws: 
     rng = np.random.default_rng(seed)
     was_training = model.training
     model.eval()
-    found, h_rows, bin_rows = [], [], []
+    found, h_rows, bin_rows, hitters, receivers = [], [], [], [], []
     for b0, batch in enumerate(loader):
         mask, bins = model.strike_targets(batch["pos_m"], batch["vel_mps"], batch["next_pos_m"],
                                           batch["has_next"])
@@ -85,12 +85,18 @@ def teacher_forced_strikes(model, arrays: RallyArrays, truth: RallyData, draws: 
         role = strike_heads.strike_role_index(batch["pos_m"][ok, t[ok]], batch["serve"][ok])
         h_rows.append(model.strike_input(h[ok, t[ok]], role))
         bin_rows.append(bins[ok, t[ok]])
+        recv = strike_heads.ball_on_receivers_end(batch["pos_m"][ok, t[ok]])
+        hitters.append(torch.where(recv, batch["ident"][ok, 1], batch["ident"][ok, 0]))
+        receivers.append(recv)
         found.append(b0 * batch_size + ok)
     model.train(was_training)
     if not found:
         raise ValueError("the strike head's targets found none of the recorded strikes")
     rows, h, rec_bins = np.concatenate(found), torch.cat(h_rows), torch.cat(bin_rows).numpy()
-    idx = torch.stack([model.strike_head.sample(h, 1.0, gen) for _ in range(draws)], 1).numpy()
+    # The file's per-hitter shifts, where it has them (`model.strike_bias`).
+    bias = model.strike_head_bias(torch.cat(hitters), torch.cat(receivers))
+    idx = torch.stack([model.strike_head.sample(h, 1.0, gen, dim_bias=bias)
+                       for _ in range(draws)], 1).numpy()
     rec = strike_errors(strike.strike_bin_value(rec_bins, rng.random(rec_bins.shape)))
     mod = strike_errors(strike.strike_bin_value(idx, rng.random(idx.shape))).mean(axis=1)
     picked = shots.iloc[rows]

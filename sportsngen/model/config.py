@@ -100,6 +100,11 @@ class ModelConfig:
     # then): the head reads the server only through the ball's state and draws every named
     # player's faults near the average player's (docs/evaluation.md, twenty-fourth part).
     serve_bias: bool = False
+    # A table of per-hitter shifts of the strike head's odds of a rally ball long, wide or into
+    # the net, by his role in the point (`model.strike_bias`, fitted by `train.strike_bias`
+    # after the head; zero until then): the head draws every named player's errors near the
+    # average player's (docs/evaluation.md, thirty-second part).
+    strike_bias: bool = False
     # A table of per-server shifts of the receiver's odds of starting his run while the serve
     # flies at him (`model.receiver_start`, fitted by `train.receiver_start`; zero until
     # then): the truth's receivers wait longer against a server who disguises his serve, the
@@ -167,6 +172,9 @@ class ModelConfig:
         if self.serve_bias and not self.serve_head:
             raise ValueError("model.serve_bias shifts the serve head's odds: it needs "
                              "serve_head=True")
+        if self.strike_bias and not self.strike_head:
+            raise ValueError("model.strike_bias shifts the strike head's odds: it needs "
+                             "strike_head=True")
         if self.receiver_start and self.head != "factorised":
             raise ValueError("model.receiver_start shifts the players' factorised head: it "
                              "needs head='factorised'")

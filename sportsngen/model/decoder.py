@@ -26,6 +26,7 @@ from torch import nn
 
 from sportsngen.data.tokens import BALL, GENERIC_ID, N_FEATURES, N_OBJECTS, N_SPECIAL_IDS
 from sportsngen.model import contact_reach, receiver_start, serve_bias, strike, strike_heads
+from sportsngen.model import strike_bias as strike_bias_table
 from sportsngen.model.bins import Bins
 from sportsngen.model.centre import object_centres_m
 from sportsngen.model.config import FEATURE_GROUPS, ModelConfig
@@ -211,6 +212,9 @@ class SportsNGEN(nn.Module):
         self.register_buffer("serve_bias", torch.zeros(cfg.n_ids, serve_bias.N_SERVES,
                                                        serve_bias.N_KINDS)
                              if cfg.serve_bias else None)
+        self.register_buffer("strike_bias", torch.zeros(cfg.n_ids, strike_bias_table.N_ROLES,
+                                                        strike_bias_table.N_KINDS)
+                             if cfg.strike_bias else None)
         self.register_buffer("receiver_start",
                              torch.zeros(cfg.n_ids, receiver_start.N_SERVES,
                                          receiver_start.N_WAIT)
@@ -446,6 +450,16 @@ class SportsNGEN(nn.Module):
         return serve_bias.serve_dim_bias(self.serve_bias, self._ident(server_ident), serve,
                                          contact_m)
 
+    def strike_head_bias(self, hitter_ident: torch.Tensor | None,
+                         receiver: torch.Tensor | None) -> torch.Tensor | None:
+        """The strike head's logit shifts (N, 4, bins) for strikes of `hitter_ident` (N,), the
+        point's receiver where `receiver` (N,) bool (`model.strike_bias`); None where the model
+        has no table or the hitter is not given."""
+        if self.strike_bias is None or hitter_ident is None or receiver is None:
+            return None
+        return strike_bias_table.strike_dim_bias(self.strike_bias, self._ident(hitter_ident),
+                                                 receiver)
+
     def receiver_start_bias(self, server_ident: torch.Tensor | None,
                             serve: torch.Tensor | None,
                             wait_count: torch.Tensor) -> torch.Tensor | None:
@@ -490,12 +504,14 @@ class SportsNGEN(nn.Module):
                       forced: torch.Tensor | None = None,
                       top_p_serve: float = 1.0,
                       serve: torch.Tensor | None = None,
-                      server_ident: torch.Tensor | None = None
+                      server_ident: torch.Tensor | None = None,
+                      receiver_ident: torch.Tensor | None = None
                       ) -> tuple[torch.Tensor, torch.Tensor]:
         """This model's strike and serve heads' draws placed in the sampled frames `nxt`
         (`strike_heads.place_strikes`; `serve` (B,) the rallies' serve, 0 first, 1 second,
         where `cfg.strike_roles` or `cfg.serve_bias`; `server_ident` (B,) the servers'
-        identities, which `cfg.serve_bias` reads). -> (nxt, the launches' next two frames
+        identities, which `cfg.serve_bias` reads, and with `receiver_ident` (B,) the
+        receivers', which `cfg.strike_bias` reads). -> (nxt, the launches' next two frames
         (B, 2, 3))."""
         strike_h = None
         if self.strike_role is not None:
@@ -507,9 +523,16 @@ class SportsNGEN(nn.Module):
         if self.serve_bias is not None and server_ident is not None and serve is not None:
             def serve_shift(rows: torch.Tensor) -> torch.Tensor:
                 return self.serve_head_bias(server_ident[rows], serve[rows], pos_m[rows, BALL])
+        strike_shift = None
+        if self.strike_bias is not None and server_ident is not None and \
+                receiver_ident is not None:
+            def strike_shift(rows: torch.Tensor) -> torch.Tensor:
+                recv = strike_heads.ball_on_receivers_end(pos_m[rows])
+                hitter = torch.where(recv, receiver_ident[rows], server_ident[rows])
+                return self.strike_head_bias(hitter, recv)
         return strike_heads.place_strikes(self.strike_head, self.serve_head, h, pos_m, vel_mps,
                                           nxt, self.cfg.fps, generator, top_p, allowed, forced,
-                                          top_p_serve, strike_h, serve_shift)
+                                          top_p_serve, strike_h, serve_shift, strike_shift)
 
     def nll(self, h: torch.Tensor, player_idx: torch.Tensor, ball_idx: torch.Tensor):
         """Per-token NLL: players (..., 2), ball (...)."""

@@ -83,7 +83,8 @@ def place_strikes(strike_head, serve_head, h: torch.Tensor, pos_m: torch.Tensor,
                   allowed: torch.Tensor | None = None, forced: torch.Tensor | None = None,
                   top_p_serve: float = 1.0,
                   strike_h: torch.Tensor | None = None,
-                  serve_bias: Callable[[torch.Tensor], torch.Tensor] | None = None
+                  serve_bias: Callable[[torch.Tensor], torch.Tensor] | None = None,
+                  strike_bias: Callable[[torch.Tensor], torch.Tensor] | None = None
                   ) -> tuple[torch.Tensor, torch.Tensor]:
     """Where the sampled next frames `nxt` (B, 3, 3) hold a rally strike, or in the rows
     `forced` (B,) bool whatever they hold (in the rows `allowed`, (B,) bool, default all),
@@ -95,7 +96,8 @@ def place_strikes(strike_head, serve_head, h: torch.Tensor, pos_m: torch.Tensor,
     `strike_h` (B, D): the strike head's input where it is not the ball token's state
     (`SportsNGEN.strike_input`); `serve_bias`: the served rows (R,) -> the shifts of the serve
     head's logits for them (R, 4, bins) (`SportsNGEN.serve_head_bias`), asked only on a frame
-    that holds a serve."""
+    that holds a serve; `strike_bias` the same for the strike head's rows
+    (`SportsNGEN.strike_head_bias`)."""
     plan = torch.full((len(nxt), 2, 3), float("nan"), device=nxt.device)
     if strike_head is None and serve_head is None:
         return nxt, plan
@@ -109,7 +111,7 @@ def place_strikes(strike_head, serve_head, h: torch.Tensor, pos_m: torch.Tensor,
         if forced is not None:
             struck |= forced.cpu().numpy()
         parts.append((struck & allow, strike_head, None, strike.solve_launch, top_p,
-                      h[:, BALL] if strike_h is None else strike_h, None))
+                      h[:, BALL] if strike_h is None else strike_h, strike_bias))
     if serve_head is not None:
         served = strike.is_serve(ball, vel, nxt_ball, fps) & allow
         parts.append((served, serve_head, strike.serve_edges(), strike.solve_serve, top_p_serve,

@@ -46,16 +46,27 @@ class HeadStates:
     contact_m: np.ndarray    # (N, 3) the ball where it is struck (the target's frame)
     receiver: np.ndarray     # (N,) bool: the hitter is the rally's receiver (the ball on his end)
     server_id: np.ndarray    # (N,) int64: the rally's server's identity (the Vocab's index)
+    receiver_id: np.ndarray | None = None   # (N,) int64: the rally's receiver's, where read
 
     def __len__(self) -> int:
         return len(self.bins)
 
     @staticmethod
     def concat(parts: list[HeadStates]) -> HeadStates:
+        recv = None if any(p.receiver_id is None for p in parts) else \
+            np.concatenate([p.receiver_id for p in parts])
         return HeadStates(torch.cat([p.h for p in parts]), torch.cat([p.bins for p in parts]),
                           *(np.concatenate([getattr(p, k) for p in parts])
                             for k in ("rally_id", "serve", "contact_m", "receiver",
-                                      "server_id")))
+                                      "server_id")), receiver_id=recv)
+
+    def hitter_id(self) -> np.ndarray:
+        """(N,) int64: the identity of the player who strikes each target (the receiver's
+        where `receiver`)."""
+        if self.receiver_id is None:
+            raise ValueError("these states hold no receivers' identities (read them with "
+                             "collect_head_states)")
+        return np.where(self.receiver, self.receiver_id, self.server_id)
 
 
 def _head(model: SportsNGEN, which: str):
@@ -106,7 +117,7 @@ def collect_head_states(model: SportsNGEN, arrays: RallyArrays, which: str = "se
     model.eval()
     # A rally's serve lies in its first window.
     batches, total = window_batches(model, arrays, which == "serve", flip, batch_size)
-    hs, bins, rid, srv, contact, receiver, server_id = [], [], [], [], [], [], []
+    hs, bins, rid, srv, contact, receiver, server_id, receiver_id = ([] for _ in range(8))
     for batch in tqdm(batches, desc=f"{which} states", total=total, disable=not progress):
         mask, b = model.strike_targets(batch["pos_m"], batch["vel_mps"], batch["next_pos_m"],
                                        batch["has_next"], serves=which == "serve")
@@ -125,12 +136,14 @@ def collect_head_states(model: SportsNGEN, arrays: RallyArrays, which: str = "se
         contact.append(batch["pos_m"][..., BALL, :][mask].double().numpy())
         receiver.append(strike_heads.ball_on_receivers_end(batch["pos_m"][mask]).numpy())
         server_id.append(batch["ident"][rows, 0].numpy())
+        receiver_id.append(batch["ident"][rows, 1].numpy())
     model.train(was_training)
     if not hs:
         raise ValueError(f"no {which} targets in the {len(arrays)} rallies given")
     return HeadStates(torch.cat(hs), torch.cat(bins), np.concatenate(rid), np.concatenate(srv),
                       np.concatenate(contact), np.concatenate(receiver),
-                      np.concatenate(server_id).astype(np.int64))
+                      np.concatenate(server_id).astype(np.int64),
+                      np.concatenate(receiver_id).astype(np.int64))
 
 
 def _fitted(model: SportsNGEN, which: str) -> list[torch.nn.Module]:
@@ -140,7 +153,7 @@ def _fitted(model: SportsNGEN, which: str) -> list[torch.nn.Module]:
     return [head] if roles is None else [head, roles]
 
 
-def _inputs(model: SportsNGEN, which: str, states: HeadStates, idx) -> torch.Tensor:
+def head_inputs(model: SportsNGEN, which: str, states: HeadStates, idx) -> torch.Tensor:
     """The head's input at `states[idx]`: the ball token's state, for a strike head with
     `cfg.strike_roles` shifted by the hitter's role and the serve."""
     h = states.h[idx]
@@ -159,7 +172,7 @@ def head_nll(model: SportsNGEN, which: str, states: HeadStates,
     total = 0.0
     for i in range(0, len(states), batch_size):
         part = slice(i, i + batch_size)
-        total += float(head.nll(_inputs(model, which, states, part), states.bins[part]).sum())
+        total += float(head.nll(head_inputs(model, which, states, part), states.bins[part]).sum())
     return total / max(len(states), 1)
 
 
@@ -195,7 +208,7 @@ def fit_head(model: SportsNGEN, which: str, train: HeadStates, val: HeadStates,
     for step in bar:
         head.train()
         idx = torch.randint(len(train), (batch_size,), generator=g)
-        loss = head.nll(_inputs(model, which, train, idx), train.bins[idx]).mean()
+        loss = head.nll(head_inputs(model, which, train, idx), train.bins[idx]).mean()
         opt.zero_grad(set_to_none=True)
         loss.backward()
         opt.step()

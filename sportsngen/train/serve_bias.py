@@ -32,7 +32,7 @@ def with_serve_bias(model: SportsNGEN) -> SportsNGEN:
     return with_flag(model, "serve_bias", ["serve_bias"])
 
 
-def _odds(logits: torch.Tensor, mask: torch.Tensor, weight: torch.Tensor,
+def mean_odds(logits: torch.Tensor, mask: torch.Tensor, weight: torch.Tensor,
           shift: torch.Tensor) -> torch.Tensor:
     """Mean over rows of sum_j softmax(logits + shift * mask)_j * weight_j, for each of the
     candidate shifts (S,) -> (S,): the odds of the bins `mask` weights (or with the speed's
@@ -56,12 +56,25 @@ def bisect_shift(odds_of, target: float, max_shift: float, rising: bool = True,
     return 0.5 * (lo + hi)
 
 
-def _solve(logits: torch.Tensor, mask: torch.Tensor, weight: torch.Tensor,
+def solve_shift(logits: torch.Tensor, mask: torch.Tensor, weight: torch.Tensor,
            target: float) -> float:
-    """The shift whose mean odds (`_odds`) equal `target` (they rise with the shift, and the
+    """The shift whose mean odds (`mean_odds`) equal `target` (they rise with the shift, and the
     mean speed with the tilt)."""
-    return bisect_shift(lambda s: float(_odds(logits, mask, weight, torch.tensor([s]))[0]),
+    return bisect_shift(lambda s: float(mean_odds(logits, mask, weight, torch.tensor([s]))[0]),
                         target, MAX_SHIFT)
+
+
+def matched_shift(logits: torch.Tensor, mask: torch.Tensor, weight: torch.Tensor,
+                  record: float, prior: float) -> dict:
+    """One cell's fit: the shift whose mean odds over the rows of `logits` equal the record's
+    `record` pulled toward the head's own by `prior` pseudo-rows. -> record, head (the odds
+    before), target, after and shift."""
+    n = len(logits)
+    before = float(mean_odds(logits, mask, weight, torch.zeros(1))[0])
+    target = (n * record + prior * before) / (n + prior)
+    shift = solve_shift(logits, mask, weight, target)
+    after = float(mean_odds(logits, mask, weight, torch.tensor([shift]))[0])
+    return {"record": record, "head": before, "target": target, "after": after, "shift": shift}
 
 
 @torch.no_grad()
@@ -103,14 +116,8 @@ def fit_serve_bias(model: SportsNGEN, states: HeadStates, prior_serves: float = 
                 ("wide", serve_bias.WIDE, lateral, wide, wide.to(h.dtype)),
                 ("speed", serve_bias.SPEED, speed, tilt.expand(n, -1),
                  speed_mps.expand(n, -1))):
-            before = float(_odds(logits, mask, weight, torch.zeros(1))[0])
-            target = (n * rec[kind] + prior_serves * before) / (n + prior_serves)
-            shift = _solve(logits, mask, weight, target)
-            model.serve_bias[int(sid), int(srv), k] = shift
-            row.update({f"{kind}_record": rec[kind], f"{kind}_head": before,
-                        f"{kind}_target": target,
-                        f"{kind}_after": float(_odds(logits, mask, weight,
-                                                     torch.tensor([shift]))[0]),
-                        f"{kind}_shift": shift})
+            fit = matched_shift(logits, mask, weight, rec[kind], prior_serves)
+            model.serve_bias[int(sid), int(srv), k] = fit["shift"]
+            row.update({f"{kind}_{name}": v for name, v in fit.items()})
         rows.append(row)
     return pd.DataFrame(rows)

@@ -1,0 +1,60 @@
+"""A per-hitter shift of the strike head's odds of a rally ball long, wide or into the net.
+
+The strike head reads the hitter only through the decoder's ball state. Teacher-forced on the
+bundled file's recorded rally strikes (its training split and `synthetic_named`, 125,865
+strikes) it gives Williams' balls as server 0.113 odds of an error (long, wide or into the net)
+against her record's 0.181, Isner's 0.112 against 0.188, Sharapova's 0.110 against 0.133, while
+Djokovic's, Nadal's and Federer's are within 0.01 of theirs (docs/evaluation.md, thirty-second
+part), and the rollouts draw what the head gives on their own states. A match's rallies are as
+long as its players' errors let them be: the bundled file's rallies for Williams v Sharapova
+ran 4.6-5.3 shots against the truth's 3.7-4.0. `ModelConfig.strike_bias` adds a table of
+logit shifts, per hitter identity and role (his own service point or his opponent's), one
+added to the depth bins beyond the baseline, one to the lateral bins outside the singles lines,
+one to the net-height bins wholly below the net; `sportsngen.train.strike_bias` fits it,
+matching the head's mean odds of each on a hitter's recorded strikes to his record's.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from sportsngen.model import strike
+from sportsngen.tennis.court import BASELINE_X_M, SINGLES_HALF_WIDTH_M, net_height_m
+
+LONG, WIDE, NET = 0, 1, 2      # the table's last axis: the kind of error
+N_KINDS = 3
+N_ROLES = 2                    # 0: the hitter serves this point; 1: he receives
+
+
+def error_bins() -> np.ndarray:
+    """(N_KINDS, STRIKE_BINS) bool: per kind the bins of its dimension (depth, lateral, net
+    height; `strike.STRIKE_DIMS`) that make the ball an error: beyond the baseline, outside a
+    singles line, wholly below the net's lowest height (its centre). The depth and lateral
+    edges fall on the lines, so those bins are wholly in or out; a net-height bin above the
+    centre's height may clear the net or not by where the ball crosses, and is left alone."""
+    e = strike.strike_edges()
+    depth, lateral, over_net = e[0], e[1], e[2]
+    long = depth[:-1] >= BASELINE_X_M - 1e-9
+    wide = (lateral[1:] <= -SINGLES_HALF_WIDTH_M + 1e-9) | \
+        (lateral[:-1] >= SINGLES_HALF_WIDTH_M - 1e-9)
+    net = over_net[1:] <= float(net_height_m(0.0)) + 1e-9
+    return np.stack([long, wide, net])
+
+
+_ERROR_BINS = error_bins()
+_DIMS = (0, 1, 2)              # the strike dimension each kind shifts
+
+
+def strike_dim_bias(table: torch.Tensor, hitter_id: torch.Tensor,
+                    receiver: torch.Tensor) -> torch.Tensor:
+    """The strike head's logit shifts for strikes of `hitter_id` (N,), who is the point's
+    receiver where `receiver` (N,) bool, from `table` (n_ids, N_ROLES, N_KINDS) -> (N, 4,
+    STRIKE_BINS): each kind's error bins shifted, the spin's dimension left alone."""
+    shift = table[hitter_id.long(), receiver.long()]                      # (N, N_KINDS)
+    out = torch.zeros(len(hitter_id), 4, strike.STRIKE_BINS, dtype=table.dtype,
+                      device=table.device)
+    for kind, dim in enumerate(_DIMS):
+        mask = torch.as_tensor(_ERROR_BINS[kind], dtype=table.dtype, device=table.device)
+        out[:, dim] = shift[:, kind, None] * mask
+    return out

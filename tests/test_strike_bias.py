@@ -1,0 +1,193 @@
+"""The strike head's per-hitter shifts of its odds of a rally ball long, wide or into the net
+(`sportsngen.model.strike_bias`, `sportsngen.train.strike_bias`)."""
+
+import numpy as np
+import pytest
+import torch
+
+from sportsngen.eval.strike_draws import strike_errors
+from sportsngen.model import strike, strike_bias
+from sportsngen.model.config import ModelConfig
+from sportsngen.model.decoder import SportsNGEN
+from sportsngen.model.strike_heads import BALL
+from sportsngen.train.head_fit import HeadStates
+from sportsngen.train.serve_bias import MAX_SHIFT
+from sportsngen.train.strike_bias import error_shares, fit_strike_bias, with_strike_bias
+from tests.test_serve_bias import small_model as serve_small_model
+
+
+def small_model(**kw) -> SportsNGEN:
+    return serve_small_model(**{"strike_head": True, **kw})
+
+
+def _centres(dim: int) -> np.ndarray:
+    e = strike.strike_edges()[dim]
+    return 0.5 * (e[1:] + e[:-1])
+
+
+def test_the_error_bins_are_those_the_error_reading_calls_errors():
+    bins = strike_bias.error_bins()
+    assert bins.shape == (strike_bias.N_KINDS, strike.STRIKE_BINS)
+    n = strike.STRIKE_BINS
+    # Depth: long exactly where the reading says so, the rest of the ball well in.
+    depth = np.stack([_centres(0), np.zeros(n), np.full(n, 2.0), np.zeros(n)], -1)
+    assert bins[strike_bias.LONG].tolist() == strike_errors(depth).tolist()
+    assert bins[strike_bias.LONG].sum() == 48
+    lateral = np.stack([np.full(n, 6.0), _centres(1), np.full(n, 2.0), np.zeros(n)], -1)
+    assert bins[strike_bias.WIDE].tolist() == strike_errors(lateral).tolist()
+    assert bins[strike_bias.WIDE].sum() == 40
+    # Net: a bin marked is in the net wherever the ball crosses; the first bin above is not
+    # wholly, since at the centre it clears.
+    net = bins[strike_bias.NET]
+    for y in (0.0, 3.0, 4.1):
+        over = np.stack([np.full(n, 6.0), np.full(n, y), _centres(2), np.zeros(n)], -1)
+        assert strike_errors(over)[net].all()
+    first_above = int(np.flatnonzero(net)[-1]) + 1
+    e = strike.strike_edges()[2]
+    assert e[first_above] < 0.914 < e[first_above + 1]
+    assert net[:first_above].all() and not net[first_above:].any()
+
+
+def test_the_table_is_added_at_zero_and_read_per_hitter_and_role():
+    plain = small_model()
+    assert plain.strike_bias is None
+    assert plain.strike_head_bias(torch.tensor([2]), torch.tensor([True])) is None
+    model = with_strike_bias(plain)
+    assert model.cfg.strike_bias and model.strike_bias.shape == (6, 2, 3)
+    assert (model.strike_bias == 0).all() and with_strike_bias(model) is model
+    model.strike_bias[3, 1] = torch.tensor([1.0, -2.0, 0.5])
+    b = model.strike_head_bias(torch.tensor([3, 3, 4]), torch.tensor([True, False, True]))
+    assert b.shape == (3, 4, strike.STRIKE_BINS)
+    masks = torch.as_tensor(strike_bias.error_bins())
+    for dim, value in ((0, 1.0), (1, -2.0), (2, 0.5)):
+        assert (b[0, dim][masks[dim]] == value).all() and (b[0, dim][~masks[dim]] == 0).all()
+    assert (b[0, 3] == 0).all() and (b[1] == 0).all() and (b[2] == 0).all()
+    again = SportsNGEN(model.cfg)
+    again.load_state_dict(model.state_dict())
+    torch.testing.assert_close(again.strike_bias, model.strike_bias)
+    with pytest.raises(ValueError, match="strike_head"):
+        ModelConfig(strike_bias=True, strike_head=False)
+
+
+def _states(model, n_per=(300, 300, 60), seed=0):
+    """Rally strikes of hitter 2 as server (long 30 % of the time), hitter 2 as receiver (long
+    5 %) and hitter 3 as receiver (wide 25 %), net-height bins all clear of the net."""
+    rng = np.random.default_rng(seed)
+    n = sum(n_per)
+    cell = np.repeat([0, 1, 2], n_per)
+    masks = strike_bias.error_bins()
+    long_b, deep_in = np.flatnonzero(masks[0])[:6], np.flatnonzero(~masks[0])[-20:]
+    wide_b, lat_in = np.flatnonzero(masks[1]), np.flatnonzero(~masks[1])
+    long_share = np.array([0.3, 0.05, 0.0])[cell]
+    wide_share = np.array([0.0, 0.0, 0.25])[cell]
+    depth = np.where(rng.random(n) < long_share, rng.choice(long_b, n), rng.choice(deep_in, n))
+    lateral = np.where(rng.random(n) < wide_share, rng.choice(wide_b, n), rng.choice(lat_in, n))
+    bins = np.stack([depth, lateral, rng.integers(20, 40, n), rng.integers(96, size=n)], -1)
+    receiver = cell > 0
+    server_id = np.where(cell == 2, 4, np.where(cell == 0, 2, 5))
+    receiver_id = np.where(cell == 2, 3, np.where(cell == 1, 2, 5))
+    return HeadStates(torch.randn(n, model.cfg.d_model), torch.as_tensor(bins), np.arange(n),
+                      np.zeros(n, dtype=np.int64), np.zeros((n, 3)), receiver,
+                      server_id.astype(np.int64), receiver_id.astype(np.int64))
+
+
+def test_the_hitter_is_the_receiver_on_his_end_else_the_server():
+    model = small_model()
+    st = _states(model)
+    assert st.hitter_id()[:300].tolist() == [2] * 300
+    assert st.hitter_id()[300:600].tolist() == [2] * 300
+    assert st.hitter_id()[600:].tolist() == [3] * 60
+    both = HeadStates.concat([st, st])
+    assert both.receiver_id is not None and len(both.receiver_id) == 2 * len(st)
+    st.receiver_id = None
+    assert HeadStates.concat([st, st]).receiver_id is None
+    with pytest.raises(ValueError, match="receivers' identities"):
+        st.hitter_id()
+
+
+def test_the_fit_matches_each_hitters_record_by_role_pulled_toward_the_head():
+    model = with_strike_bias(small_model())
+    st = _states(model)
+    table = fit_strike_bias(model, st, prior_strikes=0.0, min_strikes=50)
+    table = table.set_index(["hitter_id", "receiver"])
+    assert sorted(table.index) == [(2, False), (2, True), (3, True)]
+    for key in table.index:
+        for kind in ("long", "wide", "net"):
+            r = table.loc[key]
+            if r[f"{kind}_record"] > 0:
+                assert r[f"{kind}_after"] == pytest.approx(r[f"{kind}_record"], abs=1e-4)
+            else:       # a share of 0 lies beyond any shift: the bound, the odds pushed down
+                assert r[f"{kind}_shift"] == pytest.approx(-MAX_SHIFT, abs=1e-6)
+                assert r[f"{kind}_after"] < r[f"{kind}_head"]
+    assert table.loc[(2, False), "long_record"] == pytest.approx(
+        np.mean(strike_bias.error_bins()[0][st.bins[:300, 0].numpy()]))
+    assert table.loc[(2, False), "long_shift"] > table.loc[(2, True), "long_shift"]
+    assert table.loc[(3, True), "wide_shift"] > table.loc[(2, True), "wide_shift"]
+    assert table.loc[(2, False), "net_record"] == 0.0
+    # Each shift sits in its hitter's and role's cell only.
+    assert model.strike_bias[2, 0, strike_bias.LONG] == pytest.approx(
+        table.loc[(2, False), "long_shift"])
+    assert (model.strike_bias[[0, 1, 4, 5]] == 0).all() and (model.strike_bias[3, 0] == 0).all()
+    # Pseudo-strikes pull the target toward the head, the more the fewer strikes a cell has.
+    pulled = fit_strike_bias(model, st, prior_strikes=200.0,
+                             min_strikes=50).set_index(["hitter_id", "receiver"])
+    for key, n in (((2, False), 300), ((3, True), 60)):
+        w = n / (n + 200.0)
+        r = pulled.loc[key]
+        assert r["wide_target"] == pytest.approx(w * r["wide_record"] + (1 - w) * r["wide_head"])
+    # Too few strikes: left at zero.
+    fresh = with_strike_bias(small_model())
+    assert (3, True) not in set(map(tuple, fit_strike_bias(
+        fresh, st, min_strikes=100)[["hitter_id", "receiver"]].itertuples(index=False)))
+    assert (fresh.strike_bias[3] == 0).all()
+    # The combined error share: 1 - (1 - long)(1 - wide)(1 - net).
+    shares = error_shares(table.reset_index())
+    r = table.loc[(3, True)]
+    assert shares["error_record"].iloc[2] == pytest.approx(
+        1 - (1 - r["long_record"]) * (1 - r["wide_record"]) * (1 - r["net_record"]))
+    with pytest.raises(ValueError, match="with_strike_bias"):
+        fit_strike_bias(small_model(), st)
+
+
+def test_the_fitted_model_draws_each_hitters_long_share():
+    model = with_strike_bias(small_model())
+    st = _states(model, n_per=(400, 400, 0), seed=1)
+    fit_strike_bias(model, st, prior_strikes=0.0)
+    bias = model.strike_head_bias(torch.as_tensor(st.hitter_id()), torch.as_tensor(st.receiver))
+    long = strike_bias.error_bins()[0]
+    draws = torch.stack([model.strike_head.sample(st.h, 1.0, torch.Generator().manual_seed(k),
+                                                  dim_bias=bias) for k in range(10)])
+    got = long[draws[..., 0].numpy()]
+    assert got[:, :400].mean() == pytest.approx(0.3, abs=0.03)
+    assert got[:, 400:].mean() == pytest.approx(0.05, abs=0.02)
+
+
+def test_a_rollouts_strike_reads_the_hitters_row():
+    """`SportsNGEN.place_strikes` hands the strike head the row of whoever strikes: the
+    receiver for a ball on his end, the server for one on the server's."""
+    model = with_strike_bias(small_model())
+    model.strike_bias[2] = torch.tensor([[1.0, 0.0, 0.0], [2.0, 0.0, 0.0]])
+    model.strike_bias[3] = torch.tensor([[3.0, 0.0, 0.0], [4.0, 0.0, 0.0]])
+    seen = {}
+
+    def sample(h, top_p, generator, dim_bias=None):
+        seen["bias"] = dim_bias
+        return torch.full((len(h), 4), 40, dtype=torch.long)
+
+    model.strike_head.sample = sample
+    pos = torch.zeros(2, 3, 3)
+    pos[:, 0, 0] = 12.0                       # the server on the +x end
+    pos[:, 1, 0] = -12.0
+    pos[0, BALL] = torch.tensor([-11.0, 0.0, 1.0])   # the receiver's ball
+    pos[1, BALL] = torch.tensor([11.0, 0.0, 1.0])    # the server's
+    vel = torch.zeros(2, 3, 3)
+    model.place_strikes(torch.zeros(2, 3, 32), pos, vel, pos.clone(),
+                        forced=torch.tensor([True, True]), server_ident=torch.tensor([2, 2]),
+                        receiver_ident=torch.tensor([3, 3]))
+    long = torch.as_tensor(strike_bias.error_bins()[0])
+    assert seen["bias"][0, 0][long].unique().tolist() == [4.0]      # receiver 3, receiving
+    assert seen["bias"][1, 0][long].unique().tolist() == [1.0]      # server 2, serving
+    seen.clear()
+    model.place_strikes(torch.zeros(2, 3, 32), pos, vel, pos.clone(),
+                        forced=torch.tensor([True, True]), server_ident=torch.tensor([2, 2]))
+    assert seen["bias"] is None               # no receiver given: the head as it is
