@@ -1,17 +1,18 @@
 """A per-hitter shift of the strike head's odds of a rally ball long, wide or into the net.
 
 The strike head reads the hitter only through the decoder's ball state. Teacher-forced on the
-bundled file's recorded rally strikes (its training split and `synthetic_named`, 125,865
-strikes) it gives Williams' balls as server 0.113 odds of an error (long, wide or into the net)
-against her record's 0.181, Isner's 0.112 against 0.188, Sharapova's 0.110 against 0.133, while
-Djokovic's, Nadal's and Federer's are within 0.01 of theirs (docs/evaluation.md, thirty-second
-part), and the rollouts draw what the head gives on their own states. A match's rallies are as
-long as its players' errors let them be: the bundled file's rallies for Williams v Sharapova
-ran 4.6-5.3 shots against the truth's 3.7-4.0. `ModelConfig.strike_bias` adds a table of
-logit shifts, per hitter identity and role (his own service point or his opponent's), one
-added to the depth bins beyond the baseline, one to the lateral bins outside the singles lines,
-one to the net-height bins wholly below the net; `sportsngen.train.strike_bias` fits it,
-matching the head's mean odds of each on a hitter's recorded strikes to his record's.
+recorded rally strikes of the thirty-first part's bundled file (its training split and
+`synthetic_named`, 125,865 strikes) it gives Williams' balls as server 0.113 odds of an error
+(long, wide or into the net) against her record's 0.181, Isner's 0.112 against 0.188,
+Sharapova's 0.110 against 0.133, while Djokovic's, Nadal's and Federer's are within 0.01 of
+theirs (docs/evaluation.md, thirty-second part), and the rollouts draw what the head gives on
+their own states. A match's rallies are as long as its players' errors let them be: that file's
+rallies for Williams v Sharapova ran 4.6-5.3 shots against the truth's 3.7-4.0.
+`ModelConfig.strike_bias` adds a table of logit shifts, per hitter identity and role (his own
+service point or his opponent's), one added to the depth bins beyond the baseline, one to the
+lateral bins outside the singles lines, one to the net-height bins wholly below the net;
+`sportsngen.train.strike_bias` fits it, matching the head's mean odds of each on a hitter's
+recorded strikes to his record's.
 """
 
 from __future__ import annotations
