@@ -82,10 +82,10 @@ def teacher_forced_strikes(model, arrays: RallyArrays, truth: RallyData, draws: 
         if len(ok) == 0:
             continue
         h = window_states(model, batch)[..., BALL, :]
-        role = strike_heads.strike_role_index(batch["pos_m"][ok, t[ok]], batch["serve"][ok])
+        recv = strike_heads.ball_on_receivers_end(batch["pos_m"][ok, t[ok]])
+        role = strike_heads.role_index(recv, batch["serve"][ok])
         h_rows.append(model.strike_input(h[ok, t[ok]], role))
         bin_rows.append(bins[ok, t[ok]])
-        recv = strike_heads.ball_on_receivers_end(batch["pos_m"][ok, t[ok]])
         hitters.append(torch.where(recv, batch["ident"][ok, 1], batch["ident"][ok, 0]))
         receivers.append(recv)
         found.append(b0 * batch_size + ok)
