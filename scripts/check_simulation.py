@@ -127,7 +127,8 @@ def main() -> None:
           + (f" from shot {sim.strike_in_reach_from}" if sim.strike_in_reach else "")
           + (", forced where it gives up" if sim.strike_in_reach_force else "")
           + (f", reach {sim.strike_in_reach_m} m" if sim.strike_in_reach else "")
-          + (", keep chasing" if sim.keep_chasing else ""))
+          + (", keep chasing" if sim.keep_chasing else "")
+          + (f", contact reach {sim.contact_reach_m} m" if sim.physical_limits else ""))
     t0 = time.perf_counter()
     simd = sim.simulate_both_serving(*players, args.surface, args.points, seed=args.seed)
     if args.save_sim is not None:

@@ -21,11 +21,12 @@ def test_flags_left_out_keep_the_model_files_defaults():
 def test_each_flag_becomes_its_simulator_argument():
     args = _parse("--top-p-ball", "0.45", "--no-contact-odds", "--top-p-contact", "0.7",
                   "--top-p-serve", "0.9", "--strike-in-reach", "--strike-in-reach-from", "2",
-                  "--strike-in-reach-force", "--strike-in-reach-m", "1.5", "--ball-net")
+                  "--strike-in-reach-force", "--strike-in-reach-m", "1.5", "--ball-net",
+                  "--contact-reach-m", "1.8")
     assert sampling_kwargs(args) == {
         "top_p_ball": 0.45, "top_p_contact": 0.7, "top_p_serve": 0.9, "contact_odds": False,
         "strike_in_reach": True, "strike_in_reach_from": 2, "strike_in_reach_force": True,
-        "strike_in_reach_m": 1.5, "ball_net": True}
+        "strike_in_reach_m": 1.5, "ball_net": True, "contact_reach_m": 1.8}
     assert sampling_kwargs(_parse("--no-ball-net")) == {"ball_net": False}
 
 
@@ -33,7 +34,8 @@ def test_each_flag_becomes_its_simulator_argument():
     (("--top-p-ball", "0"), "--top-p-ball"), (("--top-p-serve", "1.5"), "--top-p-serve"),
     (("--top-p-contact", "-0.1"), "--top-p-contact"),
     (("--strike-in-reach-from", "0"), "counts contacts"),
-    (("--strike-in-reach-m", "0"), "--strike-in-reach-m")])
+    (("--strike-in-reach-m", "0"), "--strike-in-reach-m"),
+    (("--contact-reach-m", "-1"), "--contact-reach-m")])
 def test_a_flag_out_of_its_range_is_refused(argv, match):
     with pytest.raises(ArgumentError, match=match):
         sampling_kwargs(_parse(*argv))

@@ -417,6 +417,10 @@ def test_physical_limits_reject_a_ball_struck_back_out_of_everyones_reach():
     nxt[:, 2, 0] += torch.tensor([0.8, 0.8, -0.8, 0.1, 0.8])  # back 20 m/s, or on (row 2)
     ok = lim.accept(np.arange(5), 10, pos, nxt, vel)
     assert ok.tolist() == [False, True, True, True, False]
+    # A player's own reach (the generator's players strike within about 2 m): the ball 2.2 m
+    # from the receiver is out of it.
+    ok = PhysicalLimits(fps=25.0, reach_m=1.8).accept(np.arange(5), 10, pos, nxt, vel)
+    assert ok.tolist() == [False, False, True, True, False]
     # Without velocities (or with reach_m None) only the ground and the net are judged.
     assert lim.accept(np.arange(5), 10, pos, nxt).all()
     assert PhysicalLimits(reach_m=None).accept(np.arange(5), 10, pos, nxt, vel).all()
@@ -637,6 +641,29 @@ def test_strike_in_reach_m_is_the_rules_reach_in_rollouts(tiny_model_file, monke
     assert reaches == [1.2, 1.5]
     with pytest.raises(ArgumentError, match="strike_in_reach_m"):
         _sim(tiny_model_file, strike_in_reach_m=0.0)
+
+
+def test_contact_reach_m_is_the_physical_limits_reach_in_rollouts(tiny_model_file, monkeypatch):
+    from sportsngen.errors import ArgumentError
+    from sportsngen.sim import simulator as simulator_module
+
+    reaches = []
+
+    class Recording(simulator_module.PhysicalLimits):
+        def __init__(self, **kw):
+            reaches.append(kw["reach_m"])
+            super().__init__(**kw)
+
+    monkeypatch.setattr(simulator_module, "PhysicalLimits", Recording)
+    kw = dict(max_duration_s=0.4, top_p_ball=0.6)
+    _sim(tiny_model_file, **kw).simulate_points("Toy Alpha", "Toy Beta", "hard", 2, seed=0)
+    _sim(tiny_model_file, contact_reach_m=1.8, **kw).simulate_points(
+        "Toy Alpha", "Toy Beta", "hard", 2, seed=0)
+    _sim(tiny_model_file, contact_reach_m=1.8, physical_limits=False, **kw).simulate_points(
+        "Toy Alpha", "Toy Beta", "hard", 2, seed=0)
+    assert reaches == [2.5, 1.8]          # the rules' reach by default; no limits, no reach
+    with pytest.raises(ArgumentError, match="contact_reach_m"):
+        _sim(tiny_model_file, contact_reach_m=0.0)
 
 
 def test_ball_net_sets_the_centre_of_the_loaded_model_only(tiny_model_file):

@@ -10,7 +10,7 @@ from sportsngen.errors import ArgumentError
 
 _NUCLEI = ("top_p_ball", "top_p_contact", "top_p_serve")
 _FLAGS = ("contact_odds", "strike_in_reach", "strike_in_reach_from", "strike_in_reach_force",
-          "strike_in_reach_m", "ball_net", "keep_chasing")
+          "strike_in_reach_m", "ball_net", "keep_chasing", "contact_reach_m")
 
 
 def add_sampling_options(parser: argparse.ArgumentParser) -> None:
@@ -42,6 +42,10 @@ def add_sampling_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--keep-chasing", action=argparse.BooleanOptionalAction, default=None,
                         help="the player due to play the ball does not slow down while he is "
                              "late for it (default: the model file's, else off)")
+    parser.add_argument("--contact-reach-m", type=float, default=None,
+                        help="with physical limits, a racket contact needs a player within "
+                             "this distance of the ball (m, horizontally; default: the model "
+                             "file's, else the rules' 2.5)")
     parser.add_argument("--ball-net", action=argparse.BooleanOptionalAction, default=None,
                         help="the ball's physics centre meets the net (default: as the model "
                              "was trained)")
@@ -64,6 +68,8 @@ def sampling_kwargs(args: argparse.Namespace) -> dict:
     if not kw.get("strike_in_reach_m", 1.0) > 0:
         raise ArgumentError(f"--strike-in-reach-m must be positive, got "
                             f"{kw['strike_in_reach_m']}")
+    if not kw.get("contact_reach_m", 1.0) > 0:
+        raise ArgumentError(f"--contact-reach-m must be positive, got {kw['contact_reach_m']}")
     if kw.get("strike_in_reach_from", 1) < 1:
         raise ArgumentError(f"--strike-in-reach-from counts contacts after the serve (>= 1), "
                             f"got {kw['strike_in_reach_from']}")

@@ -139,6 +139,8 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
         kw["strike_in_reach_m"] = float(cfg.strike_in_reach_m)
     if cfg.get("ball_net") is not None:
         kw["ball_net"] = bool(cfg.ball_net)
+    if cfg.get("contact_reach_m") is not None:
+        kw["contact_reach_m"] = float(cfg.contact_reach_m)
     if cfg.get("keep_chasing") is not None:
         kw["keep_chasing"] = bool(cfg.keep_chasing)
     if cfg.get("top_p_contact") is not None:

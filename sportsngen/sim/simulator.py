@@ -50,7 +50,7 @@ from sportsngen.sim.events import frame_labels
 from sportsngen.sim.initial import InitialConditions
 from sportsngen.sim.match import MatchResult, simulate_matches
 from sportsngen.sim.rollout import Constraint, RolloutInputs, rollout
-from sportsngen.tennis.rally import RallyTracker
+from sportsngen.tennis.rally import CONTACT_REACH_M, RallyTracker
 
 BUNDLED_DIR = Path(__file__).resolve().parents[1] / "model" / "bundled"
 BUNDLED_NAMES = {"sportsngen-small": BUNDLED_DIR / "sportsngen-small.pt"}
@@ -116,7 +116,8 @@ class Simulator:
                  refresh_frames: int | None = None, strike_in_reach: bool = False,
                  strike_in_reach_from: int = 1, strike_in_reach_force: bool = False,
                  top_p_serve: float = 1.0, strike_in_reach_m: float = STRIKE_REACH_M,
-                 ball_net: bool | None = None, keep_chasing: bool = False):
+                 ball_net: bool | None = None, keep_chasing: bool = False,
+                 contact_reach_m: float = CONTACT_REACH_M):
         if abs(initial.fps - model.cfg.fps) > 1e-6:
             raise ValueError(f"initial conditions at {initial.fps} Hz, model at {model.cfg.fps}")
         for name, p in (("top_p_player", top_p_player), ("top_p_ball", top_p_ball),
@@ -160,6 +161,12 @@ class Simulator:
         if not float(strike_in_reach_m) > 0:
             raise ArgumentError(f"strike_in_reach_m must be positive, got {strike_in_reach_m!r}")
         self.strike_in_reach_m = float(strike_in_reach_m)
+        # With physical limits: a racket contact needs a player within this distance of the
+        # ball (horizontally; `PhysicalLimits`). The rules' 2.5 m by default; the generator's
+        # players never strike beyond about 2 m (`PLAYER_REACH_M`).
+        if not float(contact_reach_m) > 0:
+            raise ArgumentError(f"contact_reach_m must be positive, got {contact_reach_m!r}")
+        self.contact_reach_m = float(contact_reach_m)
         # The player due to play the ball does not slow down while he is late for it
         # (`KeepChasing`).
         self.keep_chasing = bool(keep_chasing)
@@ -271,7 +278,8 @@ class Simulator:
                                   init_pos_m[lo:lo + self.batch_size])
             tracker = RallyTracker(part["server_end"].to_numpy(), part["side"].to_numpy(),
                                    part["serve_number"].to_numpy(), self.fps, duration_s)
-            limits = PhysicalLimits(fps=self.fps) if self.physical_limits else None
+            limits = PhysicalLimits(fps=self.fps, reach_m=self.contact_reach_m) \
+                if self.physical_limits else None
             strike = StrikeInReach(tracker, reach_m=self.strike_in_reach_m, fps=self.fps,
                                    from_shot=self.strike_in_reach_from,
                                    force=self.strike_in_reach_force) \
