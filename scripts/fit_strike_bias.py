@@ -2,11 +2,13 @@
 wide or into the net (`model.strike_bias`; `sportsngen.train.strike_bias`).
 
     .venv/bin/python scripts/fit_strike_bias.py --model FILE --out FILE [--more-data NAME]
-        [--prior-strikes 200] [--threads 2]
+        [--prior-strikes 200] [--width] [--threads 2]
 
 The recorded rally strikes are the file's own training split (`extra.split`) and with
 `--more-data NAME` every rally strike of the data config conf/data/NAME.yaml (synthetic_named:
-the named players' round robins). Everything else in the file is copied unchanged.
+the named players' round robins). With `--width` the per-hitter width of the balls in play
+(`model.strike_width`, `fit_strike_width`) is fitted after the errors, and each wide error's
+shift again with it. Everything else in the file is copied unchanged.
 """
 
 from __future__ import annotations
@@ -15,15 +17,23 @@ import time
 
 from sportsngen.data.tokens import N_SPECIAL_IDS
 from sportsngen.train.head_fit import HeadStates, collect_head_states
-from sportsngen.train.strike_bias import error_shares, fit_strike_bias, with_strike_bias
+from sportsngen.train.strike_bias import (
+    error_shares,
+    fit_strike_bias,
+    fit_strike_width,
+    with_strike_bias,
+    with_strike_width,
+)
 from sportsngen.train.table_cli import open_table_run, table_parser
 
 
 def main() -> None:
-    args = table_parser(__doc__, "--prior-strikes", 200.0,
-                        "pseudo-strikes at the head's own odds added to each hitter's record",
-                        "also read every rally strike of this data config (conf/data/NAME.yaml)"
-                        ).parse_args()
+    ap = table_parser(__doc__, "--prior-strikes", 200.0,
+                      "pseudo-strikes at the head's own odds added to each hitter's record",
+                      "also read every rally strike of this data config (conf/data/NAME.yaml)")
+    ap.add_argument("--width", action="store_true",
+                    help="also fit each hitter's width of the balls in play (model.strike_width)")
+    args = ap.parse_args()
     run = open_table_run(args, lambda m: None if m.strike_head is not None
                          else "no strike head (model.strike_head)")
     model, vocab = run.model, run.vocab
@@ -40,6 +50,11 @@ def main() -> None:
     cols = ["hitter", "receiver", "n", "error_record", "error_head", "error_after",
             "long_shift", "wide_shift", "net_shift"]
     print(table[cols].round(3).to_string(index=False))
+    if args.width:
+        model = with_strike_width(model)
+        width = fit_strike_width(model, states, prior_strikes=args.prior_strikes)
+        width.insert(0, "hitter", width["hitter_id"].map(names))
+        print(width.drop(columns="hitter_id").round(3).to_string(index=False))
     run.save(model, args.out)
 
 

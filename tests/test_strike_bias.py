@@ -12,7 +12,13 @@ from sportsngen.model.decoder import SportsNGEN
 from sportsngen.model.strike_heads import BALL
 from sportsngen.train.head_fit import HeadStates
 from sportsngen.train.serve_bias import MAX_SHIFT
-from sportsngen.train.strike_bias import error_shares, fit_strike_bias, with_strike_bias
+from sportsngen.train.strike_bias import (
+    error_shares,
+    fit_strike_bias,
+    fit_strike_width,
+    with_strike_bias,
+    with_strike_width,
+)
 from tests.test_serve_bias import small_model as serve_small_model
 
 
@@ -191,3 +197,69 @@ def test_a_rollouts_strike_reads_the_hitters_row():
     model.place_strikes(torch.zeros(2, 3, 32), pos, vel, pos.clone(),
                         forced=torch.tensor([True, True]), server_ident=torch.tensor([2, 2]))
     assert seen["bias"] is None               # no receiver given: the head as it is
+
+
+def _offsets_m() -> np.ndarray:
+    return np.abs(_centres(1))
+
+
+def test_the_width_tilts_only_the_lateral_bins_in_play_around_their_mean():
+    tilt = strike_bias.width_tilt()
+    wide = strike_bias.error_bins()[strike_bias.WIDE]
+    assert (tilt[wide] == 0).all()
+    assert tilt[~wide].mean() == pytest.approx(0.0, abs=1e-12)
+    # One unit a metre: the tilt's steps are the bins' steps in distance from the centre line.
+    off = _offsets_m()
+    inside = np.flatnonzero(~wide)
+    np.testing.assert_allclose(np.diff(tilt[inside]), np.diff(off[inside]), atol=1e-12)
+    # Read with the error table, per hitter and role, on the lateral dimension only.
+    model = with_strike_width(with_strike_bias(small_model()))
+    assert model.strike_width.shape == (6, 2) and (model.strike_width == 0).all()
+    model.strike_width[3, 1] = 0.7
+    b = model.strike_head_bias(torch.tensor([3, 3]), torch.tensor([True, False]))
+    torch.testing.assert_close(b[0, 1], torch.as_tensor(0.7 * tilt, dtype=b.dtype))
+    assert (b[1] == 0).all() and (b[0, [0, 2, 3]] == 0).all()
+    again = SportsNGEN(model.cfg)
+    again.load_state_dict(model.state_dict())
+    torch.testing.assert_close(again.strike_width, model.strike_width)
+    with pytest.raises(ValueError, match="strike_bias"):
+        ModelConfig(strike_head=True, strike_width=True)
+
+
+def test_the_width_fit_matches_each_hitters_distance_from_the_centre_line():
+    """Hitter 2 plays his balls in play near the centre line as server and near the lines as
+    receiver: the fitted head draws each cell's mean distance among the bins in play, and his
+    wide errors' share stays his record's."""
+    model = with_strike_bias(small_model())
+    st = _states(model, n_per=(400, 400, 60), seed=2)
+    wide = strike_bias.error_bins()[strike_bias.WIDE]
+    inside = np.flatnonzero(~wide)
+    off = _offsets_m()
+    rng = np.random.default_rng(3)
+    near, far = inside[off[inside] < 1.0], inside[off[inside] > 3.0]
+    lat = st.bins[:, 1].numpy().copy()
+    lat[:400] = rng.choice(near, 400)
+    lat[400:800] = rng.choice(far, 400)
+    st.bins[:, 1] = torch.as_tensor(lat)
+    fit_strike_bias(model, st, prior_strikes=0.0)
+    with pytest.raises(ValueError, match="with_strike_width"):
+        fit_strike_width(model, st)
+    model = with_strike_width(model)
+    table = fit_strike_width(model, st, prior_strikes=0.0).set_index(["hitter_id", "receiver"])
+    assert table.loc[(2, False), "width_record_m"] == pytest.approx(off[lat[:400]].mean())
+    for key in ((2, False), (2, True), (3, True)):
+        assert table.loc[key, "width_after_m"] == pytest.approx(
+            table.loc[key, "width_record_m"], abs=1e-3)
+    assert table.loc[(2, False), "width_shift"] < 0 < table.loc[(2, True), "width_shift"]
+    assert model.strike_width[2, 0] == pytest.approx(table.loc[(2, False), "width_shift"])
+    # Drawn with both tables: the cell's mean distance in play, and hitter 3's wide share kept
+    # his record's under his tilt.
+    bias = model.strike_head_bias(torch.as_tensor(st.hitter_id()), torch.as_tensor(st.receiver))
+    draws = torch.stack([model.strike_head.sample(st.h, 1.0, torch.Generator().manual_seed(k),
+                                                  dim_bias=bias) for k in range(8)])
+    d = draws[..., 1].numpy()
+    for rows, key in ((slice(0, 400), (2, False)), (slice(400, 800), (2, True))):
+        got = d[:, rows][~wide[d[:, rows]]]
+        assert off[got].mean() == pytest.approx(table.loc[key, "width_record_m"], abs=0.08)
+    assert table.loc[(3, True), "wide_after"] == pytest.approx(wide[lat[800:]].mean(), abs=1e-4)
+    assert wide[d[:, 800:]].mean() == pytest.approx(wide[lat[800:]].mean(), abs=0.06)

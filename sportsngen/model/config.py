@@ -105,6 +105,11 @@ class ModelConfig:
     # after the head; zero until then): the head draws every named player's errors near the
     # average player's (docs/evaluation.md, thirty-second part).
     strike_bias: bool = False
+    # With it, a per-hitter tilt of the strike head's lateral bins in play by their distance
+    # from the centre line (`model.strike_bias.width_tilt`, fitted by
+    # `train.strike_bias.fit_strike_width`; zero until then): the head places every player's
+    # balls about as wide as the average player's (docs/evaluation.md, thirty-third part).
+    strike_width: bool = False
     # A table of per-server shifts of the receiver's odds of starting his run while the serve
     # flies at him (`model.receiver_start`, fitted by `train.receiver_start`; zero until
     # then): the truth's receivers wait longer against a server who disguises his serve, the
@@ -175,6 +180,9 @@ class ModelConfig:
         if self.strike_bias and not self.strike_head:
             raise ValueError("model.strike_bias shifts the strike head's odds: it needs "
                              "strike_head=True")
+        if self.strike_width and not self.strike_bias:
+            raise ValueError("model.strike_width is read with the strike head's error table: "
+                             "it needs strike_bias=True")
         if self.receiver_start and self.head != "factorised":
             raise ValueError("model.receiver_start shifts the players' factorised head: it "
                              "needs head='factorised'")

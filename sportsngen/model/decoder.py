@@ -215,6 +215,8 @@ class SportsNGEN(nn.Module):
         self.register_buffer("strike_bias", torch.zeros(cfg.n_ids, strike_bias_table.N_ROLES,
                                                         strike_bias_table.N_KINDS)
                              if cfg.strike_bias else None)
+        self.register_buffer("strike_width", torch.zeros(cfg.n_ids, strike_bias_table.N_ROLES)
+                             if cfg.strike_width else None)
         self.register_buffer("receiver_start",
                              torch.zeros(cfg.n_ids, receiver_start.N_SERVES,
                                          receiver_start.N_WAIT)
@@ -453,12 +455,13 @@ class SportsNGEN(nn.Module):
     def strike_head_bias(self, hitter_ident: torch.Tensor | None,
                          receiver: torch.Tensor | None) -> torch.Tensor | None:
         """The strike head's logit shifts (N, 4, bins) for strikes of `hitter_ident` (N,), the
-        point's receiver where `receiver` (N,) bool (`model.strike_bias`); None where the model
-        has no table or the hitter is not given."""
+        point's receiver where `receiver` (N,) bool (`model.strike_bias`, with the width's tilt
+        where the model has `strike_width`); None where the model has no table or the hitter
+        is not given."""
         if self.strike_bias is None or hitter_ident is None or receiver is None:
             return None
         return strike_bias_table.strike_dim_bias(self.strike_bias, self._ident(hitter_ident),
-                                                 receiver)
+                                                 receiver, self.strike_width)
 
     def receiver_start_bias(self, server_ident: torch.Tensor | None,
                             serve: torch.Tensor | None,

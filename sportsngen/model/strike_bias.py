@@ -13,6 +13,13 @@ service point or his opponent's), one added to the depth bins beyond the baselin
 lateral bins outside the singles lines, one to the net-height bins wholly below the net;
 `sportsngen.train.strike_bias` fits it, matching the head's mean odds of each on a hitter's
 recorded strikes to his record's.
+
+`ModelConfig.strike_width` adds a second table, per hitter and role, of a tilt of the lateral
+bins inside the singles lines by the distance of each from the centre line: the head places
+every player's balls in play about as wide as the average player's (teacher-forced on Djokovic v
+Murray on clay a median 1.09-1.44 m from the centre line where their record's are 1.04-1.21,
+while the generator's players differ from 1.15 m, Djokovic, to 1.41, Isner; docs/evaluation.md,
+thirty-third part), and a rally is as long as the runs it asks for.
 """
 
 from __future__ import annotations
@@ -44,18 +51,38 @@ def error_bins() -> np.ndarray:
 
 
 _ERROR_BINS = error_bins()
+# The width's tilt: one unit of shift adds this many logits per metre from the centre line.
+WIDTH_UNIT_M = 1.0
+
+
+def width_tilt() -> np.ndarray:
+    """(STRIKE_BINS,) the lateral bins' logit per unit of the width's shift: the bin centre's
+    distance from the centre line less its mean over the bins in play (m / `WIDTH_UNIT_M`),
+    zero on the bins outside the singles lines (the wide error's, `error_bins`), so the tilt
+    moves the balls in play apart or together and barely their share."""
+    e = strike.strike_edges()[1]
+    off = np.abs(0.5 * (e[1:] + e[:-1]))
+    inside = ~_ERROR_BINS[WIDE]
+    return np.where(inside, off - off[inside].mean(), 0.0) / WIDTH_UNIT_M
+
+
+_WIDTH_TILT = width_tilt()
 _DIMS = (0, 1, 2)              # the strike dimension each kind shifts
 
 
-def strike_dim_bias(table: torch.Tensor, hitter_id: torch.Tensor,
-                    receiver: torch.Tensor) -> torch.Tensor:
+def strike_dim_bias(table: torch.Tensor, hitter_id: torch.Tensor, receiver: torch.Tensor,
+                    width: torch.Tensor | None = None) -> torch.Tensor:
     """The strike head's logit shifts for strikes of `hitter_id` (N,), who is the point's
-    receiver where `receiver` (N,) bool, from `table` (n_ids, N_ROLES, N_KINDS) -> (N, 4,
-    STRIKE_BINS): each kind's error bins shifted, the spin's dimension left alone."""
+    receiver where `receiver` (N,) bool, from `table` (n_ids, N_ROLES, N_KINDS) and the
+    width's `width` (n_ids, N_ROLES) or None -> (N, 4, STRIKE_BINS): each kind's error bins
+    shifted, the lateral bins in play tilted by the width, the spin's dimension left alone."""
     shift = table[hitter_id.long(), receiver.long()]                      # (N, N_KINDS)
     out = torch.zeros(len(hitter_id), 4, strike.STRIKE_BINS, dtype=table.dtype,
                       device=table.device)
     for kind, dim in enumerate(_DIMS):
         mask = torch.as_tensor(_ERROR_BINS[kind], dtype=table.dtype, device=table.device)
         out[:, dim] = shift[:, kind, None] * mask
+    if width is not None:
+        tilt = torch.as_tensor(_WIDTH_TILT, dtype=table.dtype, device=table.device)
+        out[:, 1] += width[hitter_id.long(), receiver.long(), None] * tilt
     return out

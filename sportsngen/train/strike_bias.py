@@ -22,7 +22,7 @@ from sportsngen.model import strike_bias
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.train.finetune import with_flag
 from sportsngen.train.head_fit import HeadStates, head_inputs
-from sportsngen.train.serve_bias import matched_shift
+from sportsngen.train.serve_bias import MAX_SHIFT, bisect_shift, matched_shift
 
 KINDS = ("long", "wide", "net")
 
@@ -65,6 +65,75 @@ def fit_strike_bias(model: SportsNGEN, states: HeadStates, prior_strikes: float 
             model.strike_bias[int(hid), int(recv), kind] = fit["shift"]
             row.update({f"{name}_{k}": v for k, v in fit.items()})
         rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def with_strike_width(model: SportsNGEN) -> SportsNGEN:
+    """`model` (with the error table) with the per-hitter width added (`cfg.strike_width`), at
+    zero: it draws as before until `fit_strike_width` fills it. -> a new model."""
+    return with_flag(model, "strike_width", ["strike_width"])
+
+
+def _width_in_play(logits: torch.Tensor, tilt: torch.Tensor, inside: torch.Tensor,
+                   offset_m: torch.Tensor, shift: float) -> float:
+    """Mean over rows of the lateral draw's mean distance from the centre line among the bins
+    in play, with the width's `shift`."""
+    p = (logits + shift * tilt).softmax(-1) * inside
+    return float(((p * offset_m).sum(-1) / p.sum(-1).clamp_min(1e-12)).mean())
+
+
+@torch.no_grad()
+def fit_strike_width(model: SportsNGEN, states: HeadStates, prior_strikes: float = 200.0,
+                     min_strikes: int = 50) -> pd.DataFrame:
+    """Fill `model.strike_width` (in place) from the recorded rally strikes `states`, per
+    hitter and role with at least `min_strikes` strikes in play sideways: the tilt whose mean
+    distance from the centre line of the head's lateral draws in play (read at the record's
+    depth bin) equals his record's, pulled toward the head's own by `prior_strikes`
+    pseudo-strikes (it rises with the tilt, so a bisection finds it); then, the tilt moving
+    a little of the lateral mass across the singles lines, his wide error's shift refitted on
+    the tilted odds (`fit_strike_bias` must have run). -> per (hitter_id, receiver): n, the
+    record's, the head's before and after mean distances (m), the tilt and the wide error's
+    shift after."""
+    if model.strike_width is None or model.strike_bias is None:
+        raise ValueError("the model has no per-hitter width (cfg.strike_width): add it with "
+                         "with_strike_width after fit_strike_bias")
+    head = model.strike_head
+    wide = torch.as_tensor(strike_bias.error_bins()[strike_bias.WIDE])
+    inside = (~wide).to(states.h.dtype)
+    tilt = torch.as_tensor(strike_bias.width_tilt(), dtype=states.h.dtype)
+    e = torch.as_tensor(strike_bias.strike.strike_edges()[1], dtype=states.h.dtype)
+    offset_m = (0.5 * (e[1:] + e[:-1])).abs()
+    keys = pd.DataFrame({"hitter_id": states.hitter_id(), "receiver": states.receiver,
+                         "in_play": ~wide[states.bins[:, 1]].numpy()})
+    rows = []
+    for (hid, recv), g in keys.groupby(["hitter_id", "receiver"]):
+        g = g[g["in_play"]]
+        if len(g) < min_strikes:
+            continue
+        i = torch.as_tensor(g.index.to_numpy(copy=True))
+        x, bins = head_inputs(model, "strike", states, i), states.bins[i]
+        logits = head.dim_logits(x, bins, 1)
+        n = len(i)
+        record = float(offset_m[bins[:, 1]].mean())
+        before = _width_in_play(logits, tilt, inside, offset_m, 0.0)
+        target = (n * record + prior_strikes * before) / (n + prior_strikes)
+        shift = bisect_shift(lambda s, lg=logits: _width_in_play(lg, tilt, inside, offset_m, s),
+                             target, MAX_SHIFT)
+        model.strike_width[int(hid), int(recv)] = shift
+        # The wide error's shift again, on all his strikes' lateral odds with the tilt.
+        j = torch.as_tensor(keys.index[(keys["hitter_id"] == hid)
+                                       & (keys["receiver"] == recv)].to_numpy(copy=True))
+        tilted = head.dim_logits(head_inputs(model, "strike", states, j), states.bins[j], 1) \
+            + shift * tilt
+        mask = wide.expand(len(j), -1)
+        fit = matched_shift(tilted, mask, mask.to(tilted.dtype),
+                            float(wide[states.bins[j, 1]].float().mean()), prior_strikes)
+        model.strike_bias[int(hid), int(recv), strike_bias.WIDE] = fit["shift"]
+        rows.append({"hitter_id": int(hid), "receiver": bool(recv), "n": n,
+                     "width_record_m": record, "width_head_m": before,
+                     "width_after_m": _width_in_play(logits, tilt, inside, offset_m, shift),
+                     "width_shift": shift, "wide_shift": fit["shift"],
+                     "wide_after": fit["after"]})
     return pd.DataFrame(rows)
 
 
