@@ -55,13 +55,18 @@ _ERROR_BINS = error_bins()
 WIDTH_UNIT_M = 1.0
 
 
+def lateral_offsets_m() -> np.ndarray:
+    """(STRIKE_BINS,) each lateral bin's centre's distance from the centre line (m)."""
+    e = strike.strike_edges()[1]
+    return np.abs(0.5 * (e[1:] + e[:-1]))
+
+
 def width_tilt() -> np.ndarray:
     """(STRIKE_BINS,) the lateral bins' logit per unit of the width's shift: the bin centre's
     distance from the centre line less its mean over the bins in play (m / `WIDTH_UNIT_M`),
     zero on the bins outside the singles lines (the wide error's, `error_bins`), so the tilt
     moves the balls in play apart or together and barely their share."""
-    e = strike.strike_edges()[1]
-    off = np.abs(0.5 * (e[1:] + e[:-1]))
+    off = lateral_offsets_m()
     inside = ~_ERROR_BINS[WIDE]
     return np.where(inside, off - off[inside].mean(), 0.0) / WIDTH_UNIT_M
 

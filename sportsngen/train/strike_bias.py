@@ -101,37 +101,33 @@ def fit_strike_width(model: SportsNGEN, states: HeadStates, prior_strikes: float
     wide = torch.as_tensor(strike_bias.error_bins()[strike_bias.WIDE])
     inside = (~wide).to(states.h.dtype)
     tilt = torch.as_tensor(strike_bias.width_tilt(), dtype=states.h.dtype)
-    e = torch.as_tensor(strike_bias.strike.strike_edges()[1], dtype=states.h.dtype)
-    offset_m = (0.5 * (e[1:] + e[:-1])).abs()
-    keys = pd.DataFrame({"hitter_id": states.hitter_id(), "receiver": states.receiver,
-                         "in_play": ~wide[states.bins[:, 1]].numpy()})
+    offset_m = torch.as_tensor(strike_bias.lateral_offsets_m(), dtype=states.h.dtype)
+    keys = pd.DataFrame({"hitter_id": states.hitter_id(), "receiver": states.receiver})
     rows = []
     for (hid, recv), g in keys.groupby(["hitter_id", "receiver"]):
-        g = g[g["in_play"]]
-        if len(g) < min_strikes:
-            continue
         i = torch.as_tensor(g.index.to_numpy(copy=True))
-        x, bins = head_inputs(model, "strike", states, i), states.bins[i]
-        logits = head.dim_logits(x, bins, 1)
-        n = len(i)
-        record = float(offset_m[bins[:, 1]].mean())
-        before = _width_in_play(logits, tilt, inside, offset_m, 0.0)
+        bins = states.bins[i]
+        in_play = ~wide[bins[:, 1]]
+        n = int(in_play.sum())
+        if n < min_strikes:
+            continue
+        logits = head.dim_logits(head_inputs(model, "strike", states, i), bins, 1)
+        play = logits[in_play]
+        record = float(offset_m[bins[in_play, 1]].mean())
+        before = _width_in_play(play, tilt, inside, offset_m, 0.0)
         target = (n * record + prior_strikes * before) / (n + prior_strikes)
-        shift = bisect_shift(lambda s, lg=logits: _width_in_play(lg, tilt, inside, offset_m, s),
+        shift = bisect_shift(lambda s, lg=play: _width_in_play(lg, tilt, inside, offset_m, s),
                              target, MAX_SHIFT)
         model.strike_width[int(hid), int(recv)] = shift
         # The wide error's shift again, on all his strikes' lateral odds with the tilt.
-        j = torch.as_tensor(keys.index[(keys["hitter_id"] == hid)
-                                       & (keys["receiver"] == recv)].to_numpy(copy=True))
-        tilted = head.dim_logits(head_inputs(model, "strike", states, j), states.bins[j], 1) \
-            + shift * tilt
-        mask = wide.expand(len(j), -1)
+        tilted = logits + shift * tilt
+        mask = wide.expand(len(i), -1)
         fit = matched_shift(tilted, mask, mask.to(tilted.dtype),
-                            float(wide[states.bins[j, 1]].float().mean()), prior_strikes)
+                            float(wide[bins[:, 1]].float().mean()), prior_strikes)
         model.strike_bias[int(hid), int(recv), strike_bias.WIDE] = fit["shift"]
         rows.append({"hitter_id": int(hid), "receiver": bool(recv), "n": n,
                      "width_record_m": record, "width_head_m": before,
-                     "width_after_m": _width_in_play(logits, tilt, inside, offset_m, shift),
+                     "width_after_m": _width_in_play(play, tilt, inside, offset_m, shift),
                      "width_shift": shift, "wide_shift": fit["shift"],
                      "wide_after": fit["after"]})
     return pd.DataFrame(rows)
