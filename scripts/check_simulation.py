@@ -128,7 +128,8 @@ def main() -> None:
           + (", forced where it gives up" if sim.strike_in_reach_force else "")
           + (f", reach {sim.strike_in_reach_m} m" if sim.strike_in_reach else "")
           + (", keep chasing" if sim.keep_chasing else "")
-          + (f", contact reach {sim.contact_reach_m} m" if sim.physical_limits else ""))
+          + (f", contact reach {sim.contact_reach_m} m" if sim.physical_limits else "")
+          + (", the net in the ball's step" if sim.model.cfg.ball_net else ""))
     t0 = time.perf_counter()
     simd = sim.simulate_both_serving(*players, args.surface, args.points, seed=args.seed)
     if args.save_sim is not None:

@@ -34,3 +34,15 @@ def test_bundled_model_simulates_service_points():
     # Every rally starts from a real serve start: the server behind his baseline.
     f0 = data.frames[(data.frames["frame"] == 0) & (data.frames["object"] == "Roger Federer")]
     assert (f0["x"].abs() > 11.0).all()
+
+
+def test_bundled_model_rolls_out_with_the_net_in_the_balls_step():
+    """The bundled file was trained without the net in the ball's physics step and plays with
+    it (its sampling defaults; docs/evaluation.md, thirty-fourth part); asked, it plays without."""
+    from sportsngen.sim import Simulator
+
+    model, _, _, cfg = load_model(BUNDLED)
+    assert cfg.ball_net is False and cfg.ball_centre == "physics"
+    sim = Simulator.from_pretrained()
+    assert sim.model.cfg.ball_net is True and sim.contact_reach_m == 1.8
+    assert Simulator.from_pretrained(ball_net=False).model.cfg.ball_net is False

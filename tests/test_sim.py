@@ -533,6 +533,66 @@ def test_strike_in_reach_rejects_a_good_ball_leaving_the_due_players_reach_unstr
         StrikeInReach(tracker, from_shot=0)
 
 
+def test_strike_in_reach_rejects_a_good_ball_falling_low_or_passing_behind_him_unstruck():
+    from types import SimpleNamespace
+
+    from sportsngen.sim.constraints import STRIKE_BEHIND_M, STRIKE_MIN_Z_M, StrikeInReach
+
+    # The receiver (x = -11) is due; the ball bounced good and stays within 0.6 m of him.
+    n = 6
+    tracker = SimpleNamespace(ended=np.zeros(n, dtype=bool), hitter=np.zeros(n, dtype=np.int64),
+                              n_bounces=np.ones(n, dtype=np.int64), server_end=np.ones(n),
+                              n_shots=np.ones(n, dtype=np.int64))
+    con = StrikeInReach(tracker, reach_m=1.2, max_z_m=2.3, fps=25.0)
+    assert STRIKE_MIN_Z_M == pytest.approx(0.2)
+    pos = torch.zeros(n, 3, 3)
+    pos[:, 0, :2] = torch.tensor([11.0, 0.0])
+    pos[:, 1, :2] = torch.tensor([-11.0, 0.0])
+    pos[:, 2] = torch.tensor([-11.4, 0.4, 0.30])
+    nxt = pos.clone()
+    nxt[:, 2, 0] -= 0.1                                  # on slowly beside him, still in reach
+    nxt[0, 2, 2] = 0.15                                  # row 0: falls below a racket
+    nxt[1, 2, 2] = 0.45                                  # row 1: rises (off its first bounce)
+    nxt[2, 2, 2] = 0.25                                  # row 2: falls, still playable
+    pos[3, 2, 2], nxt[3, 2, 2] = 0.05, 0.15              # row 3: rising from its first bounce
+    nxt[4, 2, 2] = 0.15
+    nxt[4, 2, 0] = pos[4, 2, 0] + 0.6                    # row 4: struck back from low
+    tracker.n_bounces[5] = 0                             # row 5: not bounced yet (a volley)
+    nxt[5, 2, 2] = 0.15
+    assert con.accept(np.arange(n), 10, pos, nxt).tolist() == [False, True, True, True, True,
+                                                                True]
+    # Given the velocities, a ball whose free fall takes it below a racket within the frame
+    # must be struck now: row 2 falls at 3 m/s (0.30 - 0.12 - 0.01 m by the next frame).
+    vel = torch.zeros(n, 3, 3)
+    vel[:, 2, 0] = -2.5
+    vel[:, 2, 2] = 1.0
+    vel[2, 2, 2] = -3.0
+    assert con.accept(np.arange(n), 10, pos, nxt, vel).tolist() == [False, True, False, True,
+                                                                     True, True]
+    # A ball passing behind him (toward his back fence) further than a player strikes it,
+    # still within reach, has passed him too: 1.15 m behind his centre and 1.17 m from it.
+    wide = StrikeInReach(tracker, reach_m=1.5, max_z_m=2.3, fps=25.0, behind_m=STRIKE_BEHIND_M)
+    assert STRIKE_BEHIND_M == pytest.approx(1.1)
+    assert StrikeInReach(tracker).behind_m is None                   # off by default
+    past = pos.clone()
+    past[:, 2] = torch.tensor([-11.9, 0.25, 1.0])       # 0.9 m behind him
+    on = past.clone()
+    on[:, 2, 0] = -12.15                                 # on to 1.15 m behind
+    assert wide.accept(np.arange(n), 10, past, on).tolist() == [False] * 5 + [True]
+    on[:, 2, 0] = -12.05                                 # 1.05 m behind: still his to strike
+    assert wide.accept(np.arange(n), 10, past, on).tolist() == [True] * n
+    # Without either (the rule before) only balls leaving the reach count.
+    old = StrikeInReach(tracker, reach_m=1.2, max_z_m=2.3, fps=25.0, min_z_m=None)
+    assert old.accept(np.arange(n), 10, pos, nxt, vel).tolist() == [True] * n
+    on[:, 2, 0] = -12.15
+    old = StrikeInReach(tracker, reach_m=1.5, max_z_m=2.3, fps=25.0, min_z_m=None)
+    assert old.accept(np.arange(n), 10, past, on).tolist() == [True] * n
+    with pytest.raises(ValueError, match="min_z_m"):
+        StrikeInReach(tracker, min_z_m=2.5)
+    with pytest.raises(ValueError, match="behind_m"):
+        StrikeInReach(tracker, behind_m=0.0)
+
+
 def test_a_forced_strike_is_asked_for_only_where_the_rule_itself_gave_up():
     from types import SimpleNamespace
 

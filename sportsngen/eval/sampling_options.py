@@ -47,8 +47,8 @@ def add_sampling_options(parser: argparse.ArgumentParser) -> None:
                              "this distance of the ball (m, horizontally; default: the model "
                              "file's, else the rules' 2.5)")
     parser.add_argument("--ball-net", action=argparse.BooleanOptionalAction, default=None,
-                        help="the ball's physics centre meets the net (default: as the model "
-                             "was trained)")
+                        help="the ball's physics centre meets the net (default: the model "
+                             "file's, else as it was trained)")
 
 
 def sampling_kwargs(args: argparse.Namespace) -> dict:

@@ -20,7 +20,7 @@ import numpy as np
 import torch
 
 from sportsngen.model.centre import GRAVITY_MPS2, net_cord_m
-from sportsngen.model.forecast import ball_forecast, nearest_playable
+from sportsngen.model.forecast import PLAYABLE_Z_M, ball_forecast, nearest_playable
 from sportsngen.tennis.court import (
     FENCE_X_M,
     FENCE_Y_M,
@@ -39,6 +39,15 @@ NET_STOP_M = 0.05               # a ball stopped by the net rests this far from 
 # in docs/evaluation.md (tenth part).
 STRIKE_REACH_M = 1.2
 STRIKE_MAX_Z_M = 2.3            # the generator's highest groundstroke contact (`synth.shot`)
+# ... and a good ball falling below this within his reach has passed him: the generator's
+# players strike no rally ball lower (0.16 m the lowest of 79,380 in `synthetic_named`, 0.1 %
+# under 0.34 m), so one falling lower is on its way to a second bounce.
+STRIKE_MIN_Z_M = PLAYABLE_Z_M[0]
+# Optional (`behind_m`): one this far behind his centre (toward his back fence) has passed him;
+# the generator's players strike rally balls at most 1.10 m behind their centre (99 % within
+# 0.77 m; 2,078 strikes of Djokovic v Murray on clay). Measured not to help the checks
+# (docs/evaluation.md, thirty-fourth part): off by default.
+STRIKE_BEHIND_M = 1.1
 # A ball in the air whose velocity changes by more than this in one frame has met something:
 # on generated flights away from both players the change is 0.64 m/s a frame (median) and 3.1
 # at the 99th percentile, a racket's tens. The rollouts' balls that braked in mid-air far from
@@ -182,7 +191,8 @@ class StrikeInReach:
     """Reject a sampled frame in which a good ball leaves the reach of the player due to strike
     it, unstruck: the ball has bounced once inside his court (the rally tracker's state), is
     within `reach_m` of him (horizontally) and no higher than `max_z_m` now, and in the sampled
-    frame it is horizontally out of that reach without being sent back. The frame is drawn
+    frame it is horizontally out of that reach, or falls below a racket (`min_z_m`), without
+    being sent back (`passes`). The frame is drawn
     again from the model's distribution, so the player strikes (or keeps the ball in reach) as
     the model would, given that he does; after `max_tries` the pass stands.
 
@@ -208,9 +218,16 @@ class StrikeInReach:
 
     def __init__(self, tracker, reach_m: float = STRIKE_REACH_M, max_z_m: float = STRIKE_MAX_Z_M,
                  max_tries: int = 20, fps: float = 25.0, from_shot: int = 1,
-                 force: bool = False):
+                 force: bool = False, min_z_m: float | None = STRIKE_MIN_Z_M,
+                 behind_m: float | None = None):
         if not reach_m > 0 or not max_z_m > 0:
             raise ValueError(f"reach_m and max_z_m must be positive, got {reach_m}, {max_z_m}")
+        if min_z_m is not None and not 0 <= min_z_m < max_z_m:
+            raise ValueError(f"min_z_m must lie in [0, max_z_m), got {min_z_m}")
+        if behind_m is not None and not behind_m > 0:
+            raise ValueError(f"behind_m must be positive, got {behind_m}")
+        self.min_z_m = None if min_z_m is None else float(min_z_m)
+        self.behind_m = None if behind_m is None else float(behind_m)
         if int(from_shot) < 1:
             raise ValueError(f"from_shot counts contacts after the serve (>= 1), got {from_shot}")
         self.from_shot = int(from_shot)
@@ -250,9 +267,15 @@ class StrikeInReach:
         toward the net, or (given the velocities `vel_mps`) is jolted in his reach without
         being sent back (`ball_jolted`: braked in mid-air beside him, a ball then left hanging
         within his reach until the rally's end rules called it an ace; docs/evaluation.md,
-        twenty-sixth part). Within reach: horizontally within `reach_m` and no higher than
-        `max_z_m`; leaving: horizontally beyond `reach_m` in the sampled frame (a ball rising
-        above a racket is left to come down)."""
+        twenty-sixth part), or (`min_z_m` not None) falls below `min_z_m` within his reach,
+        in the sampled frame or, given the velocities, by its free fall within the frame: a
+        ball he lets drop that low has passed him as surely as one that left his reach (such
+        balls, slowed by the clay and falling beside the server for a second bounce, were 96
+        of the 248 good balls left unanswered in a 500-point check; docs/evaluation.md,
+        thirty-fourth part), or (`behind_m` not None) is further than `behind_m` behind him
+        (toward his back fence) in the sampled frame. Within reach: horizontally within
+        `reach_m` and no higher than `max_z_m`; leaving: horizontally beyond `reach_m` in the
+        sampled frame (a ball rising above a racket is left to come down)."""
         i = torch.arange(len(pos_m), device=pos_m.device)
         ball0, ball1 = pos_m[:, BALL], next_pos_m[:, BALL]
         gap0 = torch.linalg.vector_norm(ball0[:, :2] - pos_m[i, role, :2], dim=-1)
@@ -262,6 +285,18 @@ class StrikeInReach:
         leaves = gap1 > self.reach_m
         if vel_mps is not None:
             leaves = leaves | ball_jolted(pos_m, next_pos_m, vel_mps, self.fps)
+        if self.min_z_m is not None:
+            # Falling, not rising from its first bounce (the tracker counts a bounce only once
+            # the ball has risen from it).
+            drops = (ball1[:, 2] < self.min_z_m) & (ball1[:, 2] < ball0[:, 2])
+            if vel_mps is not None:
+                vz, dt = vel_mps[:, BALL, 2], 1.0 / self.fps
+                drops = drops | ((vz < 0) & (ball0[:, 2] + vz * dt - 0.5 * GRAVITY_MPS2 * dt * dt
+                                             < self.min_z_m))
+            leaves = leaves | drops
+        if self.behind_m is not None:
+            behind = (ball1[:, 0] - next_pos_m[i, role, 0]) * end > self.behind_m
+            leaves = leaves | behind
         return inside & leaves & ~sent_back
 
     def give_up(self, rows: np.ndarray) -> None:

@@ -172,9 +172,11 @@ class Simulator:
         # (`KeepChasing`).
         self.keep_chasing = bool(keep_chasing)
         # The ball's physics centre meets the net (`ModelConfig.ball_net`; None: as the model
-        # was trained). Set on a file trained without it, the rollouts' flight stops at the net
-        # where its training targets flew through; for measuring what the net does. It is the
-        # model's own config that changes: Simulators sharing one model object share it.
+        # was trained, unless the file's sampling defaults say). Set on a file trained without
+        # it, the rollouts' flight stops at the net where its training targets flew through (the
+        # bundled file does: its first serves in had been 3.6 points above the truth's,
+        # docs/evaluation.md, thirty-fourth part). It is the model's own config that changes:
+        # Simulators sharing one model object share it.
         if ball_net is not None:
             if ball_net and self.model.cfg.ball_centre != "physics":
                 raise ArgumentError(f"ball_net needs a model whose ball centre is the physics "
