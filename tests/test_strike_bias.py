@@ -263,3 +263,28 @@ def test_the_width_fit_matches_each_hitters_distance_from_the_centre_line():
         assert off[got].mean() == pytest.approx(table.loc[key, "width_record_m"], abs=0.08)
     assert table.loc[(3, True), "wide_after"] == pytest.approx(wide[lat[800:]].mean(), abs=1e-4)
     assert wide[d[:, 800:]].mean() == pytest.approx(wide[lat[800:]].mean(), abs=0.06)
+
+
+def test_a_player_added_for_fine_tuning_gets_a_zero_row_in_every_per_identity_table():
+    """`add_player` widens every buffer with a row per identity (the bundled file, with the
+    strike tables, could not be fine-tuned: a size mismatch of `strike_bias`)."""
+    from sportsngen.data.tokens import Vocab
+    from sportsngen.train.finetune import PER_IDENTITY_TABLES, add_player
+    from sportsngen.train.receiver_start import with_receiver_start
+    from sportsngen.train.serve_bias import with_serve_bias
+
+    vocab = Vocab(players=("A", "B", "C", "D"))
+    model = with_strike_width(with_strike_bias(with_receiver_start(with_serve_bias(
+        small_model(n_ids=vocab.n_ids)))))
+    per_identity = sorted(name for name, b in model.named_buffers()
+                          if b.ndim >= 1 and b.shape[0] == vocab.n_ids)
+    assert per_identity == sorted(PER_IDENTITY_TABLES)
+    for name in per_identity:
+        getattr(model, name).fill_(0.5)
+    new, _, idx = add_player(model, vocab, "New Player")
+    assert idx == vocab.n_ids
+    for name in per_identity:
+        old, wide = getattr(model, name), getattr(new, name)
+        assert wide.shape == (vocab.n_ids + 1, *old.shape[1:])
+        torch.testing.assert_close(wide[:vocab.n_ids], old)
+        assert (wide[idx] == 0).all()
