@@ -75,6 +75,13 @@ def reverses(vx_in: torch.Tensor, vx_out: torch.Tensor) -> torch.Tensor:
         (vx_out.abs() > SHOT_MIN_VX_MPS)
 
 
+def free_fall_z_m(ball_m: torch.Tensor, vel_mps: torch.Tensor, fps: float) -> torch.Tensor:
+    """(B,) the height of balls at `ball_m` (B, 3) moving at `vel_mps` (B, 3) one frame on,
+    falling freely (gravity alone: within a frame drag and lift move it by millimetres)."""
+    dt = 1.0 / fps
+    return ball_m[:, 2] + vel_mps[:, 2] * dt - 0.5 * GRAVITY_MPS2 * dt * dt
+
+
 def ball_jolted(pos_m: torch.Tensor, next_pos_m: torch.Tensor, vel_mps: torch.Tensor,
                 fps: float) -> torch.Tensor:
     """(B,) bool: inside the fences, the ball changes velocity by more than `JOLT_MPS` between
@@ -83,9 +90,9 @@ def ball_jolted(pos_m: torch.Tensor, next_pos_m: torch.Tensor, vel_mps: torch.Te
     its speed along the ground than a bounce can (keeps less than `BOUNCE_MIN_KEEP` of it,
     from over `JOLT_MPS`). `PhysicalLimits.jolted`, `StrikeInReach.passes`."""
     ball, nxt = pos_m[:, BALL], next_pos_m[:, BALL]
-    v_in, dt = vel_mps[:, BALL], 1.0 / fps
+    v_in = vel_mps[:, BALL]
     change = torch.linalg.vector_norm((nxt - ball) * fps - v_in, dim=-1)
-    low = ball[:, 2] + v_in[:, 2] * dt - 0.5 * GRAVITY_MPS2 * dt * dt
+    low = free_fall_z_m(ball, v_in, fps)
     inside = (ball[:, 0].abs() < FENCE_X_M - 1.0) & (ball[:, 1].abs() < FENCE_Y_M - 1.0)
     along_in = torch.linalg.vector_norm(v_in[:, :2], dim=-1)
     along_out = torch.linalg.vector_norm(nxt[:, :2] - ball[:, :2], dim=-1) * fps
@@ -192,9 +199,9 @@ class StrikeInReach:
     it, unstruck: the ball has bounced once inside his court (the rally tracker's state), is
     within `reach_m` of him (horizontally) and no higher than `max_z_m` now, and in the sampled
     frame it is horizontally out of that reach, or falls below a racket (`min_z_m`), without
-    being sent back (`passes`). The frame is drawn
-    again from the model's distribution, so the player strikes (or keeps the ball in reach) as
-    the model would, given that he does; after `max_tries` the pass stands.
+    being sent back (`passes`). The frame is drawn again from the model's distribution, so the
+    player strikes (or keeps the ball in reach) as the model would, given that he does; after
+    `max_tries` the pass stands.
 
     Why: real players, and the generator's, play every good ball they can reach. Teacher-forced
     on recorded states, the model gives a contact 0.66-0.75 of the time over an approach
@@ -290,9 +297,8 @@ class StrikeInReach:
             # the ball has risen from it).
             drops = (ball1[:, 2] < self.min_z_m) & (ball1[:, 2] < ball0[:, 2])
             if vel_mps is not None:
-                vz, dt = vel_mps[:, BALL, 2], 1.0 / self.fps
-                drops = drops | ((vz < 0) & (ball0[:, 2] + vz * dt - 0.5 * GRAVITY_MPS2 * dt * dt
-                                             < self.min_z_m))
+                drops = drops | ((vel_mps[:, BALL, 2] < 0) &
+                                 (free_fall_z_m(ball0, vel_mps[:, BALL], self.fps) < self.min_z_m))
             leaves = leaves | drops
         if self.behind_m is not None:
             behind = (ball1[:, 0] - next_pos_m[i, role, 0]) * end > self.behind_m
