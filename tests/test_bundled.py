@@ -41,7 +41,7 @@ def test_bundled_model_rolls_out_with_the_net_in_the_balls_step():
     it (its sampling defaults; docs/evaluation.md, thirty-fourth part); asked, it plays without."""
     from sportsngen.sim import Simulator
 
-    model, _, _, cfg = load_model(BUNDLED)
+    _, _, _, cfg = load_model(BUNDLED)
     assert cfg.ball_net is False and cfg.ball_centre == "physics"
     sim = Simulator.from_pretrained()
     assert sim.model.cfg.ball_net is True and sim.contact_reach_m == 1.8

@@ -269,7 +269,7 @@ def test_a_player_added_for_fine_tuning_gets_a_zero_row_in_every_per_identity_ta
     """`add_player` widens every buffer with a row per identity (the bundled file, with the
     strike tables, could not be fine-tuned: a size mismatch of `strike_bias`)."""
     from sportsngen.data.tokens import Vocab
-    from sportsngen.train.finetune import PER_IDENTITY_TABLES, add_player
+    from sportsngen.train.finetune import add_player
     from sportsngen.train.receiver_start import with_receiver_start
     from sportsngen.train.serve_bias import with_serve_bias
 
@@ -278,7 +278,7 @@ def test_a_player_added_for_fine_tuning_gets_a_zero_row_in_every_per_identity_ta
         small_model(n_ids=vocab.n_ids)))))
     per_identity = sorted(name for name, b in model.named_buffers()
                           if b.ndim >= 1 and b.shape[0] == vocab.n_ids)
-    assert per_identity == sorted(PER_IDENTITY_TABLES)
+    assert per_identity == sorted(SportsNGEN.PER_IDENTITY_TABLES)
     for name in per_identity:
         getattr(model, name).fill_(0.5)
     new, _, idx = add_player(model, vocab, "New Player")

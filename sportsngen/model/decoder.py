@@ -171,6 +171,10 @@ CONTACT_OFFSET_M = 0.5
 class SportsNGEN(nn.Module):
     """Decoder f with its output bins and heads (players 2-D, ball 3-D)."""
 
+    # The buffers with a row per identity, (n_ids, ...) where the config has them: a player
+    # added for fine-tuning gets a row at zero in each (`train.finetune.add_player`).
+    PER_IDENTITY_TABLES = ("serve_bias", "receiver_start", "strike_bias", "strike_width")
+
     def __init__(self, cfg: ModelConfig):
         super().__init__()
         self.cfg = cfg

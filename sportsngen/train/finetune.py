@@ -77,11 +77,6 @@ def check_data_matches(cfg: ModelConfig, vocab: Vocab, data: RallyData) -> None:
         raise ValueError(f"surfaces {unknown} are not in the model's {list(vocab.surfaces)}")
 
 
-# The model's buffers with a row per identity (`model/serve_bias.py`, `receiver_start.py`,
-# `strike_bias.py`), each (n_ids, ...) where the model has it.
-PER_IDENTITY_TABLES = ("serve_bias", "receiver_start", "strike_bias", "strike_width")
-
-
 def add_player(model: SportsNGEN, vocab: Vocab, name: str):
     """-> (new model, new Vocab, identity index of `name`). Existing rows are copied unchanged;
     the new row starts from the generic identity. A player already known keeps their row."""
@@ -98,7 +93,7 @@ def add_player(model: SportsNGEN, vocab: Vocab, name: str):
     state["embed.identity.weight"] = torch.cat([old_w, old_w[GENERIC_ID:GENERIC_ID + 1]])
     # A new player draws the heads' own serves and strikes, and his receivers start as the
     # model has them: a row at zero in every per-identity table.
-    for key in PER_IDENTITY_TABLES:
+    for key in SportsNGEN.PER_IDENTITY_TABLES:
         if state.get(key) is not None:
             state[key] = torch.cat([state[key], torch.zeros_like(state[key][:1])])
     new.load_state_dict(state)
