@@ -127,8 +127,12 @@ def main() -> None:
           + (f" from shot {sim.strike_in_reach_from}" if sim.strike_in_reach else "")
           + (", forced where it gives up" if sim.strike_in_reach_force else "")
           + (f", reach {sim.strike_in_reach_m} m" if sim.strike_in_reach else "")
+          + (f" (the return's {sim.strike_in_reach_return_m} m)"
+             if sim.strike_in_reach and sim.strike_in_reach_return_m is not None else "")
           + (", keep chasing" if sim.keep_chasing else "")
           + (f", contact reach {sim.contact_reach_m} m" if sim.physical_limits else "")
+          + (f", the return's {sim.return_reach_m} m"
+             if sim.physical_limits and sim.return_reach_m is not None else "")
           + (", the net in the ball's step" if sim.model.cfg.ball_net else ""))
     t0 = time.perf_counter()
     simd = sim.simulate_both_serving(*players, args.surface, args.points, seed=args.seed)

@@ -2,52 +2,95 @@
 wide or into the net (`model.strike_bias`; `sportsngen.train.strike_bias`).
 
     .venv/bin/python scripts/fit_strike_bias.py --model FILE --out FILE [--more-data NAME]
-        [--prior-strikes 200] [--width] [--threads 2]
+        [--prior-strikes 200] [--width | --returns] [--states FILE] [--threads 2]
 
 The recorded rally strikes are the file's own training split (`extra.split`) and with
 `--more-data NAME` every rally strike of the data config conf/data/NAME.yaml (synthetic_named:
 the named players' round robins). With `--width` the per-hitter width of the balls in play
 (`model.strike_width`, `fit_strike_width`) is fitted after the errors, and each wide error's
-shift again with it. Everything else in the file is copied unchanged.
+shift again with it. With `--returns` (a file with the table fitted) each receiver's shifts are
+split instead: refitted on his strikes that are not returns, and the returns' own table
+(`model.strike_return`, `fit_strike_return`) fitted on his returns. `--states FILE` keeps the
+decoder's states read (most of the time; they do not depend on the tables). Everything else in
+the file is copied unchanged.
 """
 
 from __future__ import annotations
 
 import time
+from pathlib import Path
+
+import torch
 
 from sportsngen.data.tokens import N_SPECIAL_IDS
 from sportsngen.train.head_fit import HeadStates, collect_head_states
 from sportsngen.train.strike_bias import (
     error_shares,
     fit_strike_bias,
+    fit_strike_return,
     fit_strike_width,
     with_strike_bias,
+    with_strike_return,
     with_strike_width,
 )
 from sportsngen.train.table_cli import open_table_run, table_parser
+
+
+def _read_states(model, run, args) -> HeadStates:
+    """The decoder's states at the split's rally strikes, from `args.states` where it holds
+    them for this file and data, else read (and kept there)."""
+    key = f"{run.path.resolve()}|{args.more_data}"
+    if args.states and Path(args.states).exists():
+        cached = torch.load(args.states, weights_only=False)
+        if cached["key"] != key:
+            raise SystemExit(f"{args.states} holds states read with {cached['key']}, not {key}")
+        print(f"{len(cached['states'])} recorded rally strikes from {args.states}")
+        return cached["states"]
+    t0 = time.time()
+    states = HeadStates.concat([collect_head_states(model, a, "strike") for a in run.arrays])
+    print(f"{len(states)} recorded rally strikes read ({time.time() - t0:.0f} s)")
+    if args.states:
+        torch.save({"key": key, "states": states}, args.states)
+    return states
 
 
 def main() -> None:
     ap = table_parser(__doc__, "--prior-strikes", 200.0,
                       "pseudo-strikes at the head's own odds added to each hitter's record",
                       "also read every rally strike of this data config (conf/data/NAME.yaml)")
-    ap.add_argument("--width", action="store_true",
-                    help="also fit each hitter's width of the balls in play (model.strike_width)")
+    how = ap.add_mutually_exclusive_group()
+    how.add_argument("--width", action="store_true",
+                     help="also fit each hitter's width of the balls in play "
+                          "(model.strike_width)")
+    how.add_argument("--returns", action="store_true",
+                     help="split each receiver's shifts: his returns' own (model.strike_return)"
+                          " and the rest")
+    ap.add_argument("--states", default=None,
+                    help="cache of the decoder's states: written on the first run, read after")
     args = ap.parse_args()
     run = open_table_run(args, lambda m: None if m.strike_head is not None
                          else "no strike head (model.strike_head)")
     model, vocab = run.model, run.vocab
-    t0 = time.time()
-    states = HeadStates.concat([collect_head_states(model, a, "strike") for a in run.arrays])
-    print(f"{len(states)} recorded rally strikes read ({time.time() - t0:.0f} s)")
-    model = with_strike_bias(model)
-    table = fit_strike_bias(model, states, prior_strikes=args.prior_strikes)
+    states = _read_states(model, run, args)
     names = {N_SPECIAL_IDS + i: p for i, p in enumerate(vocab.players)}
+    if args.returns:
+        if model.strike_bias is None:
+            raise SystemExit(f"{run.path}: no per-hitter table to split (model.strike_bias): "
+                             "fit it first")
+        model = with_strike_return(model)
+        returns = states.returns()
+        print(f"{int(returns.sum())} returns among them")
+        table = fit_strike_return(model, states, returns, prior_strikes=args.prior_strikes)
+        role = "is_return"
+    else:
+        model = with_strike_bias(model)
+        table = fit_strike_bias(model, states, prior_strikes=args.prior_strikes)
+        role = "receiver"
     shares = error_shares(table)
     table.insert(0, "hitter", table["hitter_id"].map(names))
     for col in ("error_record", "error_head", "error_after"):
         table[col] = shares[col]
-    cols = ["hitter", "receiver", "n", "error_record", "error_head", "error_after",
+    cols = ["hitter", role, "n", "error_record", "error_head", "error_after",
             "long_shift", "wide_shift", "net_shift"]
     print(table[cols].round(3).to_string(index=False))
     if args.width:

@@ -46,3 +46,24 @@ def test_bundled_model_rolls_out_with_the_net_in_the_balls_step():
     sim = Simulator.from_pretrained()
     assert sim.model.cfg.ball_net is True and sim.contact_reach_m == 1.8
     assert Simulator.from_pretrained(ball_net=False).model.cfg.ball_net is False
+
+
+def test_bundled_model_gives_the_return_its_reach_and_its_own_error_shifts():
+    """The bundled file's returns: a contact within 1.5 m, every good serve within 1.2 m
+    struck, and the receivers' own shifts of a return's errors, which lower the named
+    players' odds of a return long (their record's returns err less than the head drew;
+    docs/evaluation.md, thirty-fifth part)."""
+    from sportsngen.sim import Simulator
+
+    sim = Simulator.from_pretrained()
+    assert sim.return_reach_m == 1.5 and sim.strike_in_reach_return_m == 1.2
+    model, vocab = sim.model, sim.vocab
+    assert model.cfg.strike_return and model.strike_return.shape == model.strike_bias[:, 0].shape
+    named = torch.tensor([vocab.player_index(p) for p in
+                          ("Roger Federer", "Serena Williams", "Maria Sharapova", "John Isner")])
+    assert (model.strike_return[named, 0] < 0).all()
+    # As fitted (`scripts/fit_strike_bias.py --returns`; model card): Sharapova's long, wide and
+    # net shifts on her returns.
+    torch.testing.assert_close(model.strike_return[vocab.player_index("Maria Sharapova")],
+                               torch.tensor([-1.162, -1.505, -1.228]), atol=1e-3, rtol=0)
+    assert Simulator.from_pretrained(return_reach_m=1.8).return_reach_m == 1.8

@@ -426,6 +426,35 @@ def test_physical_limits_reject_a_ball_struck_back_out_of_everyones_reach():
     assert PhysicalLimits(reach_m=None).accept(np.arange(5), 10, pos, nxt, vel).all()
 
 
+def test_physical_limits_give_the_return_its_own_reach():
+    from types import SimpleNamespace
+
+    from sportsngen.sim.constraints import PhysicalLimits
+
+    # Rows 0-1: the serve is the only shot so far (the next contact is the return); rows 2-3:
+    # a rally ball (three shots). The ball is 1.6 m from the receiver (rows 0, 2) or 1.3 m
+    # (rows 1, 3) and struck back.
+    tracker = SimpleNamespace(n_shots=np.array([1, 1, 3, 3]))
+    pos = torch.zeros(4, 3, 3)
+    pos[:, 0, :2] = torch.tensor([11.0, 0.0])
+    pos[:, 1, :2] = torch.tensor([-11.0, 0.0])
+    pos[:, 2] = torch.tensor([[-11.0, 1.6, 1.0], [-11.0, 1.3, 1.0],
+                              [-11.0, 1.6, 1.0], [-11.0, 1.3, 1.0]])
+    vel = torch.zeros(4, 3, 3)
+    vel[:, 2] = torch.tensor([-20.0, 0.0, -2.0])
+    nxt = pos.clone()
+    nxt[:, 2, 0] += 0.8                                    # back at 20 m/s
+    lim = PhysicalLimits(fps=25.0, reach_m=1.8, tracker=tracker, return_reach_m=1.5)
+    assert lim.accept(np.arange(4), 10, pos, nxt, vel).tolist() == [False, True, True, True]
+    # The rows are the tracker's: asked for rows 2 and 0 only, in that order.
+    assert lim.accept(np.array([2, 0]), 10, pos[[2, 0]], nxt[[2, 0]],
+                      vel[[2, 0]]).tolist() == [True, False]
+    assert PhysicalLimits(fps=25.0, reach_m=1.8).accept(np.arange(4), 10, pos, nxt,
+                                                        vel).all()
+    with pytest.raises(ValueError, match="needs a tracker"):
+        PhysicalLimits(return_reach_m=1.5)
+
+
 def test_physical_limits_reject_a_ball_braked_in_mid_air_out_of_everyones_reach():
     from sportsngen.sim.constraints import PhysicalLimits
 
@@ -531,6 +560,34 @@ def test_strike_in_reach_rejects_a_good_ball_leaving_the_due_players_reach_unstr
         StrikeInReach(tracker, reach_m=0.0)
     with pytest.raises(ValueError, match="from_shot"):
         StrikeInReach(tracker, from_shot=0)
+
+
+def test_strike_in_reach_gives_the_return_its_own_reach():
+    from types import SimpleNamespace
+
+    from sportsngen.sim.constraints import StrikeInReach
+
+    # The receiver (x = -11) is due in every row; rows 0-1 the return (only the serve struck),
+    # rows 2-3 a later ball. The ball is 1.36 m from him (1.08 m in rows 1, 3) and leaves his
+    # reach unstruck (to 1.75 m or more).
+    tracker = SimpleNamespace(ended=np.zeros(4, dtype=bool), hitter=np.zeros(4, dtype=np.int64),
+                              n_bounces=np.ones(4, dtype=np.int64), server_end=np.ones(4),
+                              n_shots=np.array([1, 1, 3, 3]))
+    pos = torch.zeros(4, 3, 3)
+    pos[:, 0, :2] = torch.tensor([11.0, 0.0])
+    pos[:, 1, :2] = torch.tensor([-11.0, 0.0])
+    pos[:, 2] = torch.tensor([-10.6, 1.3, 1.0])
+    pos[[1, 3], 2, 1] = 1.0                              # rows 1, 3: 1.08 m beside him
+    nxt = pos.clone()
+    nxt[:, 2, 0] -= 0.8
+    nxt[:, 2, 1] += 0.7
+    con = StrikeInReach(tracker, reach_m=1.5, max_z_m=2.3, fps=25.0, return_reach_m=1.2)
+    # The return 1.36 m away is his to leave; 1.08 m away, and any later ball, must be struck.
+    assert con.accept(np.arange(4), 10, pos, nxt).tolist() == [True, False, False, False]
+    same = StrikeInReach(tracker, reach_m=1.5, max_z_m=2.3, fps=25.0)
+    assert same.accept(np.arange(4), 10, pos, nxt).tolist() == [False] * 4
+    with pytest.raises(ValueError, match="return_reach_m"):
+        StrikeInReach(tracker, return_reach_m=0.0)
 
 
 def test_strike_in_reach_rejects_a_good_ball_falling_low_or_passing_behind_him_unstruck():

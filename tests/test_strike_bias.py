@@ -15,8 +15,10 @@ from sportsngen.train.serve_bias import MAX_SHIFT
 from sportsngen.train.strike_bias import (
     error_shares,
     fit_strike_bias,
+    fit_strike_return,
     fit_strike_width,
     with_strike_bias,
+    with_strike_return,
     with_strike_width,
 )
 from tests.test_serve_bias import small_model as serve_small_model
@@ -168,12 +170,10 @@ def test_the_fitted_model_draws_each_hitters_long_share():
     assert got[:, 400:].mean() == pytest.approx(0.05, abs=0.02)
 
 
-def test_a_rollouts_strike_reads_the_hitters_row():
-    """`SportsNGEN.place_strikes` hands the strike head the row of whoever strikes: the
-    receiver for a ball on his end, the server for one on the server's."""
-    model = with_strike_bias(small_model())
-    model.strike_bias[2] = torch.tensor([[1.0, 0.0, 0.0], [2.0, 0.0, 0.0]])
-    model.strike_bias[3] = torch.tensor([[3.0, 0.0, 0.0], [4.0, 0.0, 0.0]])
+def _two_strikes_seen(model) -> tuple[dict, torch.Tensor]:
+    """`model`'s strike head made to record the shifts it is handed (`seen["bias"]`), and two
+    frames: the server on the +x end, the receiver on the -x end, the ball at the receiver's
+    (row 0) and at the server's (row 1)."""
     seen = {}
 
     def sample(h, top_p, generator, dim_bias=None):
@@ -182,10 +182,20 @@ def test_a_rollouts_strike_reads_the_hitters_row():
 
     model.strike_head.sample = sample
     pos = torch.zeros(2, 3, 3)
-    pos[:, 0, 0] = 12.0                       # the server on the +x end
+    pos[:, 0, 0] = 12.0
     pos[:, 1, 0] = -12.0
-    pos[0, BALL] = torch.tensor([-11.0, 0.0, 1.0])   # the receiver's ball
-    pos[1, BALL] = torch.tensor([11.0, 0.0, 1.0])    # the server's
+    pos[0, BALL] = torch.tensor([-11.0, 0.0, 1.0])
+    pos[1, BALL] = torch.tensor([11.0, 0.0, 1.0])
+    return seen, pos
+
+
+def test_a_rollouts_strike_reads_the_hitters_row():
+    """`SportsNGEN.place_strikes` hands the strike head the row of whoever strikes: the
+    receiver for a ball on his end, the server for one on the server's."""
+    model = with_strike_bias(small_model())
+    model.strike_bias[2] = torch.tensor([[1.0, 0.0, 0.0], [2.0, 0.0, 0.0]])
+    model.strike_bias[3] = torch.tensor([[3.0, 0.0, 0.0], [4.0, 0.0, 0.0]])
+    seen, pos = _two_strikes_seen(model)
     vel = torch.zeros(2, 3, 3)
     model.place_strikes(torch.zeros(2, 3, 32), pos, vel, pos.clone(),
                         forced=torch.tensor([True, True]), server_ident=torch.tensor([2, 2]),
@@ -197,6 +207,99 @@ def test_a_rollouts_strike_reads_the_hitters_row():
     model.place_strikes(torch.zeros(2, 3, 32), pos, vel, pos.clone(),
                         forced=torch.tensor([True, True]), server_ident=torch.tensor([2, 2]))
     assert seen["bias"] is None               # no receiver given: the head as it is
+
+
+def test_the_returns_table_adds_to_the_receivers_row_on_his_returns_only():
+    model = with_strike_return(with_strike_bias(small_model()))
+    assert model.strike_return.shape == (6, 3) and (model.strike_return == 0).all()
+    model.strike_bias[3, 1] = torch.tensor([1.0, 0.0, 0.0])
+    model.strike_return[3] = torch.tensor([0.5, -1.0, 0.0])
+    b = model.strike_head_bias(torch.tensor([3, 3]), torch.tensor([True, True]),
+                               torch.tensor([True, False]))
+    masks = torch.as_tensor(strike_bias.error_bins())
+    assert b[0, 0][masks[0]].unique().tolist() == [1.5]       # the return: both rows
+    assert b[0, 1][masks[1]].unique().tolist() == [-1.0]
+    assert b[1, 0][masks[0]].unique().tolist() == [1.0]       # a later strike: his row alone
+    assert (b[1, 1] == 0).all()
+    # Not told which are returns: none is.
+    torch.testing.assert_close(model.strike_head_bias(torch.tensor([3]), torch.tensor([True])),
+                               b[1:])
+    with pytest.raises(ValueError, match="strike_bias"):
+        ModelConfig(strike_head=True, strike_return=True)
+
+
+def test_a_rallys_first_strike_is_its_return_where_the_receiver_struck_it():
+    model = small_model()
+    st = _states(model, n_per=(3, 3, 0))
+    # Rallies 7 (server's strike first: its return was not read), 8 (return, server, receiver)
+    # and 9 (the return alone); rally 7 again later is another rally's run.
+    st.rally_id = np.array([7, 7, 8, 8, 8, 9])
+    st.receiver = np.array([False, True, True, False, True, True])
+    assert st.returns().tolist() == [False, False, True, False, False, True]
+
+
+def test_the_returns_fit_splits_each_receivers_record():
+    model = with_strike_bias(small_model())
+    # Hitter 2 receiving: long 5 % over 300 strikes; the first 100 of them called returns
+    # and made long 30 % of the time, the rest never.
+    st = _states(model, n_per=(300, 300, 60), seed=3)
+    long_b = np.flatnonzero(strike_bias.error_bins()[0])[:6]
+    deep_in = np.flatnonzero(~strike_bias.error_bins()[0])[-20:]
+    rng = np.random.default_rng(4)
+    ret = np.zeros(len(st), dtype=bool)
+    ret[300:400] = True
+    depth = st.bins[:, 0].numpy().copy()
+    depth[300:400] = np.where(rng.random(100) < 0.3, rng.choice(long_b, 100),
+                              rng.choice(deep_in, 100))
+    depth[400:600] = rng.choice(deep_in, 200)
+    st.bins[:, 0] = torch.as_tensor(depth)
+    fit_strike_bias(model, st, prior_strikes=0.0)
+    server_row = model.strike_bias[2, 0].clone()
+    with pytest.raises(ValueError, match="with_strike_return"):
+        fit_strike_return(model, st, ret)
+    model = with_strike_return(model)
+    table = fit_strike_return(model, st, ret, prior_strikes=0.0).set_index(
+        ["hitter_id", "is_return"])
+    assert sorted(table.index) == [(2, False), (2, True), (3, False)]
+    long = torch.as_tensor(strike_bias.error_bins()[0])
+    head = model.strike_head
+    for rows, share in ((slice(300, 400), 0.3),):
+        x, bins = st.h[rows], st.bins[rows]
+        bias = model.strike_head_bias(torch.full((len(x),), 2), torch.ones(len(x), dtype=bool),
+                                      torch.full((len(x),), rows.start == 300))
+        odds = (head.dim_logits(x, bins, 0) + bias[:, 0]).softmax(-1)[:, long].sum(-1).detach()
+        assert float(odds.mean()) == pytest.approx(
+            float(long[st.bins[rows, 0]].float().mean()), abs=1e-3)
+        assert float(long[st.bins[rows, 0]].float().mean()) == pytest.approx(share, abs=0.1)
+    # The rest never long: a share of 0 lies beyond any shift, the bound.
+    assert float(model.strike_bias[2, 1, 0]) == pytest.approx(-MAX_SHIFT, abs=1e-6)
+    assert table.loc[(2, True), "long_record"] == pytest.approx(
+        float(long[st.bins[300:400, 0]].float().mean()))
+    torch.testing.assert_close(model.strike_bias[2, 0], server_row)   # the server's row kept
+    assert (model.strike_return[[0, 1, 3, 4, 5]] == 0).all()
+    shares = error_shares(table.reset_index())
+    assert "is_return" in shares and len(shares) == 3
+    with pytest.raises(ValueError, match="rows"):
+        fit_strike_return(model, st, ret[:10])
+
+
+def test_a_rollouts_return_reads_the_returns_table():
+    """`returning` (the rally's next contact is the return) adds the receiver's returns' row to
+    a strike from his end, never to the server's."""
+    model = with_strike_return(with_strike_bias(small_model()))
+    model.strike_bias[2, 0, 0] = 1.0
+    model.strike_bias[3, 1, 0] = 4.0
+    model.strike_return[3, 0] = 0.5
+    model.strike_return[2, 0] = 9.0
+    seen, pos = _two_strikes_seen(model)
+    long = torch.as_tensor(strike_bias.error_bins()[0])
+    for returning, want in ((torch.tensor([True, True]), (4.5, 1.0)),
+                            (torch.tensor([False, False]), (4.0, 1.0)), (None, (4.0, 1.0))):
+        model.place_strikes(torch.zeros(2, 3, 32), pos, torch.zeros(2, 3, 3), pos.clone(),
+                            forced=torch.tensor([True, True]),
+                            server_ident=torch.tensor([2, 2]),
+                            receiver_ident=torch.tensor([3, 3]), returning=returning)
+        assert [seen["bias"][i, 0][long].unique().item() for i in (0, 1)] == list(want)
 
 
 def _offsets_m() -> np.ndarray:
@@ -274,8 +377,8 @@ def test_a_player_added_for_fine_tuning_gets_a_zero_row_in_every_per_identity_ta
     from sportsngen.train.serve_bias import with_serve_bias
 
     vocab = Vocab(players=("A", "B", "C", "D"))
-    model = with_strike_width(with_strike_bias(with_receiver_start(with_serve_bias(
-        small_model(n_ids=vocab.n_ids)))))
+    model = with_strike_return(with_strike_width(with_strike_bias(with_receiver_start(
+        with_serve_bias(small_model(n_ids=vocab.n_ids))))))
     per_identity = sorted(name for name, b in model.named_buffers()
                           if b.ndim >= 1 and b.shape[0] == vocab.n_ids)
     assert per_identity == sorted(SportsNGEN.PER_IDENTITY_TABLES)

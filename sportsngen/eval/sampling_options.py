@@ -10,7 +10,8 @@ from sportsngen.errors import ArgumentError
 
 _NUCLEI = ("top_p_ball", "top_p_contact", "top_p_serve")
 _FLAGS = ("contact_odds", "strike_in_reach", "strike_in_reach_from", "strike_in_reach_force",
-          "strike_in_reach_m", "ball_net", "keep_chasing", "contact_reach_m")
+          "strike_in_reach_m", "ball_net", "keep_chasing", "contact_reach_m",
+          "return_reach_m", "strike_in_reach_return_m")
 
 
 def add_sampling_options(parser: argparse.ArgumentParser) -> None:
@@ -39,6 +40,9 @@ def add_sampling_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--strike-in-reach-m", type=float, default=None,
                         help="with --strike-in-reach: the reach (m, the ball horizontally from "
                              "the player's centre; default: the model file's, else 1.2)")
+    parser.add_argument("--strike-in-reach-return-m", type=float, default=None,
+                        help="with --strike-in-reach: the reach for the return (m; default: the "
+                             "model file's, else --strike-in-reach-m's)")
     parser.add_argument("--keep-chasing", action=argparse.BooleanOptionalAction, default=None,
                         help="the player due to play the ball does not slow down while he is "
                              "late for it (default: the model file's, else off)")
@@ -46,6 +50,10 @@ def add_sampling_options(parser: argparse.ArgumentParser) -> None:
                         help="with physical limits, a racket contact needs a player within "
                              "this distance of the ball (m, horizontally; default: the model "
                              "file's, else the rules' 2.5)")
+    parser.add_argument("--return-reach-m", type=float, default=None,
+                        help="with physical limits, the return (the contact after the serve) "
+                             "needs the receiver within this distance of the ball (m, "
+                             "horizontally; default: the model file's, else the contact's)")
     parser.add_argument("--ball-net", action=argparse.BooleanOptionalAction, default=None,
                         help="the ball's physics centre meets the net (default: the model "
                              "file's, else as it was trained)")
@@ -70,6 +78,11 @@ def sampling_kwargs(args: argparse.Namespace) -> dict:
                             f"{kw['strike_in_reach_m']}")
     if not kw.get("contact_reach_m", 1.0) > 0:
         raise ArgumentError(f"--contact-reach-m must be positive, got {kw['contact_reach_m']}")
+    if not kw.get("strike_in_reach_return_m", 1.0) > 0:
+        raise ArgumentError(f"--strike-in-reach-return-m must be positive, got "
+                            f"{kw['strike_in_reach_return_m']}")
+    if not kw.get("return_reach_m", 1.0) > 0:
+        raise ArgumentError(f"--return-reach-m must be positive, got {kw['return_reach_m']}")
     if kw.get("strike_in_reach_from", 1) < 1:
         raise ArgumentError(f"--strike-in-reach-from counts contacts after the serve (>= 1), "
                             f"got {kw['strike_in_reach_from']}")

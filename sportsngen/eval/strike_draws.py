@@ -93,15 +93,17 @@ def teacher_forced_strikes(model, arrays: RallyArrays, truth: RallyData, draws: 
     if not found:
         raise ValueError("the strike head's targets found none of the recorded strikes")
     rows, h, rec_bins = np.concatenate(found), torch.cat(h_rows), torch.cat(bin_rows).numpy()
-    # The file's per-hitter shifts, where it has them (`model.strike_bias`).
-    bias = model.strike_head_bias(torch.cat(hitters), torch.cat(receivers))
+    picked = shots.iloc[rows]
+    shot = picked["shot_index"].to_numpy(np.int64)
+    # The file's per-hitter shifts, where it has them (`model.strike_bias`; the returns' own
+    # with `model.strike_return`).
+    bias = model.strike_head_bias(torch.cat(hitters), torch.cat(receivers),
+                                  torch.as_tensor(shot == 1))
     idx = torch.stack([model.strike_head.sample(h, 1.0, gen, dim_bias=bias)
                        for _ in range(draws)], 1).numpy()
     rec = strike_errors(strike.strike_bin_value(rec_bins, rng.random(rec_bins.shape)))
     mod = strike_errors(strike.strike_bin_value(idx, rng.random(idx.shape))).mean(axis=1)
-    picked = shots.iloc[rows]
     serve = picked["rally_id"].map(truth.rallies.set_index("rally_id")["serve_number"])
-    shot = picked["shot_index"].to_numpy(np.int64)
     return pd.DataFrame({"rally_id": picked["rally_id"].to_numpy(), "shot": shot,
                          "serve": serve.to_numpy(np.int64) - 1, "receiver": shot % 2 == 1,
                          "record_error": rec, "model_error": mod})

@@ -110,6 +110,12 @@ class ModelConfig:
     # `train.strike_bias.fit_strike_width`; zero until then): the head places every player's
     # balls about as wide as the average player's (docs/evaluation.md, thirty-third part).
     strike_width: bool = False
+    # With it, a second per-hitter table of the same three shifts added on his returns alone
+    # (`model.strike_bias`, fitted by `train.strike_bias.fit_strike_bias` with the returns
+    # named; zero until then): teacher-forced, the head drew 0.03-0.12 more errors on returns
+    # of first serves than the record's in six of seven matchups, while one shift for all of a
+    # receiver's strikes matched his errors overall (docs/evaluation.md, thirty-fifth part).
+    strike_return: bool = False
     # A table of per-server shifts of the receiver's odds of starting his run while the serve
     # flies at him (`model.receiver_start`, fitted by `train.receiver_start`; zero until
     # then): the truth's receivers wait longer against a server who disguises his serve, the
@@ -182,6 +188,9 @@ class ModelConfig:
                              "strike_head=True")
         if self.strike_width and not self.strike_bias:
             raise ValueError("model.strike_width is read with the strike head's error table: "
+                             "it needs strike_bias=True")
+        if self.strike_return and not self.strike_bias:
+            raise ValueError("model.strike_return is read with the strike head's error table: "
                              "it needs strike_bias=True")
         if self.receiver_start and self.head != "factorised":
             raise ValueError("model.receiver_start shifts the players' factorised head: it "

@@ -173,7 +173,8 @@ class SportsNGEN(nn.Module):
 
     # The buffers with a row per identity, (n_ids, ...) where the config has them: a player
     # added for fine-tuning gets a row at zero in each (`train.finetune.add_player`).
-    PER_IDENTITY_TABLES = ("serve_bias", "receiver_start", "strike_bias", "strike_width")
+    PER_IDENTITY_TABLES = ("serve_bias", "receiver_start", "strike_bias", "strike_width",
+                           "strike_return")
 
     def __init__(self, cfg: ModelConfig):
         super().__init__()
@@ -221,6 +222,8 @@ class SportsNGEN(nn.Module):
                              if cfg.strike_bias else None)
         self.register_buffer("strike_width", torch.zeros(cfg.n_ids, strike_bias_table.N_ROLES)
                              if cfg.strike_width else None)
+        self.register_buffer("strike_return", torch.zeros(cfg.n_ids, strike_bias_table.N_KINDS)
+                             if cfg.strike_return else None)
         self.register_buffer("receiver_start",
                              torch.zeros(cfg.n_ids, receiver_start.N_SERVES,
                                          receiver_start.N_WAIT)
@@ -457,15 +460,18 @@ class SportsNGEN(nn.Module):
                                          contact_m)
 
     def strike_head_bias(self, hitter_ident: torch.Tensor | None,
-                         receiver: torch.Tensor | None) -> torch.Tensor | None:
+                         receiver: torch.Tensor | None,
+                         returning: torch.Tensor | None = None) -> torch.Tensor | None:
         """The strike head's logit shifts (N, 4, bins) for strikes of `hitter_ident` (N,), the
         point's receiver where `receiver` (N,) bool (`model.strike_bias`, with the width's tilt
-        where the model has `strike_width`); None where the model has no table or the hitter
-        is not given."""
+        where the model has `strike_width`, and the returns' table on the rows `returning`
+        (N,) bool where it has `strike_return`); None where the model has no table or the
+        hitter is not given."""
         if self.strike_bias is None or hitter_ident is None or receiver is None:
             return None
         return strike_bias_table.strike_dim_bias(self.strike_bias, self._ident(hitter_ident),
-                                                 receiver, self.strike_width)
+                                                 receiver, self.strike_width,
+                                                 self.strike_return, returning)
 
     def receiver_start_bias(self, server_ident: torch.Tensor | None,
                             serve: torch.Tensor | None,
@@ -512,13 +518,16 @@ class SportsNGEN(nn.Module):
                       top_p_serve: float = 1.0,
                       serve: torch.Tensor | None = None,
                       server_ident: torch.Tensor | None = None,
-                      receiver_ident: torch.Tensor | None = None
+                      receiver_ident: torch.Tensor | None = None,
+                      returning: torch.Tensor | None = None
                       ) -> tuple[torch.Tensor, torch.Tensor]:
         """This model's strike and serve heads' draws placed in the sampled frames `nxt`
         (`strike_heads.place_strikes`; `serve` (B,) the rallies' serve, 0 first, 1 second,
         where `cfg.strike_roles` or `cfg.serve_bias`; `server_ident` (B,) the servers'
         identities, which `cfg.serve_bias` reads, and with `receiver_ident` (B,) the
-        receivers', which `cfg.strike_bias` reads). -> (nxt, the launches' next two frames
+        receivers', which `cfg.strike_bias` reads; `returning` (B,) bool: the rallies whose
+        next contact is the return (only the serve struck so far), which `cfg.strike_return`
+        reads on a strike from the receiver's end). -> (nxt, the launches' next two frames
         (B, 2, 3))."""
         strike_h = None
         if self.strike_role is not None:
@@ -536,7 +545,8 @@ class SportsNGEN(nn.Module):
             def strike_shift(rows: torch.Tensor) -> torch.Tensor:
                 recv = strike_heads.ball_on_receivers_end(pos_m[rows])
                 hitter = torch.where(recv, receiver_ident[rows], server_ident[rows])
-                return self.strike_head_bias(hitter, recv)
+                ret = None if returning is None else recv & returning[rows]
+                return self.strike_head_bias(hitter, recv, ret)
         return strike_heads.place_strikes(self.strike_head, self.serve_head, h, pos_m, vel_mps,
                                           nxt, self.cfg.fps, generator, top_p, allowed, forced,
                                           top_p_serve, strike_h, serve_shift, strike_shift)

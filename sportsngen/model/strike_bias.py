@@ -76,12 +76,17 @@ _DIMS = (0, 1, 2)              # the strike dimension each kind shifts
 
 
 def strike_dim_bias(table: torch.Tensor, hitter_id: torch.Tensor, receiver: torch.Tensor,
-                    width: torch.Tensor | None = None) -> torch.Tensor:
+                    width: torch.Tensor | None = None, returns: torch.Tensor | None = None,
+                    returning: torch.Tensor | None = None) -> torch.Tensor:
     """The strike head's logit shifts for strikes of `hitter_id` (N,), who is the point's
     receiver where `receiver` (N,) bool, from `table` (n_ids, N_ROLES, N_KINDS) and the
     width's `width` (n_ids, N_ROLES) or None -> (N, 4, STRIKE_BINS): each kind's error bins
-    shifted, the lateral bins in play tilted by the width, the spin's dimension left alone."""
+    shifted, the lateral bins in play tilted by the width, the spin's dimension left alone.
+    With the returns' table `returns` (n_ids, N_KINDS) and `returning` (N,) bool (the strike
+    is the return), its row is added to the returns' shifts."""
     shift = table[hitter_id.long(), receiver.long()]                      # (N, N_KINDS)
+    if returns is not None and returning is not None:
+        shift = shift + returns[hitter_id.long()] * returning.to(shift.dtype)[:, None]
     out = torch.zeros(len(hitter_id), 4, strike.STRIKE_BINS, dtype=table.dtype,
                       device=table.device)
     for kind, dim in enumerate(_DIMS):

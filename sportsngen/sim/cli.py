@@ -141,6 +141,10 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
         kw["ball_net"] = bool(cfg.ball_net)
     if cfg.get("contact_reach_m") is not None:
         kw["contact_reach_m"] = float(cfg.contact_reach_m)
+    if cfg.get("strike_in_reach_return_m") is not None:
+        kw["strike_in_reach_return_m"] = float(cfg.strike_in_reach_return_m)
+    if cfg.get("return_reach_m") is not None:
+        kw["return_reach_m"] = float(cfg.return_reach_m)
     if cfg.get("keep_chasing") is not None:
         kw["keep_chasing"] = bool(cfg.keep_chasing)
     if cfg.get("top_p_contact") is not None:

@@ -114,15 +114,27 @@ class PhysicalLimits:
     1 - top-p of the probability, and receivers let serves they reach fly past; drawn at the
     model's own odds instead (`contact_odds`), 22.5 % of a fine-tune's rallies had a ball
     struck back from 2.5 m or more away (docs/evaluation.md). Rejecting only the impossible
-    contacts lets the possible ones happen at the model's rate."""
+    contacts lets the possible ones happen at the model's rate.
+
+    `return_reach_m` (with the rollout's rally `tracker`): the reach of the return, the contact
+    after the serve (the tracker's `n_shots` is 1), where it is not `reach_m`. The generator's
+    receivers return 0-17 % of the good serves that pass 1.5-1.8 m from them (they are late for
+    a serve), its rally players 86-96 % of such rally balls; at one reach for both, a check's
+    receivers returned half of those serves (docs/evaluation.md, thirty-fifth part)."""
 
     def __init__(self, ground_tol_m: float = 0.02, net_tol_m: float = 0.02,
                  max_tries: int = 20, reach_m: float | None = CONTACT_REACH_M,
-                 fps: float = 25.0):
+                 fps: float = 25.0, tracker=None, return_reach_m: float | None = None):
+        if return_reach_m is not None and (tracker is None or reach_m is None
+                                           or not return_reach_m > 0):
+            raise ValueError(f"return_reach_m needs a tracker and a reach_m and must be "
+                             f"positive, got {return_reach_m}")
         self.ground_tol_m = ground_tol_m
         self.fps = float(fps)
         self.net_tol_m = net_tol_m
         self.reach_m = reach_m
+        self.tracker = tracker
+        self.return_reach_m = None if return_reach_m is None else float(return_reach_m)
         self.max_tries = max_tries
         self.offset = 0
         self.given_up = 0
@@ -133,7 +145,7 @@ class PhysicalLimits:
         a, b = pos_m[:, BALL], next_pos_m[:, BALL]
         ok = b[:, 2] >= -self.ground_tol_m
         if self.reach_m is not None and vel_mps is not None:
-            ok &= ~self.struck_out_of_reach(pos_m, next_pos_m, vel_mps)
+            ok &= ~self.struck_out_of_reach(pos_m, next_pos_m, vel_mps, self._reach(rows, b))
         crossed = (a[:, 0] * b[:, 0]) < 0
         if bool(crossed.any()):
             frac = a[:, 0] / (a[:, 0] - b[:, 0] + 1e-12)
@@ -142,18 +154,29 @@ class PhysicalLimits:
             ok &= ~crossed | (z >= net_cord_m(y) - self.net_tol_m)
         return ok
 
+    def _reach(self, rows: np.ndarray, ball: torch.Tensor) -> torch.Tensor | float:
+        """The reach of each row's next contact: `return_reach_m` where it is the return."""
+        if self.return_reach_m is None:
+            return self.reach_m
+        is_return = torch.as_tensor(self.tracker.n_shots[np.asarray(rows)] == 1,
+                                    device=ball.device)
+        return torch.where(is_return, self.return_reach_m, self.reach_m).to(ball.dtype)
+
     def struck_out_of_reach(self, pos_m: torch.Tensor, next_pos_m: torch.Tensor,
-                            vel_mps: torch.Tensor) -> torch.Tensor:
-        """(B,) bool: away from the net, with no player within `reach_m` of the ball or the
-        ball above `CONTACT_MAX_Z_M`, the sampled frame reverses the ball along x (each way at
-        least the rules' `SHOT_MIN_VX_MPS`) or, in the air, changes its velocity as only
-        something solid can (`jolted`)."""
+                            vel_mps: torch.Tensor,
+                            reach_m: torch.Tensor | float | None = None) -> torch.Tensor:
+        """(B,) bool: away from the net, with no player within `reach_m` of the ball (default
+        the constraint's; a tensor (B,) per row) or the ball above `CONTACT_MAX_Z_M`, the
+        sampled frame reverses the ball along x (each way at least the rules'
+        `SHOT_MIN_VX_MPS`) or, in the air, changes its velocity as only something solid can
+        (`jolted`)."""
+        reach_m = self.reach_m if reach_m is None else reach_m
         ball = pos_m[:, BALL]
         vx_in = vel_mps[:, BALL, 0]
         vx_out = (next_pos_m[:, BALL, 0] - ball[:, 0]) * self.fps
         reverse = reverses(vx_in, vx_out) | self.jolted(pos_m, next_pos_m, vel_mps)
         gap = torch.linalg.vector_norm(pos_m[:, :BALL, :2] - ball[:, None, :2], dim=-1)
-        near = (gap.min(dim=1).values <= self.reach_m) & (ball[:, 2] <= CONTACT_MAX_Z_M)
+        near = (gap.min(dim=1).values <= reach_m) & (ball[:, 2] <= CONTACT_MAX_Z_M)
         return reverse & ~near & (ball[:, 0].abs() >= NET_ZONE_M)
 
     def jolted(self, pos_m: torch.Tensor, next_pos_m: torch.Tensor,
@@ -217,6 +240,10 @@ class StrikeInReach:
     the serve and the return to the model and makes the servers' failures at rally lengths 2,
     4 and 6 the truth's (docs/evaluation.md, eleventh part).
 
+    `return_reach_m`: the reach for the return (the contact after the serve), where it is not
+    `reach_m`: the generator's receivers return 87-93 % of the good serves that pass 1.2-1.5 m
+    from them, all nearer ones (docs/evaluation.md, thirty-fifth part).
+
     `force`: where the rule gives up (no draw in `2 * max_tries` keeps the ball in reach or
     strikes it), the ball is struck anyway from where it is, by the model's strike head
     (`strike_rows` names the rows; the rollout places the strike). Without it the pass stands:
@@ -226,7 +253,7 @@ class StrikeInReach:
     def __init__(self, tracker, reach_m: float = STRIKE_REACH_M, max_z_m: float = STRIKE_MAX_Z_M,
                  max_tries: int = 20, fps: float = 25.0, from_shot: int = 1,
                  force: bool = False, min_z_m: float | None = STRIKE_MIN_Z_M,
-                 behind_m: float | None = None):
+                 behind_m: float | None = None, return_reach_m: float | None = None):
         if not reach_m > 0 or not max_z_m > 0:
             raise ValueError(f"reach_m and max_z_m must be positive, got {reach_m}, {max_z_m}")
         if min_z_m is not None and not 0 <= min_z_m < max_z_m:
@@ -240,6 +267,9 @@ class StrikeInReach:
         self.from_shot = int(from_shot)
         self.tracker = tracker
         self.reach_m = float(reach_m)
+        if return_reach_m is not None and not return_reach_m > 0:
+            raise ValueError(f"return_reach_m must be positive, got {return_reach_m}")
+        self.return_reach_m = None if return_reach_m is None else float(return_reach_m)
         self.max_z_m = float(max_z_m)
         self.max_tries = max_tries
         self.fps = float(fps)
@@ -263,12 +293,18 @@ class StrikeInReach:
             return torch.ones(len(rows), dtype=torch.bool, device=pos_m.device)
         end = np.where(role == 0, 1, -1) * self.tracker.server_end[rows]
         dev = pos_m.device
+        reach = None
+        if self.return_reach_m is not None:
+            reach = torch.as_tensor(np.where(self.tracker.n_shots[rows] == 1,
+                                             self.return_reach_m, self.reach_m),
+                                    device=dev, dtype=pos_m.dtype)
         return ~(torch.as_tensor(due, device=dev) & self.passes(
             pos_m, next_pos_m, torch.as_tensor(role, device=dev),
-            torch.as_tensor(end, device=dev, dtype=pos_m.dtype), vel_mps))
+            torch.as_tensor(end, device=dev, dtype=pos_m.dtype), vel_mps, reach))
 
     def passes(self, pos_m: torch.Tensor, next_pos_m: torch.Tensor, role: torch.Tensor,
-               end: torch.Tensor, vel_mps: torch.Tensor | None = None) -> torch.Tensor:
+               end: torch.Tensor, vel_mps: torch.Tensor | None = None,
+               reach_m: torch.Tensor | None = None) -> torch.Tensor:
         """(B,) bool: between `pos_m` and `next_pos_m` (B, 3, 3) the ball leaves the reach of
         player `role` (B,), whose baseline is at sign `end` (B,) of x, without being sent back
         toward the net, or (given the velocities `vel_mps`) is jolted in his reach without
@@ -282,14 +318,16 @@ class StrikeInReach:
         thirty-fourth part), or (`behind_m` not None) is further than `behind_m` behind him
         (toward his back fence) in the sampled frame. Within reach: horizontally within
         `reach_m` and no higher than `max_z_m`; leaving: horizontally beyond `reach_m` in the
-        sampled frame (a ball rising above a racket is left to come down)."""
+        sampled frame (a ball rising above a racket is left to come down). `reach_m` (B,): each
+        row's reach where it is not the rule's."""
+        reach = self.reach_m if reach_m is None else reach_m
         i = torch.arange(len(pos_m), device=pos_m.device)
         ball0, ball1 = pos_m[:, BALL], next_pos_m[:, BALL]
         gap0 = torch.linalg.vector_norm(ball0[:, :2] - pos_m[i, role, :2], dim=-1)
         gap1 = torch.linalg.vector_norm(ball1[:, :2] - next_pos_m[i, role, :2], dim=-1)
-        inside = (gap0 <= self.reach_m) & (ball0[:, 2] <= self.max_z_m)
+        inside = (gap0 <= reach) & (ball0[:, 2] <= self.max_z_m)
         sent_back = (ball1[:, 0] - ball0[:, 0]) * self.fps * end < -SHOT_MIN_VX_MPS
-        leaves = gap1 > self.reach_m
+        leaves = gap1 > reach
         if vel_mps is not None:
             leaves = leaves | ball_jolted(pos_m, next_pos_m, vel_mps, self.fps)
         if self.min_z_m is not None:

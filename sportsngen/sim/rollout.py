@@ -158,7 +158,8 @@ def _follow_strikes(model: SportsNGEN, h: torch.Tensor, pos: torch.Tensor, vel: 
                     forced: np.ndarray | None = None, top_p_serve: float = 1.0,
                     serve: torch.Tensor | None = None,
                     server_ident: torch.Tensor | None = None,
-                    receiver_ident: torch.Tensor | None = None
+                    receiver_ident: torch.Tensor | None = None,
+                    returning: torch.Tensor | None = None
                     ) -> tuple[torch.Tensor, torch.Tensor]:
     """With a strike head: a ball in the frames after its strike flies the launch solved at the
     strike (`plan`, (B, 2, 3), NaN where none), so the physics centre reads the strike's spin
@@ -167,7 +168,8 @@ def _follow_strikes(model: SportsNGEN, h: torch.Tensor, pos: torch.Tensor, vel: 
     (nucleus `top_p_serve`). `serve` (B,): the rallies' serve (0 first, 1 second), which a
     strike head with `cfg.strike_roles` reads, and with `server_ident` (B,) a serve head's
     per-server shift (`cfg.serve_bias`), with `receiver_ident` (B,) too the strike head's
-    per-hitter shift (`cfg.strike_bias`)."""
+    per-hitter shift (`cfg.strike_bias`), with `returning` (B,) bool (only the serve struck
+    so far) the returns' (`cfg.strike_return`)."""
     planned = ~torch.isnan(plan[:, 0, 0])
     if bool(planned.any()):
         nxt = nxt.clone()
@@ -177,7 +179,8 @@ def _follow_strikes(model: SportsNGEN, h: torch.Tensor, pos: torch.Tensor, vel: 
                                                                            device=nxt.device)
     nxt, new = model.place_strikes(h, pos, vel, nxt, generator, allowed=~planned, forced=force,
                                    top_p_serve=top_p_serve, serve=serve,
-                                   server_ident=server_ident, receiver_ident=receiver_ident)
+                                   server_ident=server_ident, receiver_ident=receiver_ident,
+                                   returning=returning)
     return nxt, torch.where(torch.isnan(new[:, :1, :1]), plan, new)
 
 
@@ -343,8 +346,12 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                 if model.strike_head is not None:
                     forced_strikes[alive] += forced
             if model.strike_head is not None or model.serve_head is not None:
+                shots = getattr(tracker, "n_shots", None)
+                returning = None if shots is None else \
+                    torch.as_tensor(np.asarray(shots)[alive] == 1, device=dev)
                 nxt, plan = _follow_strikes(model, h, pos, vel, nxt, plan, generator, forced,
-                                            top_p_serve, serve, ident[:, 0], ident[:, 1])
+                                            top_p_serve, serve, ident[:, 0], ident[:, 1],
+                                            returning)
             hist[:, n] = nxt
             nxt_np = nxt.cpu().numpy()
             out[alive, n] = nxt_np

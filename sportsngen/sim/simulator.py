@@ -117,7 +117,9 @@ class Simulator:
                  strike_in_reach_from: int = 1, strike_in_reach_force: bool = False,
                  top_p_serve: float = 1.0, strike_in_reach_m: float = STRIKE_REACH_M,
                  ball_net: bool | None = None, keep_chasing: bool = False,
-                 contact_reach_m: float = CONTACT_REACH_M):
+                 contact_reach_m: float = CONTACT_REACH_M,
+                 return_reach_m: float | None = None,
+                 strike_in_reach_return_m: float | None = None):
         if abs(initial.fps - model.cfg.fps) > 1e-6:
             raise ValueError(f"initial conditions at {initial.fps} Hz, model at {model.cfg.fps}")
         for name, p in (("top_p_player", top_p_player), ("top_p_ball", top_p_ball),
@@ -161,6 +163,12 @@ class Simulator:
         if not float(strike_in_reach_m) > 0:
             raise ArgumentError(f"strike_in_reach_m must be positive, got {strike_in_reach_m!r}")
         self.strike_in_reach_m = float(strike_in_reach_m)
+        # ... and the return's (None: the same).
+        if strike_in_reach_return_m is not None and not float(strike_in_reach_return_m) > 0:
+            raise ArgumentError(f"strike_in_reach_return_m must be positive, got "
+                                f"{strike_in_reach_return_m!r}")
+        self.strike_in_reach_return_m = None if strike_in_reach_return_m is None \
+            else float(strike_in_reach_return_m)
         # With physical limits: a racket contact needs a player within this distance of the
         # ball (horizontally; `PhysicalLimits`). The rules' 2.5 m by default; the generator's
         # players return within 1.82 m and strike 99.3 % of rally balls within 1.8 m
@@ -168,6 +176,10 @@ class Simulator:
         if not float(contact_reach_m) > 0:
             raise ArgumentError(f"contact_reach_m must be positive, got {contact_reach_m!r}")
         self.contact_reach_m = float(contact_reach_m)
+        # ... and the return (the contact after the serve) one within this (None: the same).
+        if return_reach_m is not None and not float(return_reach_m) > 0:
+            raise ArgumentError(f"return_reach_m must be positive, got {return_reach_m!r}")
+        self.return_reach_m = None if return_reach_m is None else float(return_reach_m)
         # The player due to play the ball does not slow down while he is late for it
         # (`KeepChasing`).
         self.keep_chasing = bool(keep_chasing)
@@ -281,11 +293,13 @@ class Simulator:
                                   init_pos_m[lo:lo + self.batch_size])
             tracker = RallyTracker(part["server_end"].to_numpy(), part["side"].to_numpy(),
                                    part["serve_number"].to_numpy(), self.fps, duration_s)
-            limits = PhysicalLimits(fps=self.fps, reach_m=self.contact_reach_m) \
+            limits = PhysicalLimits(fps=self.fps, reach_m=self.contact_reach_m,
+                                    tracker=tracker, return_reach_m=self.return_reach_m) \
                 if self.physical_limits else None
             strike = StrikeInReach(tracker, reach_m=self.strike_in_reach_m, fps=self.fps,
                                    from_shot=self.strike_in_reach_from,
-                                   force=self.strike_in_reach_force) \
+                                   force=self.strike_in_reach_force,
+                                   return_reach_m=self.strike_in_reach_return_m) \
                 if self.strike_in_reach else None
             chase = KeepChasing(tracker, fps=self.fps) if self.keep_chasing else None
             con = AllOf(limits, strike, chase, constraint) \

@@ -68,6 +68,15 @@ class HeadStates:
                              "collect_head_states)")
         return np.where(self.receiver, self.receiver_id, self.server_id)
 
+    def returns(self) -> np.ndarray:
+        """(N,) bool: the returns among rally strikes read in order (`collect_head_states`
+        reads each rally's windows in turn, its strikes in time): a rally's first strike, where
+        the receiver struck it. A rally whose return was not a target (its next frames cut by
+        the window) has none, rather than a later strike taken for it."""
+        first = np.ones(len(self.rally_id), dtype=bool)
+        first[1:] = self.rally_id[1:] != self.rally_id[:-1]
+        return first & self.receiver.astype(bool)
+
 
 def _head(model: SportsNGEN, which: str):
     if which not in HEADS:

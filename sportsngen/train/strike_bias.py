@@ -133,11 +133,70 @@ def fit_strike_width(model: SportsNGEN, states: HeadStates, prior_strikes: float
     return pd.DataFrame(rows)
 
 
+def with_strike_return(model: SportsNGEN) -> SportsNGEN:
+    """`model` (with the error table) with the returns' table added (`cfg.strike_return`), at
+    zero: it draws as before until `fit_strike_return` fills it. -> a new model."""
+    return with_flag(model, "strike_return", ["strike_return"])
+
+
+@torch.no_grad()
+def fit_strike_return(model: SportsNGEN, states: HeadStates, returns: np.ndarray,
+                      prior_strikes: float = 200.0, min_strikes: int = 50) -> pd.DataFrame:
+    """Split each receiver's error shifts (in place): his receiving role's shifts refitted on
+    his recorded strikes that are not returns, then the returns' table (`model.strike_return`)
+    fitted on his returns (`returns` (N,) bool over `states`; `HeadStates.returns`) on top of
+    them, each by matching as `fit_strike_bias` (the lateral odds with his width's tilt where
+    the model has one). The servers' shifts are left alone. -> per (hitter_id, return): n,
+    and per kind the record's share, the head's before, the target, after and the shift."""
+    if model.strike_bias is None or model.strike_return is None:
+        raise ValueError("the model has no returns' table (cfg.strike_return): add it with "
+                         "with_strike_return after fit_strike_bias")
+    if len(returns) != len(states):
+        raise ValueError(f"returns has {len(returns)} rows, the states {len(states)}")
+    if prior_strikes < 0 or min_strikes < 1:
+        raise ValueError(f"prior_strikes must be >= 0 and min_strikes >= 1, got "
+                         f"{prior_strikes} and {min_strikes}")
+    head = model.strike_head
+    masks = torch.as_tensor(strike_bias.error_bins())
+    tilt = torch.as_tensor(strike_bias.width_tilt(), dtype=states.h.dtype)
+    keys = pd.DataFrame({"hitter_id": states.hitter_id(), "receiver": states.receiver,
+                         "is_return": np.asarray(returns, dtype=bool) & states.receiver})
+    rows = []
+    # Per hitter his other strikes come first (False sorts first), so a return's fit starts
+    # from his refitted receiving shifts.
+    for (hid, ret), g in keys[keys["receiver"]].groupby(["hitter_id", "is_return"]):
+        if len(g) < min_strikes:
+            continue
+        hid, ret = int(hid), bool(ret)
+        i = torch.as_tensor(g.index.to_numpy(copy=True))
+        x, bins = head_inputs(model, "strike", states, i), states.bins[i]
+        n = len(i)
+        row = {"hitter_id": hid, "is_return": ret, "n": n}
+        for kind, name in enumerate(KINDS):
+            logits = head.dim_logits(x, bins, kind)
+            if kind == strike_bias.WIDE and model.strike_width is not None:
+                logits = logits + model.strike_width[hid, 1] * tilt
+            mask = masks[kind].expand(n, -1)
+            weight = mask.to(logits.dtype)
+            if ret:
+                logits = logits + model.strike_bias[hid, 1, kind] * weight
+            record = float(masks[kind][bins[:, kind]].float().mean())
+            fit = matched_shift(logits, mask, weight, record, prior_strikes)
+            if ret:
+                model.strike_return[hid, kind] = fit["shift"]
+            else:
+                model.strike_bias[hid, 1, kind] = fit["shift"]
+            row.update({f"{name}_{k}": v for k, v in fit.items()})
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
 def error_shares(table: pd.DataFrame) -> pd.DataFrame:
-    """`fit_strike_bias`'s table -> per row the share of strikes in error (long, or else wide,
-    or else into the net) by the record, the head before and after, the kinds taken as
-    independent (the head draws them one after another): a summary to print."""
-    out = table[["hitter_id", "receiver", "n"]].copy()
+    """`fit_strike_bias`'s (or `fit_strike_return`'s) table -> per row the share of strikes in
+    error (long, or else wide, or else into the net) by the record, the head before and after,
+    the kinds taken as independent (the head draws them one after another): a summary to
+    print."""
+    out = table[[c for c in ("hitter_id", "receiver", "is_return", "n") if c in table]].copy()
     for when in ("record", "head", "after"):
         keep = np.ones(len(table))
         for name in KINDS:
