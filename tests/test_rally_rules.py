@@ -19,6 +19,7 @@ from sportsngen.tennis.rally import (
     CHECKS,
     RallyTracker,
     analyse_rallies,
+    awaiting_return,
     end_class,
 )
 
@@ -386,3 +387,19 @@ def test_agreement_with_the_generator():
     assert (res["end_detail"] == r["end_detail"]).mean() >= 0.95
     assert (res["n_shots"] == n_shots).mean() >= 0.95
     assert res["ended"].all()
+
+
+def test_the_return_is_awaited_from_the_serve_until_the_receiver_strikes():
+    """`awaiting_return` on the tracker's count: before the serve no, between the serve and the
+    return yes, after the return no (the rollout's returns' tables and reaches read it)."""
+    pos = rally_return(GOOD_RETURN)
+    tracker = RallyTracker([1], ["deuce"], [1], FPS)
+    seen = []
+    for k in range(len(pos)):
+        tracker.update(pos[k][None])
+        seen.append(bool(awaiting_return(tracker.n_shots)[0]))
+    serve_f, return_f = round(TOSS_S * FPS), round(RETURN_AT * FPS)
+    assert not any(seen[:serve_f])
+    assert all(seen[serve_f + 3:return_f])
+    assert not any(seen[return_f + 3:])
+    assert awaiting_return(np.array([0, 1, 2, 3])).tolist() == [False, True, False, False]

@@ -30,6 +30,7 @@ from sportsngen.tennis.rally import (
     CONTACT_REACH_M,
     NET_ZONE_M,
     SHOT_MIN_VX_MPS,
+    awaiting_return,
 )
 
 BALL = 2
@@ -158,7 +159,7 @@ class PhysicalLimits:
         """The reach of each row's next contact: `return_reach_m` where it is the return."""
         if self.return_reach_m is None:
             return self.reach_m
-        is_return = torch.as_tensor(self.tracker.n_shots[np.asarray(rows)] == 1,
+        is_return = torch.as_tensor(awaiting_return(self.tracker.n_shots[np.asarray(rows)]),
                                     device=ball.device)
         return torch.where(is_return, self.return_reach_m, self.reach_m).to(ball.dtype)
 
@@ -295,7 +296,7 @@ class StrikeInReach:
         dev = pos_m.device
         reach = None
         if self.return_reach_m is not None:
-            reach = torch.as_tensor(np.where(self.tracker.n_shots[rows] == 1,
+            reach = torch.as_tensor(np.where(awaiting_return(self.tracker.n_shots[rows]),
                                              self.return_reach_m, self.reach_m),
                                     device=dev, dtype=pos_m.dtype)
         return ~(torch.as_tensor(due, device=dev) & self.passes(

@@ -31,6 +31,7 @@ from tqdm.auto import tqdm
 from sportsngen.data.tokens import BALL, object_features
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.model.receiver_start import receiver_waiting, wait_frames
+from sportsngen.tennis.rally import awaiting_return
 
 MODES = ("cache", "recompute", "window")
 # Up to this many rallies a rollout runs on one CPU thread: a step is then ~100 tiny operations
@@ -348,7 +349,7 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             if model.strike_head is not None or model.serve_head is not None:
                 shots = getattr(tracker, "n_shots", None)
                 returning = None if shots is None else \
-                    torch.as_tensor(np.asarray(shots)[alive] == 1, device=dev)
+                    torch.as_tensor(awaiting_return(np.asarray(shots)[alive]), device=dev)
                 nxt, plan = _follow_strikes(model, h, pos, vel, nxt, plan, generator, forced,
                                             top_p_serve, serve, ident[:, 0], ident[:, 1],
                                             returning)

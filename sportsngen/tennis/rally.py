@@ -161,6 +161,12 @@ def _bounce_point(p_a, p_b, p_c, fps: float) -> tuple[np.ndarray, np.ndarray, np
     return at[:, 0], at[:, 1], s
 
 
+def awaiting_return(n_shots: np.ndarray) -> np.ndarray:
+    """(N,) bool: rallies whose next contact is the return, from their contacts so far
+    (`RallyTracker.n_shots`: only the serve struck)."""
+    return np.asarray(n_shots) == 1
+
+
 class RallyTracker:
     """Incremental rally-end rules for B rallies (see the module doc).
 
