@@ -120,7 +120,7 @@ class PhysicalLimits:
     `return_reach_m` (with the rollout's rally `tracker`): the reach of the return, the contact
     after the serve (the tracker's `n_shots` is 1), where it is not `reach_m`. The generator's
     receivers return 0-17 % of the good serves that pass 1.5-1.8 m from them (they are late for
-    a serve), its rally players 86-96 % of such rally balls; at one reach for both, a check's
+    a serve), its rally players 76-96 % of such rally balls; at one reach for both, a check's
     receivers returned half of those serves (docs/evaluation.md, thirty-fifth part)."""
 
     def __init__(self, ground_tol_m: float = 0.02, net_tol_m: float = 0.02,
