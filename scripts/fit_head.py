@@ -20,7 +20,6 @@ from __future__ import annotations
 import argparse
 import json
 import time
-from pathlib import Path
 
 import torch
 
@@ -30,7 +29,13 @@ from sportsngen.sim.simulator import Simulator, model_path
 from sportsngen.train.datamodule import load_rally_data, split_rallies
 from sportsngen.train.evaluate import data_config
 from sportsngen.train.finetune import with_strike_roles
-from sportsngen.train.head_fit import HEADS, HeadStates, collect_head_states, fit_head
+from sportsngen.train.head_fit import (
+    HEADS,
+    HeadStates,
+    cached_states,
+    collect_head_states,
+    fit_head,
+)
 from sportsngen.train.own_states import own_serve_states
 
 
@@ -120,21 +125,14 @@ def main() -> None:
         key["more_data"] = args.more_data
     if args.own_serves:       # (caches written before the option keep their key)
         key.update(own_serves=True, seed=args.seed)
-    if args.states and Path(args.states).exists():
-        cached = torch.load(args.states, weights_only=False)
-        if cached["key"] != key:
-            raise SystemExit(f"{args.states} holds states read with {cached['key']}, not "
-                             f"{key}: remove it or name another file")
-        tr, va = cached["train"], cached["val"]
-        print(f"{len(tr)} training and {len(va)} validation {args.head} targets read from "
-              f"{args.states}")
-    else:
-        tr, va = _read_states(model, vocab, split, args)
-        print(f"{len(tr)} training and {len(va)} validation {args.head} targets "
-              f"({time.time() - t0:.0f} s)")
-        if args.states:
-            Path(args.states).parent.mkdir(parents=True, exist_ok=True)
-            torch.save({"key": key, "train": tr, "val": va}, args.states)
+    try:
+        states, cached = cached_states(args.states, key, lambda: dict(zip(
+            ("train", "val"), _read_states(model, vocab, split, args))))
+    except ValueError as exc:
+        raise SystemExit(str(exc)) from None
+    tr, va = states["train"], states["val"]
+    print(f"{len(tr)} training and {len(va)} validation {args.head} targets "
+          + (f"read from {args.states}" if cached else f"({time.time() - t0:.0f} s)"))
     t0 = time.time()
     history = fit_head(model, args.head, tr, va, steps=args.steps, lr=args.lr,
                        batch_size=args.batch_size, eval_every=args.eval_every, seed=args.seed)

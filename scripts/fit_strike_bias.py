@@ -18,12 +18,9 @@ the file is copied unchanged.
 from __future__ import annotations
 
 import time
-from pathlib import Path
-
-import torch
 
 from sportsngen.data.tokens import N_SPECIAL_IDS
-from sportsngen.train.head_fit import HeadStates, collect_head_states
+from sportsngen.train.head_fit import HeadStates, cached_states, collect_head_states
 from sportsngen.train.strike_bias import (
     error_shares,
     fit_strike_bias,
@@ -38,19 +35,18 @@ from sportsngen.train.table_cli import open_table_run, table_parser
 
 def _read_states(model, run, args) -> HeadStates:
     """The decoder's states at the split's rally strikes, from `args.states` where it holds
-    them for this file and data, else read (and kept there)."""
-    key = f"{run.path.resolve()}|{args.more_data}"
-    if args.states and Path(args.states).exists():
-        cached = torch.load(args.states, weights_only=False)
-        if cached["key"] != key:
-            raise SystemExit(f"{args.states} holds states read with {cached['key']}, not {key}")
-        print(f"{len(cached['states'])} recorded rally strikes from {args.states}")
-        return cached["states"]
+    them for this file and data, else read (and kept there: `head_fit.cached_states`)."""
     t0 = time.time()
-    states = HeadStates.concat([collect_head_states(model, a, "strike") for a in run.arrays])
-    print(f"{len(states)} recorded rally strikes read ({time.time() - t0:.0f} s)")
-    if args.states:
-        torch.save({"key": key, "states": states}, args.states)
+    try:
+        got, cached = cached_states(
+            args.states, f"{run.path.resolve()}|{args.more_data}",
+            lambda: {"states": HeadStates.concat([collect_head_states(model, a, "strike")
+                                                  for a in run.arrays])})
+    except ValueError as exc:
+        raise SystemExit(str(exc)) from None
+    states = got["states"]
+    print(f"{len(states)} recorded rally strikes "
+          + (f"from {args.states}" if cached else f"read ({time.time() - t0:.0f} s)"))
     return states
 
 

@@ -8,7 +8,7 @@ from torch.utils.data import default_collate
 from sportsngen.data.tokens import BALL, Vocab, WindowDataset, flip_xy, rally_arrays
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.decoder import SportsNGEN
-from sportsngen.train.head_fit import collect_head_states, fit_head, head_nll
+from sportsngen.train.head_fit import cached_states, collect_head_states, fit_head, head_nll
 from sportsngen.train.metrics import window_states
 
 
@@ -188,3 +188,22 @@ def test_own_serve_states_pair_the_models_own_serve_with_the_records_serve(
         assert torch.equal(own.bins[i], record.bins[j]) and own.serve[i] == record.serve[j]
         same = torch.allclose(own.h[i], record.h[j], atol=1e-5)
         assert same == (rid != a), rid
+
+
+def test_states_are_read_once_and_kept_under_the_key_they_were_read_with(tmp_path):
+    calls = []
+
+    def read():
+        calls.append(1)
+        return {"train": torch.arange(3), "val": torch.arange(2)}
+
+    path = tmp_path / "sub" / "states.pt"
+    got, cached = cached_states(path, {"model": "a"}, read)
+    assert not cached and len(calls) == 1 and path.exists()
+    again, cached = cached_states(path, {"model": "a"}, read)
+    assert cached and len(calls) == 1
+    assert again["train"].tolist() == [0, 1, 2] and again["val"].tolist() == [0, 1]
+    with pytest.raises(ValueError, match="remove it"):
+        cached_states(path, {"model": "b"}, read)
+    none, cached = cached_states(None, "k", read)          # no path: read every time
+    assert not cached and len(calls) == 2 and set(none) == {"train", "val"}

@@ -348,7 +348,7 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                     forced_strikes[alive] += forced
             if model.strike_head is not None or model.serve_head is not None:
                 shots = getattr(tracker, "n_shots", None)
-                returning = None if shots is None else \
+                returning = None if shots is None or model.strike_return is None else \
                     torch.as_tensor(awaiting_return(np.asarray(shots)[alive]), device=dev)
                 nxt, plan = _follow_strikes(model, h, pos, vel, nxt, plan, generator, forced,
                                             top_p_serve, serve, ident[:, 0], ident[:, 1],

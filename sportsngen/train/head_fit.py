@@ -16,7 +16,9 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -111,6 +113,25 @@ def cut_batch(batch: dict, t: int) -> dict:
     """A batch's windows cut after their first `t` frames: a frame's states see only the
     frames up to it, so the decoder need run no further than the last frame read."""
     return {k: v[:, :t] if k in _PER_FRAME else v for k, v in batch.items()}
+
+
+def cached_states(path: str | Path | None, key, read: Callable[[], dict]) -> tuple[dict, bool]:
+    """`read()`'s states (a dict of `HeadStates` and the like), kept in `path` with `key`
+    (what they were read with): read from `path` where it holds them for `key` (a file read
+    with another key is refused: `ValueError`), else read and, with a `path`, kept there.
+    The decoder's states take minutes to read and seconds to fit on. -> (the states, whether
+    they came from `path`)."""
+    if path is not None and Path(path).exists():
+        cached = torch.load(path, weights_only=False)
+        if cached.get("key") != key:
+            raise ValueError(f"{path} holds states read with {cached.get('key')}, not {key}: "
+                             "remove it or name another file")
+        return {k: v for k, v in cached.items() if k != "key"}, True
+    states = read()
+    if path is not None:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        torch.save({"key": key, **states}, path)
+    return states, False
 
 
 @torch.no_grad()
