@@ -28,6 +28,8 @@ def test_each_flag_becomes_its_simulator_argument():
         "strike_in_reach": True, "strike_in_reach_from": 2, "strike_in_reach_force": True,
         "strike_in_reach_m": 1.5, "ball_net": True, "contact_reach_m": 1.8}
     assert sampling_kwargs(_parse("--no-ball-net")) == {"ball_net": False}
+    assert sampling_kwargs(_parse("--physical-bounce")) == {"physical_bounce": True}
+    assert sampling_kwargs(_parse("--no-physical-bounce")) == {"physical_bounce": False}
 
 
 @pytest.mark.parametrize("argv, match", [

@@ -11,7 +11,7 @@ from sportsngen.errors import ArgumentError
 _NUCLEI = ("top_p_ball", "top_p_contact", "top_p_serve")
 _FLAGS = ("contact_odds", "strike_in_reach", "strike_in_reach_from", "strike_in_reach_force",
           "strike_in_reach_m", "ball_net", "keep_chasing", "contact_reach_m",
-          "return_reach_m", "strike_in_reach_return_m")
+          "return_reach_m", "strike_in_reach_return_m", "physical_bounce")
 
 
 def add_sampling_options(parser: argparse.ArgumentParser) -> None:
@@ -54,6 +54,10 @@ def add_sampling_options(parser: argparse.ArgumentParser) -> None:
                         help="with physical limits, the return (the contact after the serve) "
                              "needs the receiver within this distance of the ball (m, "
                              "horizontally; default: the model file's, else the contact's)")
+    parser.add_argument("--physical-bounce", action=argparse.BooleanOptionalAction,
+                        default=None,
+                        help="the ball's bounces are the surface's physics, not the model's "
+                             "draw (default: the model file's, else off)")
     parser.add_argument("--ball-net", action=argparse.BooleanOptionalAction, default=None,
                         help="the ball's physics centre meets the net (default: the model "
                              "file's, else as it was trained)")

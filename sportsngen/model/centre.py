@@ -101,7 +101,7 @@ def ball_acceleration_mps2(vel_mps: torch.Tensor, prev_vel_mps: torch.Tensor | N
     return torch.where(flight, at_t + lift, base)
 
 
-def _lift_direction(vel_mps: torch.Tensor) -> torch.Tensor:
+def lift_direction(vel_mps: torch.Tensor) -> torch.Tensor:
     """(..., 3) the direction Magnus lift takes for a ball spinning about its horizontal axis
     across the flight: perpendicular to the velocity, in its vertical plane, |v| long."""
     vu = torch.linalg.vector_norm(vel_mps[..., :2], dim=-1, keepdim=True)
@@ -113,7 +113,7 @@ def turned_lift_mps2(lift_mps2: torch.Tensor, prev_vel_mps: torch.Tensor,
                      vel_mps: torch.Tensor) -> torch.Tensor:
     """The lift read between `prev_vel_mps` and `vel_mps`, carried on a frame: its part along
     the velocity is dropped, its part across the flight in the velocity's vertical plane
-    (`_lift_direction`) turns with the velocity, its size in proportion to |v|, and the rest
+    (`lift_direction`) turns with the velocity, its size in proportion to |v|, and the rest
     (sideways) is kept.
     The generator's Magnus, k |v|^2 c / (2 |spin| + |v|) with c from the spin, is
     perpendicular to the velocity and close to proportional to |v| at rally speeds. Carried
@@ -131,9 +131,9 @@ def turned_lift_mps2(lift_mps2: torch.Tensor, prev_vel_mps: torch.Tensor,
     mid2 = (mid * mid).sum(-1, keepdim=True).clamp_min(1e-6)
     lift = lift_mps2 - (lift_mps2 * mid).sum(-1, keepdim=True) / mid2 * mid
     v2_prev = (prev_vel_mps * prev_vel_mps).sum(-1, keepdim=True).clamp_min(1e-6)
-    d_prev = _lift_direction(prev_vel_mps)
+    d_prev = lift_direction(prev_vel_mps)
     across = (lift * d_prev).sum(-1, keepdim=True) / v2_prev
-    return lift - across * d_prev + across * _lift_direction(vel_mps)
+    return lift - across * d_prev + across * lift_direction(vel_mps)
 
 
 def net_cord_m(y_m: torch.Tensor) -> torch.Tensor:

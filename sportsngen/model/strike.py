@@ -103,7 +103,7 @@ def _gravity_drag(v: np.ndarray) -> np.ndarray:
 
 
 def _lift_direction(v: np.ndarray) -> np.ndarray:
-    """Across the flight in its vertical plane, |v| long (as `centre._lift_direction`)."""
+    """Across the flight in its vertical plane, |v| long (as `centre.lift_direction`)."""
     vu = np.linalg.norm(v[..., :2], axis=-1, keepdims=True)
     u_hat = v[..., :2] / np.maximum(vu, 1e-6)
     return np.concatenate([-v[..., 2:3] * u_hat, vu], axis=-1)

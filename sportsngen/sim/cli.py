@@ -145,6 +145,8 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
         kw["strike_in_reach_return_m"] = float(cfg.strike_in_reach_return_m)
     if cfg.get("return_reach_m") is not None:
         kw["return_reach_m"] = float(cfg.return_reach_m)
+    if cfg.get("physical_bounce") is not None:
+        kw["physical_bounce"] = bool(cfg.physical_bounce)
     if cfg.get("keep_chasing") is not None:
         kw["keep_chasing"] = bool(cfg.keep_chasing)
     if cfg.get("top_p_contact") is not None:

@@ -31,6 +31,7 @@ from tqdm.auto import tqdm
 from sportsngen.data.tokens import BALL, object_features
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.model.receiver_start import receiver_waiting, wait_frames
+from sportsngen.sim.bounce import place_bounces
 from sportsngen.tennis.rally import awaiting_return
 
 MODES = ("cache", "recompute", "window")
@@ -230,7 +231,8 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             generator: torch.Generator | None = None, mode: str = "cache",
             progress: bool = False, constraint: Constraint | None = None,
             contact_odds: bool = False, top_p_contact: float | None = None,
-            refresh_frames: int | None = None, top_p_serve: float = 1.0) -> Rollout:
+            refresh_frames: int | None = None, top_p_serve: float = 1.0,
+            bounce_surfaces: np.ndarray | None = None) -> Rollout:
     """Roll `inputs` forward until the tracker ends each rally or it has `max_frames` frames.
 
     The tracker sees every frame of every rally in order, the initial ones included, and
@@ -245,7 +247,9 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
     alone, so the next tokens read the rally as training windows do; without it the band's
     lower layers reach back over the whole rally (`sportsngen.eval.long_rallies`). 1 is the
     "window" mode's view at the cost of a window's pass a frame. `top_p_serve`: the serve head's
-    nucleus, with one (`SportsNGEN.place_strikes`). Cached rollouts of up to
+    nucleus, with one (`SportsNGEN.place_strikes`). `bounce_surfaces` (B,) surface names: the
+    ball's bounces are the surface's physics, not the model's draw (`sim.bounce`). Cached
+    rollouts of up to
     `SINGLE_THREAD_ROWS` rallies run on one CPU thread.
     """
     small = (mode == "cache" and len(inputs.init_pos_m) <= SINGLE_THREAD_ROWS
@@ -346,6 +350,7 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                 resampled[alive] += drawn
                 if model.strike_head is not None:
                     forced_strikes[alive] += forced
+            planned = ~torch.isnan(plan[:, 0, 0])     # this frame is a launch's or a bounce's
             if model.strike_head is not None or model.serve_head is not None:
                 shots = getattr(tracker, "n_shots", None)
                 returning = None if shots is None or model.strike_return is None else \
@@ -353,6 +358,9 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                 nxt, plan = _follow_strikes(model, h, pos, vel, nxt, plan, generator, forced,
                                             top_p_serve, serve, ident[:, 0], ident[:, 1],
                                             returning)
+            if bounce_surfaces is not None and n >= 3:
+                nxt, plan = place_bounces(nxt, plan, pos, vel, prev_vel, fps, bounce_surfaces,
+                                          alive, planned)
             hist[:, n] = nxt
             nxt_np = nxt.cpu().numpy()
             out[alive, n] = nxt_np

@@ -119,7 +119,8 @@ class Simulator:
                  ball_net: bool | None = None, keep_chasing: bool = False,
                  contact_reach_m: float = CONTACT_REACH_M,
                  return_reach_m: float | None = None,
-                 strike_in_reach_return_m: float | None = None):
+                 strike_in_reach_return_m: float | None = None,
+                 physical_bounce: bool = False):
         if abs(initial.fps - model.cfg.fps) > 1e-6:
             raise ValueError(f"initial conditions at {initial.fps} Hz, model at {model.cfg.fps}")
         for name, p in (("top_p_player", top_p_player), ("top_p_ball", top_p_ball),
@@ -194,6 +195,12 @@ class Simulator:
                 raise ArgumentError(f"ball_net needs a model whose ball centre is the physics "
                                     f"step, this one's is {self.model.cfg.ball_centre!r}")
             self.model.cfg.ball_net = bool(ball_net)
+        # The ball's bounces are the surface's physics, not the model's draw (`sim.bounce`).
+        if physical_bounce and self.model.strike_head is None and self.model.serve_head is None:
+            raise ArgumentError("physical_bounce puts down the frame after a bounce as a "
+                                "strike's launch frames are: it needs a model with a strike "
+                                "or serve head")
+        self.physical_bounce = bool(physical_bounce)
         self._warned: set[str] = set()    # unknown players already warned about
         # Raw rollout win probabilities -> observed frequencies, when the model file has one
         # (`scripts/rally_outcome_study.py --save-calibrator`).
@@ -313,7 +320,9 @@ class Simulator:
                            self.top_p_player, self.top_p_ball, generator=gen,
                            progress=progress, constraint=con, contact_odds=self.contact_odds,
                            top_p_contact=self.top_p_contact,
-                           refresh_frames=self.refresh_frames, top_p_serve=self.top_p_serve)
+                           refresh_frames=self.refresh_frames, top_p_serve=self.top_p_serve,
+                           bounce_surfaces=part["surface"].astype(str).to_numpy()
+                           if self.physical_bounce else None)
             labels = None if self.event_model is None else frame_labels(
                 self.event_model, roll.pos_m, roll.length, self.fps, self.model.cfg.window_frames)
             data = assemble(part, roll.pos_m, roll.length, tracker.results(), labels, self.fps)
