@@ -67,3 +67,12 @@ def test_bundled_model_gives_the_return_its_reach_and_its_own_error_shifts():
     torch.testing.assert_close(model.strike_return[vocab.player_index("Maria Sharapova")],
                                torch.tensor([-1.162, -1.505, -1.228]), atol=1e-3, rtol=0)
     assert Simulator.from_pretrained(return_reach_m=1.8).return_reach_m == 1.8
+
+
+def test_bundled_model_bounces_the_ball_by_the_surfaces_physics():
+    """The bundled file's rollouts take a bounce from the surface's physics, not the model's
+    draw (its sampling defaults; docs/evaluation.md, thirty-sixth part); asked, they do not."""
+    from sportsngen.sim import Simulator
+
+    assert Simulator.from_pretrained().physical_bounce is True
+    assert Simulator.from_pretrained(physical_bounce=False).physical_bounce is False
