@@ -257,6 +257,10 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
     with cpu_threads(1 if small else None):
         if mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+        if bounce_surfaces is not None and model.strike_head is None and \
+                model.serve_head is None:
+            raise ValueError("bounce_surfaces plans the frame after a bounce as a strike's "
+                             "launch frames are: it needs a model with a strike or serve head")
         model.eval()
         dev = next(model.parameters()).device
         b, t0 = inputs.init_pos_m.shape[:2]
