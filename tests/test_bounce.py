@@ -35,7 +35,7 @@ def test_spin_is_read_back_from_the_generators_magnus(spin):
     v = torch.as_tensor((track[1:] - track[:-1]) * FPS)
     lift, flight = read_lift_mps2(v[2:8], v[1:7], FPS)
     assert bool(flight.all())
-    read = spin_from_lift_mps(lift.numpy(), v[2:8].numpy())
+    read = spin_from_lift_mps(lift, v[2:8]).numpy()
     assert np.abs(read - spin).max() < 0.1 * abs(spin) + 0.1
 
 

@@ -39,18 +39,16 @@ _K_PER_M = DRAG_PER_M / 0.55
 FRAMES = 2    # the bounce's frame and the one after it (whose backward velocity mixes the two)
 
 
-def spin_from_lift_mps(lift_mps2: np.ndarray, vel_mps: np.ndarray) -> np.ndarray:
+def spin_from_lift_mps(lift_mps2: torch.Tensor, vel_mps: torch.Tensor) -> torch.Tensor:
     """The generator's spin (m/s, > 0 topspin) of balls at velocity `vel_mps` (N, 3) whose lift
     reads `lift_mps2` (N, 3): its part across the flight in the velocity's vertical plane is
     k C_L |v|^2 with C_L = -spin / (2 |spin| + |v|) (`synth.physics`), inverted."""
-    v = torch.as_tensor(vel_mps, dtype=torch.float64)
-    n = lift_direction(v)                                         # |n| = |v|
-    speed = torch.linalg.vector_norm(v, dim=-1)
-    across = (torch.as_tensor(lift_mps2, dtype=torch.float64) * n).sum(-1) / \
+    speed = torch.linalg.vector_norm(vel_mps, dim=-1)
+    across = (lift_mps2 * lift_direction(vel_mps)).sum(-1) / \
         (speed * speed).clamp_min(1e-9)                            # = k C_L |v|
     cl = (across / (_K_PER_M * speed.clamp_min(1e-6))).clamp(-MAX_LIFT_COEFFICIENT,
                                                               MAX_LIFT_COEFFICIENT)
-    return (-torch.sign(cl) * cl.abs() * speed / (1.0 - 2.0 * cl.abs())).numpy()
+    return -torch.sign(cl) * cl.abs() * speed / (1.0 - 2.0 * cl.abs())
 
 
 def bouncing_rows(pos_m: torch.Tensor, vel_mps: torch.Tensor, prev_vel_mps: torch.Tensor,
@@ -73,10 +71,10 @@ def bounce_frames(pos_m: torch.Tensor, vel_mps: torch.Tensor, prev_vel_mps: torc
     (`spin_from_lift_mps`; none where the last three frames are no flight)."""
     p, v, pv = pos_m[:, BALL], vel_mps[:, BALL], prev_vel_mps[:, BALL]
     acc = ball_acceleration_mps2(v, pv, fps)
-    v_now = (v + 0.5 * acc / fps).double().cpu().numpy()
+    v_now = (v + 0.5 * acc / fps).double()
     lift, flight = read_lift_mps2(v, pv, fps)
-    spin = np.where(flight[:, 0].cpu().numpy(),
-                    spin_from_lift_mps(lift.double().cpu().numpy(), v_now), 0.0)
+    spin = torch.where(flight[:, 0], spin_from_lift_mps(lift.double(), v_now), 0.0).cpu().numpy()
+    v_now = v_now.cpu().numpy()
     start = p.double().cpu().numpy()
     start[:, 2] = np.maximum(start[:, 2], BALL_RADIUS_M)
     times = np.arange(1, FRAMES + 1) / fps
