@@ -100,6 +100,12 @@ class ModelConfig:
     # then): the head reads the server only through the ball's state and draws every named
     # player's faults near the average player's (docs/evaluation.md, twenty-fourth part).
     serve_bias: bool = False
+    # With it, a per-server tilt of the serve head's lateral bins inside the box by their
+    # distance toward its sideline (`model.serve_bias.aim_tilt`, fitted on the model's own
+    # serves by `train.serve_bias.fit_serve_aim`; zero until then): from its own tosses the
+    # model served wide in the box 4-8 points less often than the record (docs/evaluation.md,
+    # thirty-sixth part).
+    serve_aim: bool = False
     # A table of per-hitter shifts of the strike head's odds of a rally ball long, wide or into
     # the net, by his role in the point (`model.strike_bias`, fitted by `train.strike_bias`
     # after the head; zero until then): the head draws every named player's errors near the
@@ -183,6 +189,9 @@ class ModelConfig:
         if self.serve_bias and not self.serve_head:
             raise ValueError("model.serve_bias shifts the serve head's odds: it needs "
                              "serve_head=True")
+        if self.serve_aim and not self.serve_bias:
+            raise ValueError("model.serve_aim is read with the serve head's table: it needs "
+                             "serve_bias=True")
         if self.strike_bias and not self.strike_head:
             raise ValueError("model.strike_bias shifts the strike head's odds: it needs "
                              "strike_head=True")

@@ -173,8 +173,8 @@ class SportsNGEN(nn.Module):
 
     # The buffers with a row per identity, (n_ids, ...) where the config has them: a player
     # added for fine-tuning gets a row at zero in each (`train.finetune.add_player`).
-    PER_IDENTITY_TABLES = ("serve_bias", "receiver_start", "strike_bias", "strike_width",
-                           "strike_return")
+    PER_IDENTITY_TABLES = ("serve_bias", "serve_aim", "receiver_start", "strike_bias",
+                           "strike_width", "strike_return")
 
     def __init__(self, cfg: ModelConfig):
         super().__init__()
@@ -217,6 +217,8 @@ class SportsNGEN(nn.Module):
         self.register_buffer("serve_bias", torch.zeros(cfg.n_ids, serve_bias.N_SERVES,
                                                        serve_bias.N_KINDS)
                              if cfg.serve_bias else None)
+        self.register_buffer("serve_aim", torch.zeros(cfg.n_ids, serve_bias.N_SERVES)
+                             if cfg.serve_aim else None)
         self.register_buffer("strike_bias", torch.zeros(cfg.n_ids, strike_bias_table.N_ROLES,
                                                         strike_bias_table.N_KINDS)
                              if cfg.strike_bias else None)
@@ -452,12 +454,13 @@ class SportsNGEN(nn.Module):
     def serve_head_bias(self, server_ident: torch.Tensor | None, serve: torch.Tensor | None,
                         contact_m: torch.Tensor) -> torch.Tensor | None:
         """The serve head's logit shifts (N, 4, bins) for serves of `server_ident` (N,) on
-        serve `serve` (N,) struck at `contact_m` (N, 3) (`model.serve_bias`); None where the
-        model has no table or the server or the serve is not given."""
+        serve `serve` (N,) struck at `contact_m` (N, 3) (`model.serve_bias`, with the aim's
+        tilt where the model has `serve_aim`); None where the model has no table or the server
+        or the serve is not given."""
         if self.serve_bias is None or server_ident is None or serve is None:
             return None
         return serve_bias.serve_dim_bias(self.serve_bias, self._ident(server_ident), serve,
-                                         contact_m)
+                                         contact_m, self.serve_aim)
 
     def strike_head_bias(self, hitter_ident: torch.Tensor | None,
                          receiver: torch.Tensor | None,

@@ -9,6 +9,14 @@ table of logit shifts, per player identity and serve (first, second), one added 
 bins beyond the service line, one to the lateral bins outside the box the serve is aimed at,
 and a tilt of the speed bins; `sportsngen.train.serve_bias` fits it after the head, matching
 the head's mean odds (and mean speed) on a server's recorded serves to his record's.
+
+`ModelConfig.serve_aim` adds a second table, per player identity and serve, of a tilt of the
+lateral bins inside the box the serve is aimed at by their distance toward its outer sideline
+(`aim_tilt`): the model's own serves, struck from its own tosses, went wide in the box 4-8
+points less often than the record's serves and were returned 3-7 points more often, while the
+head teacher-forced on the record's tosses placed them as the record (docs/evaluation.md,
+thirty-sixth part); `sportsngen.train.serve_bias.fit_serve_aim` fits it on the states of the
+model's own serves.
 """
 
 from __future__ import annotations
@@ -74,12 +82,35 @@ def wide_bins(contact_m: torch.Tensor) -> torch.Tensor:
     return serve_wide(contact_m[:, None, :], centre)
 
 
+def toward_sideline_m(contact_m: torch.Tensor) -> torch.Tensor:
+    """Serves struck at `contact_m` (N, 3) -> (N, STRIKE_BINS): each lateral bin's centre's
+    distance from the centre line toward the outer sideline of the box the serve is aimed at
+    (0-4.115 m inside it, negative in the other box, beyond 4.115 m wide)."""
+    centre = torch.as_tensor(_LATERAL_CENTRES_M, dtype=contact_m.dtype, device=contact_m.device)
+    return (torch.sign(contact_m[:, None, 1]) * torch.sign(contact_m[:, None, 0])) * centre
+
+
+# The aim's tilt: one unit of shift adds a logit per metre toward the sideline, about the box's
+# middle, so it moves serves in the box toward the sideline or the T and barely in or out.
+AIM_MID_M = SINGLES_HALF_WIDTH_M / 2
+
+
+def aim_tilt(contact_m: torch.Tensor) -> torch.Tensor:
+    """Serves struck at `contact_m` (N, 3) -> (N, STRIKE_BINS): the lateral bins' logit per
+    unit of the aim's shift, `toward_sideline_m` less `AIM_MID_M` inside the box aimed at, zero
+    outside it (the wide bins, which `serve_bias`'s wide shift holds)."""
+    toward = toward_sideline_m(contact_m)
+    inside = (toward >= 0) & (toward <= SINGLES_HALF_WIDTH_M)
+    return torch.where(inside, toward - AIM_MID_M, torch.zeros_like(toward))
+
+
 def serve_dim_bias(table: torch.Tensor, server_id: torch.Tensor, serve: torch.Tensor,
-                   contact_m: torch.Tensor) -> torch.Tensor:
+                   contact_m: torch.Tensor, aim: torch.Tensor | None = None) -> torch.Tensor:
     """The serve head's logit shifts for serves of `server_id` (N,) on serve `serve` (N,; 0
     first, 1 second) struck at `contact_m` (N, 3), from `table` (n_ids, N_SERVES, N_KINDS) ->
     (N, 4, STRIKE_BINS): the long depth bins and the wide lateral bins shifted, the speed bins
-    tilted (`speed_tilt`), the spin's left alone."""
+    tilted (`speed_tilt`), the spin's left alone; with the aim's table `aim` (n_ids,
+    N_SERVES), the lateral bins in the box tilted too (`aim_tilt`)."""
     n = len(server_id)
     shift = table[server_id.long(), serve.long().clamp(0, N_SERVES - 1)]      # (N, N_KINDS)
     out = torch.zeros(n, 4, strike.STRIKE_BINS, dtype=table.dtype, device=table.device)
@@ -88,4 +119,7 @@ def serve_dim_bias(table: torch.Tensor, server_id: torch.Tensor, serve: torch.Te
     out[:, 1] = shift[:, WIDE, None] * wide_bins(contact_m.to(table.dtype))
     out[:, 2] = shift[:, SPEED, None] * torch.as_tensor(_SPEED_TILT, dtype=table.dtype,
                                                          device=table.device)
+    if aim is not None:
+        a = aim[server_id.long(), serve.long().clamp(0, N_SERVES - 1)]
+        out[:, 1] += a[:, None] * aim_tilt(contact_m.to(table.dtype))
     return out

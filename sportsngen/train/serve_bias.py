@@ -20,6 +20,7 @@ import torch
 
 from sportsngen.model import serve_bias
 from sportsngen.model.decoder import SportsNGEN
+from sportsngen.tennis.court import SINGLES_HALF_WIDTH_M
 from sportsngen.train.finetune import with_flag
 from sportsngen.train.head_fit import HeadStates
 
@@ -120,4 +121,80 @@ def fit_serve_bias(model: SportsNGEN, states: HeadStates, prior_serves: float = 
             model.serve_bias[int(sid), int(srv), k] = fit["shift"]
             row.update({f"{kind}_{name}": v for name, v in fit.items()})
         rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def with_serve_aim(model: SportsNGEN) -> SportsNGEN:
+    """`model` (with the serve table) with the aim's table added (`cfg.serve_aim`), at zero: it
+    draws as before until `fit_serve_aim` fills it. -> a new model."""
+    if model.serve_bias is None:
+        raise ValueError("the aim is read with the serve head's table (cfg.serve_bias): fit it "
+                         "first (scripts/fit_serve_bias.py)")
+    return with_flag(model, "serve_aim", ["serve_aim"])
+
+
+def _mean_toward(logits: torch.Tensor, toward: torch.Tensor, inside: torch.Tensor,
+                 tilt: torch.Tensor, shift: float) -> float:
+    """Mean over rows of the head's mean distance toward the sideline of its lateral draws
+    inside the box, with the aim's `shift`."""
+    p = (logits + shift * tilt).softmax(-1) * inside
+    return float(((p * toward).sum(-1) / p.sum(-1).clamp_min(1e-12)).mean())
+
+
+@torch.no_grad()
+def fit_serve_aim(model: SportsNGEN, states: HeadStates, prior_serves: float = 100.0,
+                  min_serves: int = 20) -> pd.DataFrame:
+    """Fill `model.serve_aim` (in place) from serve states paired with recorded serves
+    (`train.own_states.own_serve_states`: the model's own tosses, the record's serve of the same
+    point), per server and serve with at least `min_serves` recorded serves in the box: the
+    tilt whose mean distance toward the sideline of the head's draws in the box (read at the
+    record's depth bin, on the serves the record put in the box) equals the record's, pulled
+    toward the head's own by `prior_serves` pseudo-serves (it rises with the tilt, so a
+    bisection finds it); then the wide shift refitted so the head's odds of a wide serve over
+    all his serves stay what they were (the tilt moves a little mass across the lines). ->
+    per (server_id, serve): n, the record's, the head's before and after mean distances (m),
+    the tilt, the wide odds and the wide shift after."""
+    if model.serve_aim is None:
+        raise ValueError("the model has no per-server aim (cfg.serve_aim): add it with "
+                         "with_serve_aim")
+    head = model.serve_head
+    contact = torch.as_tensor(states.contact_m, dtype=states.h.dtype)
+    keys = pd.DataFrame({"server_id": states.server_id, "serve": states.serve})
+    rows = []
+    for (sid, srv), g in keys.groupby(["server_id", "serve"]):
+        if not 0 <= srv < serve_bias.N_SERVES:
+            continue
+        i = torch.as_tensor(g.index.to_numpy(copy=True))
+        h, bins, c = states.h[i], states.bins[i], contact[i]
+        n_all = len(i)
+        raw = head.dim_logits(h, bins, 1)
+        shift_now = serve_bias.serve_dim_bias(
+            model.serve_bias, torch.full((n_all,), int(sid)), torch.full((n_all,), int(srv)),
+            c)[:, 1]
+        toward = serve_bias.toward_sideline_m(c)
+        inside = (toward >= 0) & (toward <= SINGLES_HALF_WIDTH_M)
+        tilt = serve_bias.aim_tilt(c)
+        rec_toward = toward[torch.arange(n_all), bins[:, 1]]
+        in_box = inside[torch.arange(n_all), bins[:, 1]] & \
+            ~torch.as_tensor(serve_bias.long_fraction() > 0.5)[bins[:, 0]]
+        n = int(in_box.sum())
+        if n < min_serves:
+            continue
+        box = raw[in_box] + shift_now[in_box]
+        box_args = (toward[in_box], inside[in_box].to(h.dtype), tilt[in_box])
+        record = float(rec_toward[in_box].mean())
+        before = _mean_toward(box, *box_args, 0.0)
+        target = (n * record + prior_serves * before) / (n + prior_serves)
+        aim = bisect_shift(lambda s, lg=box, a=box_args: _mean_toward(lg, *a, s), target, MAX_SHIFT)
+        model.serve_aim[int(sid), int(srv)] = aim
+        wide = serve_bias.wide_bins(c)
+        wide_before = float(mean_odds(raw + shift_now, wide, wide.to(h.dtype),
+                                      torch.zeros(1))[0])
+        fit = matched_shift(raw + aim * tilt, wide, wide.to(h.dtype), wide_before, 0.0)
+        model.serve_bias[int(sid), int(srv), serve_bias.WIDE] = fit["shift"]
+        rows.append({"server_id": int(sid), "serve": int(srv), "n": n,
+                     "toward_record_m": record, "toward_head_m": before,
+                     "toward_after_m": _mean_toward(box, *box_args, aim), "aim": aim,
+                     "wide_odds": wide_before, "wide_after": fit["after"],
+                     "wide_shift": fit["shift"]})
     return pd.DataFrame(rows)
