@@ -134,7 +134,9 @@ def main() -> None:
           + (f", the return's {sim.return_reach_m} m"
              if sim.physical_limits and sim.return_reach_m is not None else "")
           + (", the net in the ball's step" if sim.model.cfg.ball_net else "")
-          + (", the surface's bounce" if sim.physical_bounce else ""))
+          + (", the surface's bounce" if sim.physical_bounce else "")
+          + (f", players within {sim.player_accel_mps2:g} m/s²" if sim.player_accel_mps2
+             else ""))
     t0 = time.perf_counter()
     simd = sim.simulate_both_serving(*players, args.surface, args.points, seed=args.seed)
     if args.save_sim is not None:

@@ -11,7 +11,8 @@ from sportsngen.errors import ArgumentError
 _NUCLEI = ("top_p_ball", "top_p_contact", "top_p_serve")
 _FLAGS = ("contact_odds", "strike_in_reach", "strike_in_reach_from", "strike_in_reach_force",
           "strike_in_reach_m", "ball_net", "keep_chasing", "contact_reach_m",
-          "return_reach_m", "strike_in_reach_return_m", "physical_bounce")
+          "return_reach_m", "strike_in_reach_return_m", "physical_bounce",
+          "player_accel_mps2")
 
 
 def add_sampling_options(parser: argparse.ArgumentParser) -> None:
@@ -58,6 +59,9 @@ def add_sampling_options(parser: argparse.ArgumentParser) -> None:
                         default=None,
                         help="the ball's bounces are the surface's physics, not the model's "
                              "draw (default: the model file's, else off)")
+    parser.add_argument("--player-accel-mps2", type=float, default=None,
+                        help="a sampled frame changes a player's velocity by at most this "
+                             "acceleration (m/s²; default: the model file's, else none)")
     parser.add_argument("--ball-net", action=argparse.BooleanOptionalAction, default=None,
                         help="the ball's physics centre meets the net (default: the model "
                              "file's, else as it was trained)")
@@ -77,6 +81,9 @@ def sampling_kwargs(args: argparse.Namespace) -> dict:
         value = getattr(args, name, None)
         if value is not None:
             kw[name] = value
+    if not kw.get("player_accel_mps2", 1.0) > 0:
+        raise ArgumentError(f"--player-accel-mps2 must be positive, got "
+                            f"{kw['player_accel_mps2']}")
     if not kw.get("strike_in_reach_m", 1.0) > 0:
         raise ArgumentError(f"--strike-in-reach-m must be positive, got "
                             f"{kw['strike_in_reach_m']}")

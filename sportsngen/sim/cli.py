@@ -147,6 +147,8 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
         kw["return_reach_m"] = float(cfg.return_reach_m)
     if cfg.get("physical_bounce") is not None:
         kw["physical_bounce"] = bool(cfg.physical_bounce)
+    if cfg.get("player_accel_mps2") is not None:
+        kw["player_accel_mps2"] = float(cfg.player_accel_mps2)
     if cfg.get("keep_chasing") is not None:
         kw["keep_chasing"] = bool(cfg.keep_chasing)
     if cfg.get("top_p_contact") is not None:

@@ -32,6 +32,7 @@ from sportsngen.data.tokens import BALL, object_features
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.model.receiver_start import receiver_waiting, wait_frames
 from sportsngen.sim.bounce import place_bounces
+from sportsngen.sim.kinematics import limit_player_acceleration
 from sportsngen.tennis.rally import awaiting_return
 
 MODES = ("cache", "recompute", "window")
@@ -120,10 +121,11 @@ class Constraint(Protocol):
 
 def redraw_rejected(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top_p_player,
                     top_p_ball, generator, contact_odds=False, top_p_contact=None,
-                    player_bias=None):
+                    player_bias=None, player_accel_mps2=None):
     """Resample the rows `constraint` rejects: up to its max_tries from the nucleus, then as
-    many from the whole distribution. -> (frames, redraws per live row, (B,) bool: the rows
-    given up on whose ball the constraint wants struck anyway)."""
+    many from the whole distribution (each draw within `player_accel_mps2`, where given). ->
+    (frames, redraws per live row, (B,) bool: the rows given up on whose ball the constraint
+    wants struck anyway)."""
     bad = ~constraint.accept(alive, n, pos, nxt, vel)
     tries = 0
     drawn = np.zeros(len(alive), dtype=np.int64)
@@ -136,6 +138,9 @@ def redraw_rejected(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top
                                   generator, prev_vel[idx], contact_odds,
                                   1.0 if wide else top_p_contact,
                                   None if player_bias is None else player_bias[idx])
+        if player_accel_mps2 is not None:
+            again = limit_player_acceleration(again, pos[idx], vel[idx], model.cfg.fps,
+                                              player_accel_mps2)
         nxt[idx] = again
         drawn[idx.cpu().numpy()] += 1
         ok = constraint.accept(alive[idx.cpu().numpy()], n, pos[idx], again, vel[idx])
@@ -232,7 +237,8 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             progress: bool = False, constraint: Constraint | None = None,
             contact_odds: bool = False, top_p_contact: float | None = None,
             refresh_frames: int | None = None, top_p_serve: float = 1.0,
-            bounce_surfaces: np.ndarray | None = None) -> Rollout:
+            bounce_surfaces: np.ndarray | None = None,
+            player_accel_mps2: float | None = None) -> Rollout:
     """Roll `inputs` forward until the tracker ends each rally or it has `max_frames` frames.
 
     The tracker sees every frame of every rally in order, the initial ones included, and
@@ -248,8 +254,9 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
     lower layers reach back over the whole rally (`sportsngen.eval.long_rallies`). 1 is the
     "window" mode's view at the cost of a window's pass a frame. `top_p_serve`: the serve head's
     nucleus, with one (`SportsNGEN.place_strikes`). `bounce_surfaces` (B,) surface names: the
-    ball's bounces are the surface's physics, not the model's draw (`sim.bounce`). Cached
-    rollouts of up to
+    ball's bounces are the surface's physics, not the model's draw (`sim.bounce`).
+    `player_accel_mps2`: every sampled frame changes a player's velocity by at most this
+    acceleration (`sim.kinematics`). Cached rollouts of up to
     `SINGLE_THREAD_ROWS` rallies run on one CPU thread.
     """
     small = (mode == "cache" and len(inputs.init_pos_m) <= SINGLE_THREAD_ROWS
@@ -257,6 +264,8 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
     with cpu_threads(1 if small else None):
         if mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+        if player_accel_mps2 is not None and not player_accel_mps2 > 0:
+            raise ValueError(f"player_accel_mps2 must be positive, got {player_accel_mps2!r}")
         if bounce_surfaces is not None and model.strike_head is None and \
                 model.serve_head is None:
             raise ValueError("bounce_surfaces plans the frame after a bounce as a strike's "
@@ -345,12 +354,14 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                 p_bias = model.receiver_start_bias(ident[:, 0], serve, wait)
             nxt = model.sample_next(h, pos, vel, top_p_player, top_p_ball, generator, prev_vel,
                                     contact_odds, top_p_contact, p_bias)
+            if player_accel_mps2 is not None:
+                nxt = limit_player_acceleration(nxt, pos, vel, fps, player_accel_mps2)
             forced = None
             if constraint is not None:
                 nxt, drawn, forced = redraw_rejected(model, constraint, alive, n, h, pos, vel,
                                                      prev_vel, nxt, top_p_player, top_p_ball,
                                                      generator, contact_odds, top_p_contact,
-                                                     p_bias)
+                                                     p_bias, player_accel_mps2)
                 resampled[alive] += drawn
                 if model.strike_head is not None:
                     forced_strikes[alive] += forced

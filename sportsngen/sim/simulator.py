@@ -120,7 +120,7 @@ class Simulator:
                  contact_reach_m: float = CONTACT_REACH_M,
                  return_reach_m: float | None = None,
                  strike_in_reach_return_m: float | None = None,
-                 physical_bounce: bool = False):
+                 physical_bounce: bool = False, player_accel_mps2: float | None = None):
         if abs(initial.fps - model.cfg.fps) > 1e-6:
             raise ValueError(f"initial conditions at {initial.fps} Hz, model at {model.cfg.fps}")
         for name, p in (("top_p_player", top_p_player), ("top_p_ball", top_p_ball),
@@ -201,6 +201,11 @@ class Simulator:
                                 "strike's launch frames are: it needs a model with a strike "
                                 "or serve head")
         self.physical_bounce = bool(physical_bounce)
+        # A sampled frame changes a player's velocity by at most this acceleration
+        # (`sim.kinematics`; None: as drawn).
+        if player_accel_mps2 is not None and not float(player_accel_mps2) > 0:
+            raise ArgumentError(f"player_accel_mps2 must be positive, got {player_accel_mps2!r}")
+        self.player_accel_mps2 = None if player_accel_mps2 is None else float(player_accel_mps2)
         self._warned: set[str] = set()    # unknown players already warned about
         # Raw rollout win probabilities -> observed frequencies, when the model file has one
         # (`scripts/rally_outcome_study.py --save-calibrator`).
@@ -322,7 +327,8 @@ class Simulator:
                            top_p_contact=self.top_p_contact,
                            refresh_frames=self.refresh_frames, top_p_serve=self.top_p_serve,
                            bounce_surfaces=part["surface"].astype(str).to_numpy()
-                           if self.physical_bounce else None)
+                           if self.physical_bounce else None,
+                           player_accel_mps2=self.player_accel_mps2)
             labels = None if self.event_model is None else frame_labels(
                 self.event_model, roll.pos_m, roll.length, self.fps, self.model.cfg.window_frames)
             data = assemble(part, roll.pos_m, roll.length, tracker.results(), labels, self.fps)

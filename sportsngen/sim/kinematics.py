@@ -1,0 +1,40 @@
+"""The players' kinematic limit in rollouts: a sampled frame changes a player's velocity by at
+most what his legs can.
+
+The generator's players change their velocity by at most their acceleration a frame
+(`synth.players.Mover`: 6 m/s² for every named player but Isner's 5), so in its tracks no
+player's frame-to-frame acceleration exceeds 6.0 m/s². The model's sampled frames do: a
+receiver's largest acceleration in the 25 frames after the serve is 8.1 m/s² at the median
+(8.4 at the 90th percentile), he is 0.3-0.5 m/s faster than the truth's 10-15 frames after
+the serve and reaches more serves than they do (docs/evaluation.md, thirty-seventh part).
+`limit_player_acceleration` scales the change of a player's velocity in a sampled frame down
+to the limit, keeping its direction: physics the model need not learn. Every frame the model
+draws is limited, redraws included (`sim.rollout`); the rule that keeps a late chaser running
+(`sim.constraints.KeepChasing`) acts after the draw, raising his speed toward the ball by its
+own 6 m/s², and may then take a frame beyond the limit.
+"""
+
+from __future__ import annotations
+
+import torch
+
+from sportsngen.data.tokens import BALL
+
+
+def limit_player_acceleration(next_pos_m: torch.Tensor, pos_m: torch.Tensor,
+                              vel_mps: torch.Tensor, fps: float,
+                              max_accel_mps2: float) -> torch.Tensor:
+    """Sampled next frames `next_pos_m` (B, 3, 3) from positions `pos_m` with velocities
+    `vel_mps` (B, 3, 3) -> the same frames with each player's horizontal velocity change
+    (next - pos) * fps - vel scaled down to at most `max_accel_mps2` / fps, its direction
+    kept; the ball and players within the limit unchanged."""
+    if not max_accel_mps2 > 0:
+        raise ValueError(f"max_accel_mps2 must be positive, got {max_accel_mps2!r}")
+    step = next_pos_m[:, :BALL, :2] - pos_m[:, :BALL, :2]
+    dv = step * fps - vel_mps[:, :BALL, :2]
+    norm = dv.norm(dim=-1, keepdim=True)
+    limit = max_accel_mps2 / fps
+    scale = torch.where(norm > limit, limit / norm.clamp_min(1e-12), torch.ones_like(norm))
+    out = next_pos_m.clone()
+    out[:, :BALL, :2] = pos_m[:, :BALL, :2] + (vel_mps[:, :BALL, :2] + dv * scale) / fps
+    return out

@@ -1,0 +1,79 @@
+"""The players' kinematic limit in rollouts (`sportsngen.sim.kinematics`)."""
+
+import pytest
+import torch
+
+from sportsngen.sim.kinematics import limit_player_acceleration
+
+FPS = 25.0
+
+
+def frames(vel_xy, dv_xy):
+    """One row: the players at (0, ±12) moving at `vel_xy` (2, 2), sampled to change their
+    velocity by `dv_xy` (2, 2); the ball anywhere."""
+    pos = torch.tensor([[[0.0, 12.0, 0.0], [0.0, -12.0, 0.0], [1.0, 2.0, 1.5]]])
+    vel = torch.zeros(1, 3, 3)
+    vel[0, :2, :2] = torch.tensor(vel_xy)
+    vel[0, 2] = torch.tensor([30.0, 0.0, 2.0])
+    nxt = pos.clone()
+    nxt[0, :2, :2] += (vel[0, :2, :2] + torch.tensor(dv_xy)) / FPS
+    nxt[0, 2] = pos[0, 2] + vel[0, 2] / FPS
+    return nxt, pos, vel
+
+
+def test_a_change_beyond_the_limit_is_scaled_to_it_in_its_own_direction():
+    # Player 0 asks 10 m/s² (0.4 m/s in a frame) at 3-4-5, player 1 2 m/s², within 6.
+    nxt, pos, vel = frames([[1.0, 0.0], [0.0, -2.0]], [[0.24, 0.32], [0.08, 0.0]])
+    out = limit_player_acceleration(nxt, pos, vel, FPS, 6.0)
+    dv = (out[0, :2, :2] - pos[0, :2, :2]) * FPS - vel[0, :2, :2]
+    torch.testing.assert_close(dv[0], torch.tensor([0.144, 0.192]))   # 0.24 m/s, 3-4-5
+    torch.testing.assert_close(dv[1], torch.tensor([0.08, 0.0]))
+    torch.testing.assert_close(out[0, 2], nxt[0, 2])                  # the ball untouched
+    assert (out[0, :2, 2] == 0).all()
+
+
+def test_a_player_within_the_limit_or_braking_within_it_keeps_his_frame():
+    nxt, pos, vel = frames([[5.0, 0.0], [0.0, 0.0]], [[-0.2, 0.0], [0.0, 0.0]])
+    out = limit_player_acceleration(nxt, pos, vel, FPS, 6.0)
+    torch.testing.assert_close(out, nxt)
+    # Braking beyond it: a stop from 5 m/s takes 0.83 s at 6 m/s², not one frame.
+    nxt, pos, vel = frames([[5.0, 0.0], [0.0, 0.0]], [[-5.0, 0.0], [0.0, 0.0]])
+    out = limit_player_acceleration(nxt, pos, vel, FPS, 6.0)
+    speed = (out[0, 0, 0] - pos[0, 0, 0]) * FPS
+    assert float(speed) == pytest.approx(5.0 - 0.24)
+
+
+def test_the_limit_must_be_positive():
+    nxt, pos, vel = frames([[0.0, 0.0], [0.0, 0.0]], [[0.0, 0.0], [0.0, 0.0]])
+    with pytest.raises(ValueError, match="positive"):
+        limit_player_acceleration(nxt, pos, vel, FPS, 0.0)
+
+
+def test_rollout_players_never_change_velocity_faster_than_the_limit():
+    """The bundled model's players, rolled out with the limit, keep every frame's change of
+    velocity within it; without it their largest is well beyond (about 8 m/s² a frame). The
+    rule that keeps a late chaser running (`keep_chasing`) acts after the draw and may add its
+    own 6 m/s² along his way to the ball, so it is off here."""
+    import numpy as np
+
+    from sportsngen.errors import ArgumentError
+    from sportsngen.sim import Simulator
+
+    def largest(sim):
+        data = sim.simulate_points("Roger Federer", "Rafael Nadal", "hard", 12, seed=3,
+                                   serve_number=1)
+        worst = 0.0
+        players = data.frames[data.frames["object"] != "ball"]
+        for _, g in players.groupby(["rally_id", "object"]):
+            xy = g.sort_values("frame")[["x", "y"]].to_numpy(float)
+            if len(xy) > 3:
+                acc = np.linalg.norm(np.diff(xy, 2, axis=0), axis=-1) * FPS * FPS
+                worst = max(worst, float(acc.max()))
+        return worst
+
+    kw = dict(max_duration_s=2.5, player_accel_mps2=None, keep_chasing=False)
+    assert largest(Simulator.from_pretrained(**kw)) > 7.0
+    kw["player_accel_mps2"] = 6.0
+    assert largest(Simulator.from_pretrained(**kw)) <= 6.0 + 1e-3
+    with pytest.raises(ArgumentError, match="player_accel_mps2"):
+        Simulator.from_pretrained(player_accel_mps2=-1.0)
