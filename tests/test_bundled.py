@@ -49,14 +49,15 @@ def test_bundled_model_rolls_out_with_the_net_in_the_balls_step():
 
 
 def test_bundled_model_gives_the_return_its_reach_and_its_own_error_shifts():
-    """The bundled file's returns: a contact within 1.5 m, every good serve within 1.2 m
-    struck, and the receivers' own shifts of a return's errors, which lower the named
-    players' odds of a return long (their record's returns err less than the head drew;
-    docs/evaluation.md, thirty-fifth part)."""
+    """The bundled file's returns: a contact within 1.5 m, every good serve within 1.5 m
+    struck (1.2 m before its players' acceleration was limited; docs/evaluation.md,
+    thirty-seventh part), and the receivers' own shifts of a return's errors, which lower the
+    named players' odds of a return long (their record's returns err less than the head drew;
+    thirty-fifth part)."""
     from sportsngen.sim import Simulator
 
     sim = Simulator.from_pretrained()
-    assert sim.return_reach_m == 1.5 and sim.strike_in_reach_return_m == 1.2
+    assert sim.return_reach_m == 1.5 and sim.strike_in_reach_return_m == 1.5
     model, vocab = sim.model, sim.vocab
     assert model.cfg.strike_return and model.strike_return.shape == model.strike_bias[:, 0].shape
     named = torch.tensor([vocab.player_index(p) for p in
@@ -76,3 +77,13 @@ def test_bundled_model_bounces_the_ball_by_the_surfaces_physics():
 
     assert Simulator.from_pretrained().physical_bounce is True
     assert Simulator.from_pretrained(physical_bounce=False).physical_bounce is False
+
+
+def test_bundled_model_limits_its_players_acceleration_to_the_generators():
+    """The bundled file's rollouts change a player's velocity by at most 6 m/s² a frame, the
+    generator's players' largest (its sampling defaults; docs/evaluation.md, thirty-seventh
+    part); asked, they change it as drawn."""
+    from sportsngen.sim import Simulator
+
+    assert Simulator.from_pretrained().player_accel_mps2 == 6.0
+    assert Simulator.from_pretrained(player_accel_mps2=None).player_accel_mps2 is None
