@@ -102,9 +102,9 @@ class ModelConfig:
     serve_bias: bool = False
     # With it, a per-server tilt of the serve head's lateral bins inside the box by their
     # distance toward its sideline (`model.serve_bias.aim_tilt`, fitted on the model's own
-    # serves by `train.serve_bias.fit_serve_aim`; zero until then): from its own tosses the
-    # model served wide in the box 4-8 points less often than the record (docs/evaluation.md,
-    # thirty-sixth part).
+    # serves by `train.serve_bias.fit_serve_aim`; zero until then). Built to test whether the
+    # model's own serves went wide less often than the record's: measured, its head already aims
+    # as the record from its own tosses (docs/evaluation.md, thirty-seventh part), so off.
     serve_aim: bool = False
     # A table of per-hitter shifts of the strike head's odds of a rally ball long, wide or into
     # the net, by his role in the point (`model.strike_bias`, fitted by `train.strike_bias`

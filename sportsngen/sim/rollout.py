@@ -264,8 +264,6 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
     with cpu_threads(1 if small else None):
         if mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
-        if player_accel_mps2 is not None and not player_accel_mps2 > 0:
-            raise ValueError(f"player_accel_mps2 must be positive, got {player_accel_mps2!r}")
         if bounce_surfaces is not None and model.strike_head is None and \
                 model.serve_head is None:
             raise ValueError("bounce_surfaces plans the frame after a bounce as a strike's "
