@@ -64,12 +64,20 @@ def speed_tilt() -> np.ndarray:
 _SPEED_TILT = speed_tilt()
 
 
-def serve_wide(contact_m, lateral_m):
+def toward_sideline(contact_m, lateral_m):
     """Serves struck at `contact_m` (..., 3) with lateral `lateral_m` (...) (`SERVE_DIMS`, in
-    the hitter's view) -> (...) bool: outside the box diagonally opposite, the other box
-    included. numpy or torch alike (`eval.serve_draws.serve_faults` reads faults with it)."""
+    the hitter's view) -> (...) their distance from the centre line toward the outer sideline
+    of the box diagonally opposite (0-4.115 m inside it, negative in the other box). numpy or
+    torch alike."""
     lib = torch if isinstance(contact_m, torch.Tensor) else np
-    toward = lib.sign(contact_m[..., 1]) * lib.sign(contact_m[..., 0]) * lateral_m
+    return lib.sign(contact_m[..., 1]) * lib.sign(contact_m[..., 0]) * lateral_m
+
+
+def serve_wide(contact_m, lateral_m):
+    """Serves struck at `contact_m` (..., 3) with lateral `lateral_m` (...) -> (...) bool:
+    outside the box diagonally opposite, the other box included (`toward_sideline`). numpy or
+    torch alike (`eval.serve_draws.serve_faults` reads faults with it)."""
+    toward = toward_sideline(contact_m, lateral_m)
     return (toward < 0) | (toward > SINGLES_HALF_WIDTH_M)
 
 
@@ -82,11 +90,10 @@ def wide_bins(contact_m: torch.Tensor) -> torch.Tensor:
 
 
 def toward_sideline_m(contact_m: torch.Tensor) -> torch.Tensor:
-    """Serves struck at `contact_m` (N, 3) -> (N, STRIKE_BINS): each lateral bin's centre's
-    distance from the centre line toward the outer sideline of the box the serve is aimed at
-    (0-4.115 m inside it, negative in the other box, beyond 4.115 m wide)."""
+    """Serves struck at `contact_m` (N, 3) -> (N, STRIKE_BINS): `toward_sideline` at each
+    lateral bin's centre."""
     centre = torch.as_tensor(_LATERAL_CENTRES_M, dtype=contact_m.dtype, device=contact_m.device)
-    return (torch.sign(contact_m[:, None, 1]) * torch.sign(contact_m[:, None, 0])) * centre
+    return toward_sideline(contact_m[:, None, :], centre)
 
 
 # The aim's tilt: one unit of shift adds a logit per metre toward the sideline, about the box's
@@ -99,8 +106,7 @@ def aim_tilt(contact_m: torch.Tensor) -> torch.Tensor:
     unit of the aim's shift, `toward_sideline_m` less `AIM_MID_M` inside the box aimed at, zero
     outside it (the wide bins, which `serve_bias`'s wide shift holds)."""
     toward = toward_sideline_m(contact_m)
-    inside = (toward >= 0) & (toward <= SINGLES_HALF_WIDTH_M)
-    return torch.where(inside, toward - AIM_MID_M, torch.zeros_like(toward))
+    return torch.where(wide_bins(contact_m), torch.zeros_like(toward), toward - AIM_MID_M)
 
 
 def serve_dim_bias(table: torch.Tensor, server_id: torch.Tensor, serve: torch.Tensor,

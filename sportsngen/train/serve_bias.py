@@ -20,7 +20,6 @@ import torch
 
 from sportsngen.model import serve_bias
 from sportsngen.model.decoder import SportsNGEN
-from sportsngen.tennis.court import SINGLES_HALF_WIDTH_M
 from sportsngen.train.finetune import with_flag
 from sportsngen.train.head_fit import HeadStates
 
@@ -168,27 +167,28 @@ def fit_serve_aim(model: SportsNGEN, states: HeadStates, prior_serves: float = 1
         h, bins, c = states.h[i], states.bins[i], contact[i]
         n_all = len(i)
         raw = head.dim_logits(h, bins, 1)
-        shift_now = serve_bias.serve_dim_bias(
-            model.serve_bias, torch.full((n_all,), int(sid)), torch.full((n_all,), int(srv)),
-            c)[:, 1]
+        wide = serve_bias.wide_bins(c)
+        inside = ~wide
         toward = serve_bias.toward_sideline_m(c)
-        inside = (toward >= 0) & (toward <= SINGLES_HALF_WIDTH_M)
         tilt = serve_bias.aim_tilt(c)
-        rec_toward = toward[torch.arange(n_all), bins[:, 1]]
-        in_box = inside[torch.arange(n_all), bins[:, 1]] & \
+        rows_i = torch.arange(n_all)
+        in_box = inside[rows_i, bins[:, 1]] & \
             ~torch.as_tensor(serve_bias.long_fraction() > 0.5)[bins[:, 0]]
         n = int(in_box.sum())
         if n < min_serves:
             continue
-        box = raw[in_box] + shift_now[in_box]
+        # The table's shifts touch only the wide bins of this dimension: the draws inside the
+        # box read the head's own logits.
+        box = raw[in_box]
         box_args = (toward[in_box], inside[in_box].to(h.dtype), tilt[in_box])
-        record = float(rec_toward[in_box].mean())
+        record = float(toward[rows_i, bins[:, 1]][in_box].mean())
         before = _mean_toward(box, *box_args, 0.0)
         target = (n * record + prior_serves * before) / (n + prior_serves)
-        aim = bisect_shift(lambda s, lg=box, a=box_args: _mean_toward(lg, *a, s), target, MAX_SHIFT)
+        aim = bisect_shift(lambda s, lg=box, a=box_args: _mean_toward(lg, *a, s), target,
+                           MAX_SHIFT)
         model.serve_aim[int(sid), int(srv)] = aim
-        wide = serve_bias.wide_bins(c)
-        wide_before = float(mean_odds(raw + shift_now, wide, wide.to(h.dtype),
+        w0 = float(model.serve_bias[int(sid), int(srv), serve_bias.WIDE])
+        wide_before = float(mean_odds(raw + w0 * wide, wide, wide.to(h.dtype),
                                       torch.zeros(1))[0])
         fit = matched_shift(raw + aim * tilt, wide, wide.to(h.dtype), wide_before, 0.0)
         model.serve_bias[int(sid), int(srv), serve_bias.WIDE] = fit["shift"]
