@@ -2,7 +2,7 @@
 wide or into the net (`model.strike_bias`; `sportsngen.train.strike_bias`).
 
     .venv/bin/python scripts/fit_strike_bias.py --model FILE --out FILE [--more-data NAME]
-        [--prior-strikes 200] [--width | --returns] [--states FILE] [--threads 2]
+        [--prior-strikes 200] [--width | --returns | --pressure] [--states FILE] [--threads 2]
 
 The recorded rally strikes are the file's own training split (`extra.split`) and with
 `--more-data NAME` every rally strike of the data config conf/data/NAME.yaml (synthetic_named:
@@ -10,7 +10,10 @@ the named players' round robins). With `--width` the per-hitter width of the bal
 (`model.strike_width`, `fit_strike_width`) is fitted after the errors, and each wide error's
 shift again with it. With `--returns` (a file with the table fitted) each receiver's shifts are
 split instead: refitted on his strikes that are not returns, and the returns' own table
-(`model.strike_return`, `fit_strike_return`) fitted on his returns. `--states FILE` keeps the
+(`model.strike_return`, `fit_strike_return`) fitted on his returns. With `--pressure` (a file
+with the returns' table) a per-opponent table is added (`model.strike_pressure`,
+`fit_strike_pressure`) and fitted in turn with the hitters' rows on the strikes that are not
+returns, then the returns' table again on top. `--states FILE` keeps the
 decoder's states read (most of the time; they do not depend on the tables). Everything else in
 the file is copied unchanged.
 """
@@ -22,11 +25,14 @@ import time
 from sportsngen.data.tokens import N_SPECIAL_IDS
 from sportsngen.train.head_fit import HeadStates, cached_states, collect_head_states
 from sportsngen.train.strike_bias import (
+    KINDS,
     error_shares,
     fit_strike_bias,
+    fit_strike_pressure,
     fit_strike_return,
     fit_strike_width,
     with_strike_bias,
+    with_strike_pressure,
     with_strike_return,
     with_strike_width,
 )
@@ -61,6 +67,9 @@ def main() -> None:
     how.add_argument("--returns", action="store_true",
                      help="split each receiver's shifts: his returns' own (model.strike_return)"
                           " and the rest")
+    how.add_argument("--pressure", action="store_true",
+                     help="add a per-opponent table (model.strike_pressure) fitted in turn with "
+                          "the hitters' rows")
     ap.add_argument("--states", default=None,
                     help="cache of the decoder's states: written on the first run, read after")
     args = ap.parse_args()
@@ -69,6 +78,19 @@ def main() -> None:
     model, vocab = run.model, run.vocab
     states = _read_states(model, run, args)
     names = {N_SPECIAL_IDS + i: p for i, p in enumerate(vocab.players)}
+    if args.pressure:
+        if model.strike_return is None:
+            raise SystemExit(f"{run.path}: no returns' table (model.strike_return): fit it "
+                             "first (--returns)")
+        model = with_strike_pressure(model)
+        table = fit_strike_pressure(model, states, states.returns(),
+                                    prior_strikes=args.prior_strikes)
+        table.insert(0, "player", table["id"].map(names))
+        cols = ["table", "player", "receiver", "n"] + [f"{k}_{w}" for k in KINDS
+                                                       for w in ("record", "after", "shift")]
+        print(table[cols].round(3).to_string(index=False))
+        run.save(model, args.out)
+        return
     if args.returns:
         if model.strike_bias is None:
             raise SystemExit(f"{run.path}: no per-hitter table to split (model.strike_bias): "

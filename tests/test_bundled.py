@@ -63,11 +63,39 @@ def test_bundled_model_gives_the_return_its_reach_and_its_own_error_shifts():
     named = torch.tensor([vocab.player_index(p) for p in
                           ("Roger Federer", "Serena Williams", "Maria Sharapova", "John Isner")])
     assert (model.strike_return[named, 0] < 0).all()
-    # As fitted (`scripts/fit_strike_bias.py --returns`; model card): Sharapova's long, wide and
-    # net shifts on her returns.
+    # As fitted (`scripts/fit_strike_bias.py --pressure`, which refits the returns' table on
+    # top of the hitters' rows; model card): Sharapova's long, wide and net shifts on her
+    # returns.
     torch.testing.assert_close(model.strike_return[vocab.player_index("Maria Sharapova")],
-                               torch.tensor([-1.162, -1.505, -1.228]), atol=1e-3, rtol=0)
+                               torch.tensor([-1.080, -1.440, -1.069]), atol=1e-3, rtol=0)
     assert Simulator.from_pretrained(return_reach_m=1.8).return_reach_m == 1.8
+
+
+def test_bundled_model_reads_whom_a_player_answers():
+    """The bundled file's opponents' table (`model.strike_pressure`, docs/evaluation.md,
+    thirty-eighth part): in the generator a receiver's rally balls take the server's serve
+    initiative times his rally pressure (Isner's 3.59 x 1.04, Djokovic's 1.59 x 0.91), and the
+    fitted table has the receivers err wide more often against Isner than against Djokovic, the
+    other way on the servers' rally balls too by their own opponents' pressure, and leaves the
+    return to its own table."""
+    from sportsngen.model import strike_bias
+    from sportsngen.sim import Simulator
+
+    sim = Simulator.from_pretrained()
+    model, vocab = sim.model, sim.vocab
+    assert model.cfg.strike_pressure
+    isner, djokovic = (vocab.player_index(p) for p in ("John Isner", "Novak Djokovic"))
+    wide = strike_bias.WIDE
+    assert model.strike_pressure[isner, 1, wide] - model.strike_pressure[djokovic, 1, wide] > 1.0
+    torch.testing.assert_close(model.strike_pressure[djokovic, 1],
+                               torch.tensor([-0.245, -0.821, 1.108]), atol=1e-3, rtol=0)
+    receiver = torch.tensor([True, True])
+    rally = model.strike_head_bias(torch.tensor([djokovic] * 2), receiver,
+                                   torch.tensor([True, False]), torch.tensor([isner] * 2))
+    masks = torch.as_tensor(strike_bias.error_bins())
+    gap = rally[1, wide][masks[wide]] - rally[0, wide][masks[wide]]
+    torch.testing.assert_close(gap, torch.full_like(gap, float(
+        model.strike_pressure[isner, 1, wide] - model.strike_return[djokovic, wide])))
 
 
 def test_bundled_model_bounces_the_ball_by_the_surfaces_physics():

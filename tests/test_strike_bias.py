@@ -15,9 +15,11 @@ from sportsngen.train.serve_bias import MAX_SHIFT
 from sportsngen.train.strike_bias import (
     error_shares,
     fit_strike_bias,
+    fit_strike_pressure,
     fit_strike_return,
     fit_strike_width,
     with_strike_bias,
+    with_strike_pressure,
     with_strike_return,
     with_strike_width,
 )
@@ -377,8 +379,8 @@ def test_a_player_added_for_fine_tuning_gets_a_zero_row_in_every_per_identity_ta
     from sportsngen.train.serve_bias import with_serve_aim, with_serve_bias
 
     vocab = Vocab(players=("A", "B", "C", "D"))
-    model = with_strike_return(with_strike_width(with_strike_bias(with_receiver_start(
-        with_serve_aim(with_serve_bias(small_model(n_ids=vocab.n_ids)))))))
+    model = with_strike_pressure(with_strike_return(with_strike_width(with_strike_bias(
+        with_receiver_start(with_serve_aim(with_serve_bias(small_model(n_ids=vocab.n_ids))))))))
     per_identity = sorted(name for name, b in model.named_buffers()
                           if b.ndim >= 1 and b.shape[0] == vocab.n_ids)
     assert per_identity == sorted(SportsNGEN.PER_IDENTITY_TABLES)
@@ -391,3 +393,99 @@ def test_a_player_added_for_fine_tuning_gets_a_zero_row_in_every_per_identity_ta
         assert wide.shape == (vocab.n_ids + 1, *old.shape[1:])
         torch.testing.assert_close(wide[:vocab.n_ids], old)
         assert (wide[idx] == 0).all()
+
+
+def test_the_opponents_table_adds_on_every_strike_but_the_return():
+    model = with_strike_pressure(with_strike_return(with_strike_bias(small_model())))
+    assert model.strike_pressure.shape == (6, 2, 3) and (model.strike_pressure == 0).all()
+    model.strike_bias[3, 1] = torch.tensor([1.0, 0.0, 0.0])
+    model.strike_pressure[2, 1] = torch.tensor([0.5, -1.0, 0.0])
+    model.strike_pressure[2, 0] = torch.tensor([9.0, 9.0, 9.0])     # another role: not read
+    b = model.strike_head_bias(torch.tensor([3, 3]), torch.tensor([True, True]),
+                               torch.tensor([True, False]), torch.tensor([2, 2]))
+    masks = torch.as_tensor(strike_bias.error_bins())
+    assert b[0, 0][masks[0]].unique().tolist() == [1.0]       # the return: his row alone
+    assert (b[0, 1] == 0).all()
+    assert b[1, 0][masks[0]].unique().tolist() == [1.5]       # a rally ball: both rows
+    assert b[1, 1][masks[1]].unique().tolist() == [-1.0]
+    # No opponent named: his row alone.
+    torch.testing.assert_close(model.strike_head_bias(torch.tensor([3]), torch.tensor([True]),
+                                                      torch.tensor([False])), b[:1])
+    with pytest.raises(ValueError, match="strike_return"):
+        ModelConfig(strike_head=True, strike_bias=True, strike_pressure=True)
+
+
+def test_a_rollouts_strike_reads_the_opponents_row():
+    """`SportsNGEN.place_strikes` adds the row of whoever struck the ball being answered: the
+    server's for the receiver's strike, the receiver's for the server's."""
+    model = with_strike_pressure(with_strike_return(with_strike_bias(small_model())))
+    model.strike_pressure[2] = torch.tensor([[1.0, 0.0, 0.0], [2.0, 0.0, 0.0]])
+    model.strike_pressure[3] = torch.tensor([[3.0, 0.0, 0.0], [4.0, 0.0, 0.0]])
+    seen, pos = _two_strikes_seen(model)
+    model.place_strikes(torch.zeros(2, 3, 32), pos, torch.zeros(2, 3, 3), pos.clone(),
+                        forced=torch.tensor([True, True]), server_ident=torch.tensor([2, 2]),
+                        receiver_ident=torch.tensor([3, 3]),
+                        returning=torch.tensor([False, False]))
+    long = torch.as_tensor(strike_bias.error_bins()[0])
+    assert seen["bias"][0, 0][long].unique().tolist() == [2.0]      # receiver 3 answers 2
+    assert seen["bias"][1, 0][long].unique().tolist() == [3.0]      # server 2 answers 3
+
+
+def _opponent_states(model, n=400, seed=0):
+    """Receivers 2 and 3 against servers 4 and 5, `n` rally strikes a pair: long 5 / 20 %
+    (receiver 2 against 4 / 5) and 10 / 35 % (receiver 3): an opponent's effect that is the
+    same in log-odds for both; net-height and lateral bins in play."""
+    rng = np.random.default_rng(seed)
+    share = {(2, 4): 0.05, (2, 5): 0.20, (3, 4): 0.10, (3, 5): 0.35}
+    masks = strike_bias.error_bins()
+    long_b, deep_in = np.flatnonzero(masks[0])[:6], np.flatnonzero(~masks[0])[-20:]
+    lat_in = np.flatnonzero(~masks[1])
+    recv, srv, depth = [], [], []
+    for (r, s), p in share.items():
+        recv += [r] * n
+        srv += [s] * n
+        depth.append(np.where(rng.random(n) < p, rng.choice(long_b, n), rng.choice(deep_in, n)))
+    m = len(recv)
+    bins = np.stack([np.concatenate(depth), rng.choice(lat_in, m), rng.integers(20, 40, m),
+                     rng.integers(96, size=m)], -1)
+    return HeadStates(torch.randn(m, model.cfg.d_model), torch.as_tensor(bins), np.arange(m),
+                      np.zeros(m, dtype=np.int64), np.zeros((m, 3)), np.ones(m, dtype=bool),
+                      np.array(srv, dtype=np.int64), np.array(recv, dtype=np.int64)), share
+
+
+def test_the_fit_finds_the_opponents_share_of_the_errors():
+    model = with_strike_pressure(with_strike_return(with_strike_bias(small_model())))
+    st, share = _opponent_states(model)
+    returns = np.zeros(len(st), dtype=bool)
+    table = fit_strike_pressure(model, st, returns, rounds=6, prior_strikes=0.0)
+    assert set(table["table"]) == {"opponent", "hitter"}
+    assert model.strike_pressure[5, 1, 0] - model.strike_pressure[4, 1, 0] > 1.0
+    # The two rows together draw each pair's long share; either alone cannot.
+    long = torch.as_tensor(strike_bias.error_bins()[0])
+    ids = torch.as_tensor(st.receiver_id)
+    bias = model.strike_head_bias(ids, torch.ones(len(st), dtype=torch.bool),
+                                  torch.zeros(len(st), dtype=torch.bool),
+                                  torch.as_tensor(st.server_id))
+    with torch.no_grad():
+        odds = (model.strike_head.dim_logits(st.h, st.bins, 0, bias).softmax(-1) * long).sum(-1)
+    for k, p in enumerate(share.values()):
+        assert float(odds[k * 400:(k + 1) * 400].mean()) == pytest.approx(p, abs=0.02)
+    # The hitters' rows alone: one share per receiver, the pairs' spread lost.
+    alone = with_strike_bias(small_model())
+    alone.load_state_dict({k: v for k, v in model.state_dict().items()
+                           if k in alone.state_dict()}, strict=True)
+    fit_strike_bias(alone, st, prior_strikes=0.0)
+    b = alone.strike_head_bias(ids, torch.ones(len(st), dtype=torch.bool))
+    with torch.no_grad():
+        odds = (alone.strike_head.dim_logits(st.h, st.bins, 0, b).softmax(-1) * long).sum(-1)
+    assert abs(float(odds[400:800].mean()) - 0.20) > 0.05
+    # Returns are left to the returns' table: their rows move neither table.
+    again = with_strike_pressure(with_strike_return(with_strike_bias(small_model())))
+    again.load_state_dict(model.state_dict())
+    marked = returns.copy()
+    marked[::2] = True
+    fit_strike_pressure(again, st, marked, rounds=6, prior_strikes=0.0)
+    assert again.strike_pressure[5, 1, 0] - again.strike_pressure[4, 1, 0] > 1.0
+    assert (again.strike_return[[2, 3], 0] != 0).all()
+    with pytest.raises(ValueError, match="with_strike_pressure"):
+        fit_strike_pressure(with_strike_return(with_strike_bias(small_model())), st, returns)

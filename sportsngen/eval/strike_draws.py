@@ -71,7 +71,7 @@ def teacher_forced_strikes(model, arrays: RallyArrays, truth: RallyData, draws: 
     rng = np.random.default_rng(seed)
     was_training = model.training
     model.eval()
-    found, h_rows, bin_rows, hitters, receivers = [], [], [], [], []
+    found, h_rows, bin_rows, hitters, opponents, receivers = [], [], [], [], [], []
     for b0, batch in enumerate(loader):
         mask, bins = model.strike_targets(batch["pos_m"], batch["vel_mps"], batch["next_pos_m"],
                                           batch["has_next"])
@@ -87,6 +87,7 @@ def teacher_forced_strikes(model, arrays: RallyArrays, truth: RallyData, draws: 
         h_rows.append(model.strike_input(h[ok, t[ok]], role))
         bin_rows.append(bins[ok, t[ok]])
         hitters.append(torch.where(recv, batch["ident"][ok, 1], batch["ident"][ok, 0]))
+        opponents.append(torch.where(recv, batch["ident"][ok, 0], batch["ident"][ok, 1]))
         receivers.append(recv)
         found.append(b0 * batch_size + ok)
     model.train(was_training)
@@ -96,9 +97,9 @@ def teacher_forced_strikes(model, arrays: RallyArrays, truth: RallyData, draws: 
     picked = shots.iloc[rows]
     shot = picked["shot_index"].to_numpy(np.int64)
     # The file's per-hitter shifts, where it has them (`model.strike_bias`; the returns' own
-    # with `model.strike_return`).
+    # with `model.strike_return`, the opponents' with `model.strike_pressure`).
     bias = model.strike_head_bias(torch.cat(hitters), torch.cat(receivers),
-                                  torch.as_tensor(shot == 1))
+                                  torch.as_tensor(shot == 1), torch.cat(opponents))
     idx = torch.stack([model.strike_head.sample(h, 1.0, gen, dim_bias=bias)
                        for _ in range(draws)], 1).numpy()
     rec = strike_errors(strike.strike_bin_value(rec_bins, rng.random(rec_bins.shape)))

@@ -122,6 +122,12 @@ class ModelConfig:
     # of first serves than the record's in six of seven matchups, while one shift for all of a
     # receiver's strikes matched his errors overall (docs/evaluation.md, thirty-fifth part).
     strike_return: bool = False
+    # With it and the returns' table, a per-opponent table of the same three shifts by the
+    # hitter's role, added on every strike but the return (`model.strike_bias`, fitted by
+    # `train.strike_bias.fit_strike_pressure`; zero until then): a hitter's errors depend on
+    # whom he plays, which one row per hitter cannot say (docs/evaluation.md, thirty-eighth
+    # part).
+    strike_pressure: bool = False
     # A table of per-server shifts of the receiver's odds of starting his run while the serve
     # flies at him (`model.receiver_start`, fitted by `train.receiver_start`; zero until
     # then): the truth's receivers wait longer against a server who disguises his serve, the
@@ -198,6 +204,9 @@ class ModelConfig:
         if self.strike_width and not self.strike_bias:
             raise ValueError("model.strike_width is read with the strike head's error table: "
                              "it needs strike_bias=True")
+        if self.strike_pressure and not self.strike_return:
+            raise ValueError("model.strike_pressure is read beside the returns' table (it "
+                             "leaves the returns alone): it needs strike_return=True")
         if self.strike_return and not self.strike_bias:
             raise ValueError("model.strike_return is read with the strike head's error table: "
                              "it needs strike_bias=True")

@@ -174,7 +174,7 @@ class SportsNGEN(nn.Module):
     # The buffers with a row per identity, (n_ids, ...) where the config has them: a player
     # added for fine-tuning gets a row at zero in each (`train.finetune.add_player`).
     PER_IDENTITY_TABLES = ("serve_bias", "serve_aim", "receiver_start", "strike_bias",
-                           "strike_width", "strike_return")
+                           "strike_width", "strike_return", "strike_pressure")
 
     def __init__(self, cfg: ModelConfig):
         super().__init__()
@@ -226,6 +226,10 @@ class SportsNGEN(nn.Module):
                              if cfg.strike_width else None)
         self.register_buffer("strike_return", torch.zeros(cfg.n_ids, strike_bias_table.N_KINDS)
                              if cfg.strike_return else None)
+        self.register_buffer("strike_pressure",
+                             torch.zeros(cfg.n_ids, strike_bias_table.N_ROLES,
+                                         strike_bias_table.N_KINDS)
+                             if cfg.strike_pressure else None)
         self.register_buffer("receiver_start",
                              torch.zeros(cfg.n_ids, receiver_start.N_SERVES,
                                          receiver_start.N_WAIT)
@@ -464,17 +468,21 @@ class SportsNGEN(nn.Module):
 
     def strike_head_bias(self, hitter_ident: torch.Tensor | None,
                          receiver: torch.Tensor | None,
-                         returning: torch.Tensor | None = None) -> torch.Tensor | None:
+                         returning: torch.Tensor | None = None,
+                         opponent_ident: torch.Tensor | None = None) -> torch.Tensor | None:
         """The strike head's logit shifts (N, 4, bins) for strikes of `hitter_ident` (N,), the
         point's receiver where `receiver` (N,) bool (`model.strike_bias`, with the width's tilt
-        where the model has `strike_width`, and the returns' table on the rows `returning`
-        (N,) bool where it has `strike_return`); None where the model has no table or the
-        hitter is not given."""
+        where the model has `strike_width`, the returns' table on the rows `returning` (N,)
+        bool where it has `strike_return`, and the row of `opponent_ident` (N,) on the others
+        where it has `strike_pressure`); None where the model has no table or the hitter is
+        not given."""
         if self.strike_bias is None or hitter_ident is None or receiver is None:
             return None
+        opponent = None if opponent_ident is None else self._ident(opponent_ident)
         return strike_bias_table.strike_dim_bias(self.strike_bias, self._ident(hitter_ident),
                                                  receiver, self.strike_width,
-                                                 self.strike_return, returning)
+                                                 self.strike_return, returning,
+                                                 self.strike_pressure, opponent)
 
     def receiver_start_bias(self, server_ident: torch.Tensor | None,
                             serve: torch.Tensor | None,
@@ -548,8 +556,9 @@ class SportsNGEN(nn.Module):
             def strike_shift(rows: torch.Tensor) -> torch.Tensor:
                 recv = strike_heads.ball_on_receivers_end(pos_m[rows])
                 hitter = torch.where(recv, receiver_ident[rows], server_ident[rows])
+                opponent = torch.where(recv, server_ident[rows], receiver_ident[rows])
                 ret = None if returning is None else recv & returning[rows]
-                return self.strike_head_bias(hitter, recv, ret)
+                return self.strike_head_bias(hitter, recv, ret, opponent)
         return strike_heads.place_strikes(self.strike_head, self.serve_head, h, pos_m, vel_mps,
                                           nxt, self.cfg.fps, generator, top_p, allowed, forced,
                                           top_p_serve, strike_h, serve_shift, strike_shift)

@@ -20,6 +20,14 @@ every player's balls in play about as wide as the average player's (teacher-forc
 Murray on clay a median 1.09-1.44 m from the centre line where their record's are 1.04-1.21,
 while the generator's players differ from 1.15 m, Djokovic, to 1.41, Isner; docs/evaluation.md,
 thirty-third part), and a rally is as long as the runs it asks for.
+
+`ModelConfig.strike_pressure` adds a third table, per opponent and the hitter's role, of the
+same three shifts on every rally strike but the return: how hard the ball the opponent sent is
+to play. The generator's aim noise is the hitter's own times the opponent's rally pressure (and,
+on the receiver's rally balls, the server's serve initiative), so the receivers' wide errors
+after the return run 0.017-0.030 of their strikes for Djokovic v Murray and 0.039-0.063 for
+Federer v Nadal, while the head with one row per hitter drew 0.04-0.07 for all four at the
+record's states (docs/evaluation.md, thirty-eighth part).
 """
 
 from __future__ import annotations
@@ -77,16 +85,24 @@ _DIMS = (0, 1, 2)              # the strike dimension each kind shifts
 
 def strike_dim_bias(table: torch.Tensor, hitter_id: torch.Tensor, receiver: torch.Tensor,
                     width: torch.Tensor | None = None, returns: torch.Tensor | None = None,
-                    returning: torch.Tensor | None = None) -> torch.Tensor:
+                    returning: torch.Tensor | None = None,
+                    pressure: torch.Tensor | None = None,
+                    opponent_id: torch.Tensor | None = None) -> torch.Tensor:
     """The strike head's logit shifts for strikes of `hitter_id` (N,), who is the point's
     receiver where `receiver` (N,) bool, from `table` (n_ids, N_ROLES, N_KINDS) and the
     width's `width` (n_ids, N_ROLES) or None -> (N, 4, STRIKE_BINS): each kind's error bins
     shifted, the lateral bins in play tilted by the width, the spin's dimension left alone.
     With the returns' table `returns` (n_ids, N_KINDS) and `returning` (N,) bool (the strike
-    is the return), its row is added to the returns' shifts."""
+    is the return), its row is added to the returns' shifts. With the opponents' table
+    `pressure` (n_ids, N_ROLES, N_KINDS) and `opponent_id` (N,) (who struck the ball now
+    being answered), his row by the hitter's role is added on every strike but a return."""
     shift = table[hitter_id.long(), receiver.long()]                      # (N, N_KINDS)
     if returns is not None and returning is not None:
         shift = shift + returns[hitter_id.long()] * returning.to(shift.dtype)[:, None]
+    if pressure is not None and opponent_id is not None:
+        rally = torch.ones_like(shift[:, 0]) if returning is None else \
+            (~returning.bool()).to(shift.dtype)
+        shift = shift + pressure[opponent_id.long(), receiver.long()] * rally[:, None]
     out = torch.zeros(len(hitter_id), 4, strike.STRIKE_BINS, dtype=table.dtype,
                       device=table.device)
     for kind, dim in enumerate(_DIMS):

@@ -141,13 +141,15 @@ def with_strike_return(model: SportsNGEN) -> SportsNGEN:
 
 @torch.no_grad()
 def fit_strike_return(model: SportsNGEN, states: HeadStates, returns: np.ndarray,
-                      prior_strikes: float = 200.0, min_strikes: int = 50) -> pd.DataFrame:
+                      prior_strikes: float = 200.0, min_strikes: int = 50,
+                      rally: bool = True) -> pd.DataFrame:
     """Split each receiver's error shifts (in place): his receiving role's shifts refitted on
-    his recorded strikes that are not returns, then the returns' table (`model.strike_return`)
-    fitted on his returns (`returns` (N,) bool over `states`; `HeadStates.returns`) on top of
-    them, each by matching as `fit_strike_bias` (the lateral odds with his width's tilt where
-    the model has one). The servers' shifts are left alone. -> per (hitter_id, return): n,
-    and per kind the record's share, the head's before, the target, after and the shift."""
+    his recorded strikes that are not returns (with `rally`; without, they stay as they are),
+    then the returns' table (`model.strike_return`) fitted on his returns (`returns` (N,) bool
+    over `states`; `HeadStates.returns`) on top of them, each by matching as
+    `fit_strike_bias` (the lateral odds with his width's tilt where the model has one). The
+    servers' shifts are left alone. -> per (hitter_id, return): n, and per kind the record's
+    share, the head's before, the target, after and the shift."""
     if model.strike_bias is None or model.strike_return is None:
         raise ValueError("the model has no returns' table (cfg.strike_return): add it with "
                          "with_strike_return after fit_strike_bias")
@@ -165,7 +167,7 @@ def fit_strike_return(model: SportsNGEN, states: HeadStates, returns: np.ndarray
     # Per hitter his other strikes come first (False sorts first), so a return's fit starts
     # from his refitted receiving shifts.
     for (hid, ret), g in keys[keys["receiver"]].groupby(["hitter_id", "is_return"]):
-        if len(g) < min_strikes:
+        if len(g) < min_strikes or not (ret or rally):
             continue
         hid, ret = int(hid), bool(ret)
         i = torch.as_tensor(g.index.to_numpy(copy=True))
@@ -189,6 +191,78 @@ def fit_strike_return(model: SportsNGEN, states: HeadStates, returns: np.ndarray
             row.update({f"{name}_{k}": v for k, v in fit.items()})
         rows.append(row)
     return pd.DataFrame(rows)
+
+
+def with_strike_pressure(model: SportsNGEN) -> SportsNGEN:
+    """`model` (with the returns' table) with the opponents' table added
+    (`cfg.strike_pressure`), at zero: it draws as before until `fit_strike_pressure` fills it.
+    -> a new model."""
+    return with_flag(model, "strike_pressure", ["strike_pressure"])
+
+
+@torch.no_grad()
+def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarray,
+                        rounds: int = 4, prior_strikes: float = 200.0,
+                        min_strikes: int = 50) -> pd.DataFrame:
+    """Fill the opponents' table (`model.strike_pressure`) and refit the hitters' rows
+    (`model.strike_bias`), in place, on the recorded rally strikes `states` that are not
+    returns (`returns` (N,) bool; `HeadStates.returns`), then the returns' table on top of the
+    hitters' rows. A strike's odds of each error get his row (by role) plus his opponent's;
+    the two are found in turn for `rounds` rounds, each cell (an identity and the hitter's
+    role, with at least `min_strikes` strikes) by matching its strikes' mean odds to the
+    record's, pulled toward the odds before by `prior_strikes` pseudo-strikes, as
+    `fit_strike_bias` does. A constant moved from every hitter's row to every opponent's
+    reads the same; the prior keeps each table near where the head's own odds were. -> per
+    (table: "opponent" or "hitter", id, receiver) of the last round: n and per kind the
+    record's share, the odds before and after, and the shift."""
+    if model.strike_pressure is None:
+        raise ValueError("the model has no opponents' table (cfg.strike_pressure): add it with "
+                         "with_strike_pressure")
+    if len(returns) != len(states):
+        raise ValueError(f"returns has {len(returns)} rows, the states {len(states)}")
+    if rounds < 1 or prior_strikes < 0 or min_strikes < 1:
+        raise ValueError(f"rounds and min_strikes must be >= 1 and prior_strikes >= 0, got "
+                         f"{rounds}, {min_strikes} and {prior_strikes}")
+    head = model.strike_head
+    masks = torch.as_tensor(strike_bias.error_bins())
+    rows = np.flatnonzero(~np.asarray(returns, dtype=bool))
+    i = torch.as_tensor(rows)
+    x, bins = head_inputs(model, "strike", states, i), states.bins[i]
+    recv = torch.as_tensor(states.receiver[rows].astype(bool))
+    hitter = torch.as_tensor(states.hitter_id()[rows])
+    opponent = torch.as_tensor(np.where(states.receiver[rows], states.server_id[rows],
+                                        states.receiver_id[rows]))
+    logits = [head.dim_logits(x, bins, kind) for kind in range(strike_bias.N_KINDS)]
+    if model.strike_width is not None:
+        tilt = torch.as_tensor(strike_bias.width_tilt(), dtype=x.dtype)
+        w = model.strike_width[hitter, recv.long()]
+        logits[strike_bias.WIDE] = logits[strike_bias.WIDE] + w[:, None] * tilt
+    record = [masks[k][bins[:, k]].to(x.dtype) for k in range(strike_bias.N_KINDS)]
+    tables = {"opponent": (model.strike_pressure, opponent, model.strike_bias, hitter),
+              "hitter": (model.strike_bias, hitter, model.strike_pressure, opponent)}
+    out = []
+    for r in range(rounds):
+        for name, (table, ids, other, other_ids) in tables.items():
+            keys = pd.DataFrame({"id": ids.numpy(), "receiver": recv.numpy()})
+            for (cid, rcv), g in keys.groupby(["id", "receiver"]):
+                if len(g) < min_strikes:
+                    continue
+                j = torch.as_tensor(g.index.to_numpy(copy=True))
+                row = {"table": name, "id": int(cid), "receiver": bool(rcv), "n": len(j)}
+                for kind, kname in enumerate(KINDS):
+                    mask = masks[kind].expand(len(j), -1)
+                    weight = mask.to(x.dtype)
+                    base = logits[kind][j] + \
+                        other[other_ids[j], int(rcv), kind][:, None] * weight
+                    fit = matched_shift(base, mask, weight, float(record[kind][j].mean()),
+                                        prior_strikes)
+                    table[int(cid), int(rcv), kind] = fit["shift"]
+                    row.update({f"{kname}_{k}": fit[k] for k in ("record", "head", "after",
+                                                                  "shift")})
+                if r == rounds - 1:
+                    out.append(row)
+    fit_strike_return(model, states, returns, prior_strikes, min_strikes, rally=False)
+    return pd.DataFrame(out)
 
 
 def error_shares(table: pd.DataFrame) -> pd.DataFrame:
