@@ -21,7 +21,7 @@ Murray on clay a median 1.09-1.44 m from the centre line where their record's ar
 while the generator's players differ from 1.15 m, Djokovic, to 1.41, Isner; docs/evaluation.md,
 thirty-third part), and a rally is as long as the runs it asks for.
 
-`ModelConfig.strike_pressure` adds a third table, per opponent and the hitter's role, of the
+`ModelConfig.strike_pressure` adds one more table, per opponent and the hitter's role, of the
 same three shifts on every rally strike but the return: how hard the ball the opponent sent is
 to play. The generator's aim noise is the hitter's own times the opponent's rally pressure (and,
 on the receiver's rally balls, the server's serve initiative), so the receivers' wide errors
