@@ -107,12 +107,18 @@ def test_the_hitter_is_the_receiver_on_his_end_else_the_server():
     assert st.hitter_id()[:300].tolist() == [2] * 300
     assert st.hitter_id()[300:600].tolist() == [2] * 300
     assert st.hitter_id()[600:].tolist() == [3] * 60
+    # Whom each answers: the other player of the rally.
+    assert st.opponent_id()[:300].tolist() == [5] * 300
+    assert st.opponent_id()[300:600].tolist() == [5] * 300
+    assert st.opponent_id()[600:].tolist() == [4] * 60
     both = HeadStates.concat([st, st])
     assert both.receiver_id is not None and len(both.receiver_id) == 2 * len(st)
     st.receiver_id = None
     assert HeadStates.concat([st, st]).receiver_id is None
     with pytest.raises(ValueError, match="receivers' identities"):
         st.hitter_id()
+    with pytest.raises(ValueError, match="receivers' identities"):
+        st.opponent_id()
 
 
 def test_the_fit_matches_each_hitters_record_by_role_pulled_toward_the_head():

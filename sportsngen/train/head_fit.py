@@ -70,6 +70,14 @@ class HeadStates:
                              "collect_head_states)")
         return np.where(self.receiver, self.receiver_id, self.server_id)
 
+    def opponent_id(self) -> np.ndarray:
+        """(N,) int64: the identity of the player whose ball each target answers (the server
+        where the receiver strikes, else the receiver)."""
+        if self.receiver_id is None:
+            raise ValueError("these states hold no receivers' identities (read them with "
+                             "collect_head_states)")
+        return np.where(self.receiver, self.server_id, self.receiver_id)
+
     def returns(self) -> np.ndarray:
         """(N,) bool: the returns among rally strikes read in order (`collect_head_states`
         reads each rally's windows in turn, its strikes in time): a rally's first strike, where

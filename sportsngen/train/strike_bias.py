@@ -230,8 +230,7 @@ def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarr
     x, bins = head_inputs(model, "strike", states, i), states.bins[i]
     recv = torch.as_tensor(states.receiver[rows].astype(bool))
     hitter = torch.as_tensor(states.hitter_id()[rows])
-    opponent = torch.as_tensor(np.where(states.receiver[rows], states.server_id[rows],
-                                        states.receiver_id[rows]))
+    opponent = torch.as_tensor(states.opponent_id()[rows])
     logits = [head.dim_logits(x, bins, kind) for kind in range(strike_bias.N_KINDS)]
     if model.strike_width is not None:
         tilt = torch.as_tensor(strike_bias.width_tilt(), dtype=x.dtype)
