@@ -130,6 +130,8 @@ def main() -> None:
           + (f" (the return's {sim.strike_in_reach_return_m} m)"
              if sim.strike_in_reach and sim.strike_in_reach_return_m is not None else "")
           + (", keep chasing" if sim.keep_chasing else "")
+          + (" (high balls to a comfortable height)"
+             if sim.keep_chasing and sim.chase_high_balls else "")
           + (f", contact reach {sim.contact_reach_m} m" if sim.physical_limits else "")
           + (f", the return's {sim.return_reach_m} m"
              if sim.physical_limits and sim.return_reach_m is not None else "")
@@ -235,7 +237,8 @@ def main() -> None:
                        "strike_in_reach": sim.strike_in_reach,
                        "strike_in_reach_from": sim.strike_in_reach_from,
                        "strike_in_reach_force": sim.strike_in_reach_force,
-                       "keep_chasing": sim.keep_chasing},
+                       "keep_chasing": sim.keep_chasing,
+                       "chase_high_balls": sim.chase_high_balls},
                       fh, indent=2)
 
 

@@ -107,6 +107,16 @@ def test_bundled_model_bounces_the_ball_by_the_surfaces_physics():
     assert Simulator.from_pretrained(physical_bounce=False).physical_bounce is False
 
 
+def test_bundled_model_runs_its_players_to_high_balls_at_a_comfortable_height():
+    """The bundled file's late players run to where a high-bouncing ball is at a comfortable
+    height (its sampling defaults; docs/evaluation.md, thirty-ninth part); asked, they do not."""
+    from sportsngen.sim import Simulator
+
+    sim = Simulator.from_pretrained()
+    assert sim.keep_chasing is True and sim.chase_high_balls is True
+    assert Simulator.from_pretrained(chase_high_balls=False).chase_high_balls is False
+
+
 def test_bundled_model_limits_its_players_acceleration_to_the_generators():
     """The bundled file's rollouts change a player's velocity by at most 6 m/s² a frame, the
     generator's players' largest (its sampling defaults; docs/evaluation.md, thirty-seventh

@@ -249,6 +249,13 @@ def test_nearest_playable_ball_for_each_player():
     torch.testing.assert_close(out[2], torch.tensor([0.0, 0.0, -1.0]))
     # Behind the flight's end: its last point, 2 m in front of him and 3 m across.
     torch.testing.assert_close(out[3], torch.tensor([2.0, 3.0, 41 * STEP_S]))
+    # A band of heights: only the rows too high for the default are in (2, 3), and none
+    # in (0.2, 0.9).
+    band = nearest_playable(track, players, (2.0, 3.0))[0]
+    assert band[1, 0].abs().item() <= 0.5 + 1e-5 and band[1, 1].item() == pytest.approx(-0.4)
+    assert band[0, 0].item() == pytest.approx(2.0, abs=0.26)
+    torch.testing.assert_close(nearest_playable(track, players, (0.2, 0.9))[0, :, 2],
+                               torch.full((4,), -1.0))
 
 
 def test_a_model_given_the_nearest_playable_ball_starts_from_the_same_function():

@@ -149,6 +149,60 @@ def test_with_an_acceleration_a_late_player_must_speed_up_toward_the_ball():
         KeepChasing(rule.tracker, accel_mps2=-1.0)
 
 
+def _high_bounce_state(receiver_xy):
+    """A ball coming down steeply at the receiver's end (bouncing about 9.7 m from the net and
+    rising 2.6 m after): the frame (B, 3, 3), velocities and a tracker's history, its last
+    frames under gravity."""
+    b = len(receiver_xy)
+    pos, vel = torch.zeros(b, 3, 3), torch.zeros(b, 3, 3)
+    pos[:, 0, :2] = torch.tensor([12.0, 0.0])
+    pos[:, 1, :2] = torch.as_tensor(receiver_xy, dtype=torch.float32)
+    pos[:, 2] = torch.tensor([-3.0, 3.0, 4.0])
+    vel[:, 2] = torch.tensor([-12.0, 0.0, -4.0])
+    hist = np.zeros((b, 6, 3, 3))
+    for k in range(6):
+        t = -(5 - k) / FPS
+        hist[:, k] = pos.numpy() + t * vel.numpy()
+        hist[:, k, 2, 2] += -0.5 * 9.81 * t * t
+    return pos, vel, hist
+
+
+def test_for_a_high_bounce_the_player_runs_to_where_it_is_at_a_comfortable_height():
+    # A receiver standing where the ball, risen from its bounce, passes just under 2.3 m is
+    # not late for the nearest playable ball (0.2-2.3 m); with the band (0.5-1.4 m) his ball
+    # is where the flight is within it after the bounce, more than his 1 m from him, and
+    # standing still he is late for it. A ball that bounces low is read as before.
+    from sportsngen.model.forecast import ball_forecast, nearest_playable
+    pos, vel, hist = _high_bounce_state([[0.0, 0.0]])
+    prev = torch.as_tensor((hist[:, -2, 2] - hist[:, -3, 2]) * FPS, dtype=torch.float32)
+    track = ball_forecast(pos[:, 2], vel[:, 2], prev, FPS, path=True)[1]
+    z = track[0, :, 2]
+    bounce = int(torch.argmin(z))
+    assert z[bounce:].max() > 2.3
+    rise = torch.nonzero((z > 1.8) & (z < 2.3)
+                         & (torch.arange(len(z)) > bounce)).squeeze(1)
+    pos[0, 1, :2] = track[0, int(rise[-1]), :2] + torch.tensor([0.0, 0.2])
+    hist[:, :, 1] = pos[:, 1].numpy()
+    rows = np.arange(1)
+    plain = KeepChasing(_Tracker(hist, np.full(1, 10)), fps=FPS)
+    banded = KeepChasing(_Tracker(hist, np.full(1, 10)), fps=FPS, band_m=(0.5, 1.4))
+    assert not plain.late(rows, pos, vel)[0][0]
+    late, _, unit, _, _ = banded.late(rows, pos, vel)
+    post = track.clone()
+    post[0, : bounce + 1, 2] = -1.0
+    near = nearest_playable(post, pos[:, 1:2, :2], (0.5, 1.4))[0, 0]
+    assert late[0] and torch.linalg.vector_norm(near[:2]).item() > 1.0
+    torch.testing.assert_close(unit[0], near[:2] / torch.linalg.vector_norm(near[:2]))
+    # The groundstroke of the other tests bounces low: the band changes nothing.
+    pos2, vel2, hist2 = _state([[-12.0, -2.0], [-12.0, 3.0]], [[0.0, 2.0], [0.0, 2.0]])
+    a = KeepChasing(_Tracker(hist2, np.full(2, 10)), fps=FPS, band_m=(0.5, 1.4))
+    b = KeepChasing(_Tracker(hist2, np.full(2, 10)), fps=FPS)
+    for x, y in zip(a.late(np.arange(2), pos2, vel2), b.late(np.arange(2), pos2, vel2)):
+        torch.testing.assert_close(x, y)
+    with pytest.raises(ValueError, match="band_m"):
+        KeepChasing(plain.tracker, band_m=(1.4, 0.5))
+
+
 def test_the_rollout_settles_the_rows_whose_redraws_all_slow():
     from sportsngen.sim.constraints import AllOf
     from sportsngen.sim.rollout import redraw_rejected
@@ -216,3 +270,29 @@ def test_the_tracker_counts_the_frames_since_the_last_contact(federer_points_and
         if checked >= 5:
             break
     assert checked >= 1
+
+
+def test_the_simulator_hands_the_high_ball_band_to_the_rule(tiny_model_file, monkeypatch):
+    import sportsngen.sim.simulator as simulator
+    from sportsngen.sim import Simulator
+    from sportsngen.sim.constraints import HIGH_BALL_BAND_M
+
+    bands = []
+
+    class Recording(KeepChasing):
+        def __init__(self, tracker, **kw):
+            bands.append(kw.get("band_m"))
+            super().__init__(tracker, **kw)
+
+    monkeypatch.setattr(simulator, "KeepChasing", Recording)
+    for high in (True, False):
+        sim = Simulator.from_pretrained(tiny_model_file, max_duration_s=0.5, keep_chasing=True,
+                                        chase_high_balls=high)
+        assert sim.chase_high_balls is high
+        sim.simulate_points("Roger Federer", "Rafael Nadal", "hard", 2, seed=0)
+    assert bands == [HIGH_BALL_BAND_M, None]
+    # Without keep_chasing there is no rule to hand it to.
+    Simulator.from_pretrained(tiny_model_file, max_duration_s=0.5,
+                              chase_high_balls=True).simulate_points(
+        "Roger Federer", "Rafael Nadal", "hard", 2, seed=0)
+    assert len(bands) == 2

@@ -30,6 +30,8 @@ def test_each_flag_becomes_its_simulator_argument():
     assert sampling_kwargs(_parse("--no-ball-net")) == {"ball_net": False}
     assert sampling_kwargs(_parse("--physical-bounce")) == {"physical_bounce": True}
     assert sampling_kwargs(_parse("--no-physical-bounce")) == {"physical_bounce": False}
+    assert sampling_kwargs(_parse("--keep-chasing", "--chase-high-balls")) == {
+        "keep_chasing": True, "chase_high_balls": True}
 
 
 @pytest.mark.parametrize("argv, match", [

@@ -12,7 +12,7 @@ _NUCLEI = ("top_p_ball", "top_p_contact", "top_p_serve")
 _FLAGS = ("contact_odds", "strike_in_reach", "strike_in_reach_from", "strike_in_reach_force",
           "strike_in_reach_m", "ball_net", "keep_chasing", "contact_reach_m",
           "return_reach_m", "strike_in_reach_return_m", "physical_bounce",
-          "player_accel_mps2")
+          "player_accel_mps2", "chase_high_balls")
 
 
 def add_sampling_options(parser: argparse.ArgumentParser) -> None:
@@ -47,6 +47,11 @@ def add_sampling_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--keep-chasing", action=argparse.BooleanOptionalAction, default=None,
                         help="the player due to play the ball does not slow down while he is "
                              "late for it (default: the model file's, else off)")
+    parser.add_argument("--chase-high-balls", action=argparse.BooleanOptionalAction,
+                        default=None,
+                        help="with --keep-chasing, a ball whose bounce carries it above a "
+                             "racket is run to where it is at a comfortable height after the "
+                             "bounce (default: the model file's, else off)")
     parser.add_argument("--contact-reach-m", type=float, default=None,
                         help="with physical limits, a racket contact needs a player within "
                              "this distance of the ball (m, horizontally; default: the model "

@@ -122,14 +122,15 @@ def extra_columns(cfg) -> int:
     return FORECAST_FEATURES + (INTERCEPT_FEATURES if cfg.ball_intercept else 0)
 
 
-def nearest_playable(track_m: torch.Tensor, players_xy_m: torch.Tensor) -> torch.Tensor:
+def nearest_playable(track_m: torch.Tensor, players_xy_m: torch.Tensor,
+                     z_range_m: tuple[float, float] = PLAYABLE_Z_M) -> torch.Tensor:
     """(..., N, 3) a flight one `STEP_S` a row, (..., P, 2) players -> (..., P, 3): for each
     player, the point of the flight nearest him (x, y less his own, m) among those on his side
-    of the net, flying toward his end, at a height he can strike (`PLAYABLE_Z_M`), and the
-    time to it (s; the earliest of equals); (0, 0, -1) where the flight offers him none (the
-    hitter's own ball going away)."""
+    of the net, flying toward his end, at a height he can strike (`z_range_m`, by default
+    `PLAYABLE_Z_M`), and the time to it (s; the earliest of equals); (0, 0, -1) where the
+    flight offers him none (the hitter's own ball going away)."""
     z = track_m[..., 2]
-    playable = (z >= PLAYABLE_Z_M[0]) & (z <= PLAYABLE_Z_M[1])               # (..., N)
+    playable = (z >= z_range_m[0]) & (z <= z_range_m[1])                     # (..., N)
     side = torch.sign(players_xy_m[..., 0])                                   # (..., P)
     step_x = torch.diff(track_m[..., 0], dim=-1)
     step_x = torch.cat([step_x[..., :1], step_x], dim=-1)                     # (..., N)

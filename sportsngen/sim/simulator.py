@@ -40,6 +40,7 @@ from sportsngen.model.export import load_model, read_extra, update_extra
 from sportsngen.sim import whatif
 from sportsngen.sim.assemble import PLAN_COLUMNS, assemble
 from sportsngen.sim.constraints import (
+    HIGH_BALL_BAND_M,
     STRIKE_REACH_M,
     AllOf,
     KeepChasing,
@@ -120,7 +121,8 @@ class Simulator:
                  contact_reach_m: float = CONTACT_REACH_M,
                  return_reach_m: float | None = None,
                  strike_in_reach_return_m: float | None = None,
-                 physical_bounce: bool = False, player_accel_mps2: float | None = None):
+                 physical_bounce: bool = False, player_accel_mps2: float | None = None,
+                 chase_high_balls: bool = False):
         if abs(initial.fps - model.cfg.fps) > 1e-6:
             raise ValueError(f"initial conditions at {initial.fps} Hz, model at {model.cfg.fps}")
         for name, p in (("top_p_player", top_p_player), ("top_p_ball", top_p_ball),
@@ -184,6 +186,10 @@ class Simulator:
         # The player due to play the ball does not slow down while he is late for it
         # (`KeepChasing`).
         self.keep_chasing = bool(keep_chasing)
+        # ... and, with it, for a ball whose bounce carries it above a racket his ball is where
+        # it is at a comfortable height after the bounce (`KeepChasing.band_m`,
+        # `HIGH_BALL_BAND_M`); read only with keep_chasing.
+        self.chase_high_balls = bool(chase_high_balls)
         # The ball's physics centre meets the net (`ModelConfig.ball_net`; None: as the model
         # was trained, unless the file's sampling defaults say). Set on a file trained without
         # it, the rollouts' flight stops at the net where its training targets flew through (the
@@ -313,7 +319,9 @@ class Simulator:
                                    force=self.strike_in_reach_force,
                                    return_reach_m=self.strike_in_reach_return_m) \
                 if self.strike_in_reach else None
-            chase = KeepChasing(tracker, fps=self.fps) if self.keep_chasing else None
+            chase = KeepChasing(tracker, fps=self.fps,
+                                band_m=HIGH_BALL_BAND_M if self.chase_high_balls else None) \
+                if self.keep_chasing else None
             con = AllOf(limits, strike, chase, constraint) \
                 if (limits or strike or chase or constraint) else None
             if con is not None:
