@@ -20,7 +20,13 @@ import numpy as np
 import torch
 
 from sportsngen.model.centre import GRAVITY_MPS2, net_cord_m
-from sportsngen.model.forecast import PLAYABLE_Z_M, ball_forecast, nearest_playable
+from sportsngen.model.forecast import (
+    HORIZON_S,
+    PLAYABLE_Z_M,
+    STEP_S,
+    ball_forecast,
+    nearest_playable,
+)
 from sportsngen.tennis.court import (
     FENCE_X_M,
     FENCE_Y_M,
@@ -450,13 +456,13 @@ class KeepChasing:
             i = torch.as_tensor(np.flatnonzero(due), device=dev)
             recent = torch.as_tensor(t.recent_frames(rows[due]), dtype=dtype, device=dev)
             prev_vel = (recent[:, -2, BALL] - recent[:, -3, BALL]) * self.fps
-            _, track = ball_forecast(pos_m[i, BALL], vel_mps[i, BALL], prev_vel, self.fps,
-                                     path=True)
+            columns, track = ball_forecast(pos_m[i, BALL], vel_mps[i, BALL], prev_vel,
+                                           self.fps, path=True)
             me = pos_m[i, role[i], :2]
             near = nearest_playable(track, me[:, None])[:, 0]          # (n, 3)
             if self.band_m is not None:
                 bounced = torch.as_tensor(t.n_bounces[rows[due]] >= 1, device=dev)
-                near = self._high_ball_target(track, me, near, bounced)
+                near = self._high_ball_target(track, columns[:, -1], me, near, bounced)
             dist = torch.linalg.vector_norm(near[:, :2], dim=-1)
             u = near[:, :2] / dist.clamp_min(1e-6)[:, None]
             v_along = (vel_mps[i, role[i], :2] * u).sum(-1)
@@ -478,22 +484,21 @@ class KeepChasing:
             self._tries[:] = 0
         return out
 
-    def _high_ball_target(self, track: torch.Tensor, me: torch.Tensor, near: torch.Tensor,
-                          bounced: torch.Tensor) -> torch.Tensor:
+    def _high_ball_target(self, track: torch.Tensor, bounce_s: torch.Tensor, me: torch.Tensor,
+                          near: torch.Tensor, bounced: torch.Tensor) -> torch.Tensor:
         """`near` (n, 3), but for flights (n, N, 3) whose bounce carries the ball above a
         racket (`STRIKE_MAX_Z_M`): the point after the bounce nearest the player `me` (n, 2)
-        where it is within `band_m`, where there is one. `bounced` (n,) bool: the ball has
-        bounced already (the whole flight is after it); else the bounce is the flight's first
-        turn from falling to rising."""
-        z = track[..., 2]
-        dz = torch.diff(z, dim=-1)
-        turn = (dz[:, :-1] < 0) & (dz[:, 1:] > 0)                       # (n, N - 2)
-        first = torch.where(turn.any(-1), turn.float().argmax(-1) + 1,
-                            torch.full_like(z[:, 0], z.shape[-1]))
-        after = (torch.arange(z.shape[-1], device=z.device)[None] > first[:, None]) | \
-            bounced[:, None]
-        high = (torch.where(after, z, torch.zeros_like(z)) > STRIKE_MAX_Z_M).any(-1)
-        post = torch.cat([track[..., :2], torch.where(after, z, -1.0)[..., None]], dim=-1)
+        where it is within `band_m`, where there is one. `bounce_s` (n,): the forecast's time
+        of the next bounce (`ball_forecast`'s last column; its horizon where none is found);
+        `bounced` (n,) bool: the ball has bounced already (the whole flight is after it)."""
+        row_s = (torch.arange(track.shape[-2], device=track.device, dtype=track.dtype) + 1) * STEP_S
+        after = (row_s[None] > bounce_s[:, None]) & (bounce_s[:, None] < HORIZON_S)
+        after = after | bounced[:, None]
+        z = torch.where(after, track[..., 2], -1.0)     # before the bounce: not his ball
+        high = (z > STRIKE_MAX_Z_M).any(-1)
+        if not bool(high.any()):                          # most frames: no high bounce
+            return near
+        post = torch.cat([track[..., :2], z[..., None]], dim=-1)
         band = nearest_playable(post, me[:, None], self.band_m)[:, 0]
         return torch.where((high & (band[:, 2] > 0))[:, None], band, near)
 
