@@ -39,7 +39,13 @@ from sportsngen.eval.long_rallies import points_after_window
 from sportsngen.eval.physical import shot_quantities
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.eval.sampling_options import add_sampling_options, sampling_kwargs
-from sportsngen.eval.shot_profile import format_profiles, shot_profile
+from sportsngen.eval.shot_profile import (
+    SLOW_FLIGHT_S,
+    format_profiles,
+    format_unanswered,
+    shot_profile,
+    unanswered_by_flight,
+)
 from sportsngen.eval.stats import rally_hazards, serve_stats
 from sportsngen.sim import Simulator
 from sportsngen.sim.assemble import realistic_points
@@ -213,6 +219,11 @@ def main() -> None:
     profiles = {"sim": shot_profile(simd), "truth": shot_profile(truth)}
     print("\nshot by shot after the serve (1 = the return), sim / truth:\n"
           + format_profiles(profiles["sim"], profiles["truth"]))
+    # Balls in play left unanswered, slow flights apart (docs/evaluation.md, thirty-ninth part).
+    unanswered = {"sim": unanswered_by_flight(simd), "truth": unanswered_by_flight(truth)}
+    print("\nballs in play after the serve left unanswered, by flight (slow: first bounce "
+          f"{SLOW_FLIGHT_S} s or more after the contact), sim / truth:\n"
+          + format_unanswered(unanswered["sim"], unanswered["truth"]))
     decided = r[(r["rules_winner"] >= 0)]
     agree_sim = float((decided["classifier_winner"] == decided["rules_winner"]).mean())
     sub = truth.subset(truth.rallies["rally_id"].iloc[:1000])
@@ -231,6 +242,8 @@ def main() -> None:
                                                for k, v in late.items()},
                        "shot_profile": {k: p.reset_index().to_dict(orient="records")
                                         for k, p in profiles.items()},
+                       "unanswered_by_flight": {k: u.to_dict(orient="index")
+                                                for k, u in unanswered.items()},
                        "simulate_s": sim_s, "top_p_player": sim.top_p_player,
                        "top_p_ball": sim.top_p_ball, "top_p_contact": sim.top_p_contact,
                        "top_p_serve": sim.top_p_serve,

@@ -8,14 +8,15 @@ The recorded rally strikes are the file's own training split (`extra.split`) and
 `--more-data NAME` every rally strike of the data config conf/data/NAME.yaml (synthetic_named:
 the named players' round robins). With `--width` the per-hitter width of the balls in play
 (`model.strike_width`, `fit_strike_width`) is fitted after the errors, and each wide error's
-shift again with it. With `--returns` (a file with the table fitted) each receiver's shifts are
-split instead: refitted on his strikes that are not returns, and the returns' own table
-(`model.strike_return`, `fit_strike_return`) fitted on his returns. With `--pressure` (a file
-with the returns' table) a per-opponent table is added (`model.strike_pressure`,
-`fit_strike_pressure`) and fitted in turn with the hitters' rows on the strikes that are not
-returns, then the returns' table again on top. `--states FILE` keeps the
-decoder's states read (most of the time; they do not depend on the tables). Everything else in
-the file is copied unchanged.
+shift again with it (on a file with the opponents' table: the width alone, then the error
+tables refitted with it as `--pressure` fits them). With `--returns` (a file with the table
+fitted) each receiver's shifts are split instead: refitted on his strikes that are not
+returns, and the returns' own table (`model.strike_return`, `fit_strike_return`) fitted on his
+returns. With `--pressure` (a file with the returns' table) a per-opponent table is added
+(`model.strike_pressure`, `fit_strike_pressure`) and fitted in turn with the hitters' rows on
+the strikes that are not returns, then the returns' table again on top. `--states FILE` keeps
+the decoder's states read (most of the time; they do not depend on the tables). Everything
+else in the file is copied unchanged.
 """
 
 from __future__ import annotations
@@ -78,6 +79,21 @@ def main() -> None:
     model, vocab = run.model, run.vocab
     states = _read_states(model, run, args)
     names = {N_SPECIAL_IDS + i: p for i, p in enumerate(vocab.players)}
+    if args.width and model.strike_pressure is not None:
+        # The error tables split by returns and opponents: the width alone, then those tables
+        # refitted with its tilt (`fit_strike_pressure` reads it, the returns' table last).
+        model = with_strike_width(model)
+        width = fit_strike_width(model, states, prior_strikes=args.prior_strikes,
+                                 refit_wide=False)
+        width.insert(0, "hitter", width.pop("hitter_id").map(names))
+        print(width.round(3).to_string(index=False))
+        table = fit_strike_pressure(model, states, states.returns(),
+                                    prior_strikes=args.prior_strikes)
+        table.insert(0, "player", table["id"].map(names))
+        print(table[["table", "player", "receiver", "n", "wide_record", "wide_after",
+                     "wide_shift"]].round(3).to_string(index=False))
+        run.save(model, args.out)
+        return
     if args.pressure:
         if model.strike_return is None:
             raise SystemExit(f"{run.path}: no returns' table (model.strike_return): fit it "

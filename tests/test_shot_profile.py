@@ -6,7 +6,13 @@ import pytest
 from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.eval.shot_branches import shot_outcomes
-from sportsngen.eval.shot_profile import PROFILE_COLUMNS, format_profiles, shot_profile
+from sportsngen.eval.shot_profile import (
+    PROFILE_COLUMNS,
+    format_profiles,
+    format_unanswered,
+    shot_profile,
+    unanswered_by_flight,
+)
 
 
 @pytest.fixture(scope="module")
@@ -55,3 +61,37 @@ def test_two_profiles_print_side_by_side(truth):
     assert text[1].split()[:4] == ["1", f"{prof.loc[1, 'n']:.0f}", "/", f"{prof.loc[1, 'n']:.0f}"]
     with pytest.raises(ValueError, match="max_shot"):
         shot_profile(data, max_shot=0, rules=rules)
+
+
+def test_the_unanswered_balls_split_by_flight(truth):
+    data, rules = truth
+    got = unanswered_by_flight(data, rules)
+    assert list(got.index) == ["all", "slow", "other"]
+    # Every ball in play after the serve, shot by shot, as the outcomes count them.
+    n_live, n_missed, slow, slow_missed = 0, 0, 0, 0
+    for shot in range(1, 60):
+        o = shot_outcomes(data, shot, rules)
+        o = o[o["in_play"]]
+        n_live += len(o)
+        n_missed += int((~o["answered"]).sum())
+        for rid, c, answered in zip(o.index, o["contact_frame"], o["answered"]):
+            b = [f for f in rules.at[rid, "bounce_frames"] if f > c]
+            if b and b[0] - c >= 1.32 * data.fps:
+                slow += 1
+                slow_missed += int(not answered)
+    assert got.loc["all", "n"] == n_live and got.loc["slow", "n"] == slow
+    assert got.loc["slow", "n"] + got.loc["other", "n"] == n_live
+    assert got.loc["all", "unanswered"] == pytest.approx(n_missed / n_live)
+    assert got.loc["slow", "unanswered"] == pytest.approx(slow_missed / slow)
+    assert got.loc["slow", "share"] == pytest.approx(slow / n_live)
+    p = n_missed / n_live
+    assert got.loc["all", "se"] == pytest.approx(np.sqrt(p * (1 - p) / n_live))
+    # The generator's players answer most balls, and a few are slow.
+    assert 0.01 < got.loc["slow", "share"] < 0.3 and got.loc["all", "unanswered"] < 0.15
+    # No ball flies 100 s: none slow, its share unknown.
+    none = unanswered_by_flight(data, rules, slow_s=100.0)
+    assert none.loc["slow", "n"] == 0 and np.isnan(none.loc["slow", "unanswered"])
+    text = format_unanswered(got, got).splitlines()
+    assert len(text) == 4 and text[2].split()[:4] == ["slow", str(slow), "/", str(slow)]
+    with pytest.raises(ValueError, match="slow_s"):
+        unanswered_by_flight(data, rules, slow_s=0.0)

@@ -356,7 +356,14 @@ def test_the_width_fit_matches_each_hitters_distance_from_the_centre_line():
     with pytest.raises(ValueError, match="with_strike_width"):
         fit_strike_width(model, st)
     model = with_strike_width(model)
+    # Without the wide errors' refit the error table stays as it was (the opponents' and
+    # returns' fit refits it instead); the tilt is the same.
+    errors = model.strike_bias.clone()
+    alone = fit_strike_width(model, st, prior_strikes=0.0, refit_wide=False)
+    torch.testing.assert_close(model.strike_bias, errors)
+    assert "wide_shift" not in alone
     table = fit_strike_width(model, st, prior_strikes=0.0).set_index(["hitter_id", "receiver"])
+    np.testing.assert_allclose(alone["width_shift"], table["width_shift"].to_numpy())
     assert table.loc[(2, False), "width_record_m"] == pytest.approx(off[lat[:400]].mean())
     for key in ((2, False), (2, True), (3, True)):
         assert table.loc[key, "width_after_m"] == pytest.approx(

@@ -9,8 +9,9 @@ constant-velocity extrapolation ("cv"). The ball (`ModelConfig.ball_centre`):
 - ``"physics"``: one step of the ball's flight. The acceleration (gravity, drag and Magnus
   together) is read from the last three frames (the second difference), which carries the
   spin without estimating it: gravity and drag are taken at the new velocity and the rest,
-  the lift, loses any part along the velocity (Magnus has none) and is turned with the
-  velocity (`turned_lift_mps2`). Where that reading is not a
+  the lift, loses any part along the velocity (Magnus has none), is turned with the
+  velocity and sized as the generator's Magnus at the spin it reads as (`turned_lift_mps2`).
+  Where that reading is not a
   flight (a racket contact or a bounce fell among those frames, a toss left the hand, or the
   track is too noisy: it departs from gravity plus drag by more than Magnus could at that
   speed, `MAX_LIFT_PER_M` |v|^2, capped at `MAX_LIFT_MPS2`) the step uses gravity plus drag
@@ -47,12 +48,18 @@ DRAG_PER_M = 0.0206
 # Magnus of a rally ball is at most ~15 m/s^2 (8 m/s of topspin at 30 m/s: 6 m/s^2); a second
 # difference further than this from gravity plus drag holds a contact or a bounce.
 MAX_LIFT_MPS2 = 30.0
-# Magnus can do no more than k |v|^2 / 2 for any spin (the generator's lift coefficient
-# spin / (2 |spin| + |v|) is under 1/2; k = DRAG_PER_M / C_d): 0.5 m/s^2 for a 5 m/s toss,
-# 17 m/s^2 at 30 m/s. A slow ball's second difference beyond that is no flight: read as one,
-# a toss's release (the hand stops, the ball flies on) was carried on as a 20-30 m/s^2 "lift"
-# that flew the model's own tosses backwards past the server (docs/evaluation.md).
-MAX_LIFT_PER_M = DRAG_PER_M / 0.55 / 2.0
+# The generator's Magnus: k C_L |v|^2 across the flight, k = rho pi R^2 / (2 m) = DRAG_PER_M /
+# C_d, C_L = -spin / (2 |spin| + |v|) (`sportsngen.synth.physics`).
+MAGNUS_PER_M = DRAG_PER_M / 0.55
+# Magnus can do no more than k |v|^2 / 2 for any spin (the lift coefficient is under 1/2):
+# 0.5 m/s^2 for a 5 m/s toss, 17 m/s^2 at 30 m/s. A slow ball's second difference beyond that
+# is no flight: read as one, a toss's release (the hand stops, the ball flies on) was carried
+# on as a 20-30 m/s^2 "lift" that flew the model's own tosses backwards past the server
+# (docs/evaluation.md).
+MAX_LIFT_PER_M = MAGNUS_PER_M / 2.0
+# A lift read as a coefficient at or above 1/2 (a noisy track) is taken at this one rather
+# than inverted to an infinite spin.
+MAX_LIFT_COEFFICIENT = 0.45
 # Vertical speed kept by a bounce inside the step (the surfaces' 0.73-0.80; the exact bounce
 # is the model's to learn, the centre only has to be near it).
 BOUNCE_RESTITUTION = 0.77
@@ -109,22 +116,40 @@ def lift_direction(vel_mps: torch.Tensor) -> torch.Tensor:
     return torch.cat([-vel_mps[..., 2:3] * u_hat, vu], dim=-1)
 
 
+def magnus_scale(across: torch.Tensor, speed_from_mps: torch.Tensor,
+                 speed_to_mps: torch.Tensor) -> torch.Tensor:
+    """How the lift across the flight, `across` (...) times `lift_direction` at speed
+    `speed_from_mps`, scales when the ball's speed becomes `speed_to_mps` at the same spin:
+    the generator's Magnus is k C_L |v| `lift_direction` with C_L = -spin / (2 |spin| + |v|),
+    so the factor on `lift_direction` goes as |v| / (2 |spin| + |v|), the spin read back from
+    `across` (its coefficient capped at `MAX_LIFT_COEFFICIENT`)."""
+    u = speed_from_mps.clamp_min(1e-6)
+    c = (across.abs() / (MAGNUS_PER_M * u)).clamp(max=MAX_LIFT_COEFFICIENT)
+    two_spin = 2.0 * c * u / (1.0 - 2.0 * c)
+    return speed_to_mps * (two_spin + u) / (u * (two_spin + speed_to_mps).clamp_min(1e-6))
+
+
 def turned_lift_mps2(lift_mps2: torch.Tensor, prev_vel_mps: torch.Tensor,
                      vel_mps: torch.Tensor) -> torch.Tensor:
     """The lift read between `prev_vel_mps` and `vel_mps`, carried on a frame: its part along
     the velocity is dropped, its part across the flight in the velocity's vertical plane
-    (`lift_direction`) turns with the velocity, its size in proportion to |v|, and the rest
-    (sideways) is kept.
-    The generator's Magnus, k |v|^2 c / (2 |spin| + |v|) with c from the spin, is
-    perpendicular to the velocity and close to proportional to |v| at rally speeds. Carried
-    unturned, a ball flown by the step alone kept its lift pointing where it pointed at the
-    start: recorded returns flown on from three frames after the contact landed a median 0.22 m
-    (p90 0.33 m) from the generator's bounce; turned, 0.03 m (0.09 m); sized as |v|^2, 0.36 m
-    (docs/evaluation.md, issue 17, seventh part). Why drop the part along the velocity: Magnus
-    has none and drag is the step's own, so in the generator's flights it reads 0.01-0.02
-    m/s^2, but read from a model's own strike frames it held a forward push (median 0.5-1.9,
-    p90 3.3-4.1 m/s^2 in the bundled model's rollouts) that the step then carried to the
-    bounce: less drag, rally balls flying long (tenth part)."""
+    (`lift_direction`) turns with the velocity and changes size with its speed as the
+    generator's Magnus does at the spin it reads as (`magnus_scale`), and the rest (sideways)
+    is kept.
+    The generator's Magnus is perpendicular to the velocity. Carried unturned, a ball flown by
+    the step alone kept its lift pointing where it pointed at the start: recorded returns flown
+    on from three frames after the contact landed a median 0.22 m (p90 0.33 m) from the
+    generator's bounce; turned, 0.03 m (0.09 m); sized as |v|^2, 0.36 m (docs/evaluation.md,
+    issue 17, seventh part). Sized in proportion to |v| (the small-spin limit), one frame's
+    error was far below a bin but a rollout flies its own frames: over a slow ball's flight
+    (a lob, a drop shot) the lift kept more of its size than the spin gives, the spin read at
+    the bounce had grown (median 0.9 m/s from three frames after the contact to the bounce on
+    the clay check, the generator's 0.02) and a slice died on the clay (fortieth part). Why
+    drop the part along the velocity: Magnus has none and drag is the step's own, so in the
+    generator's flights it reads 0.01-0.02 m/s^2, but read from a model's own strike frames it
+    held a forward push (median 0.5-1.9, p90 3.3-4.1 m/s^2 in the bundled model's rollouts)
+    that the step then carried to the bounce: less drag, rally balls flying long (tenth
+    part)."""
     # The lift is read at the frame between the two velocities (their mean): its part along
     # the velocity there is what Magnus cannot give.
     mid = 0.5 * (prev_vel_mps + vel_mps)
@@ -133,7 +158,9 @@ def turned_lift_mps2(lift_mps2: torch.Tensor, prev_vel_mps: torch.Tensor,
     v2_prev = (prev_vel_mps * prev_vel_mps).sum(-1, keepdim=True).clamp_min(1e-6)
     d_prev = lift_direction(prev_vel_mps)
     across = (lift * d_prev).sum(-1, keepdim=True) / v2_prev
-    return lift - across * d_prev + across * lift_direction(vel_mps)
+    scale = magnus_scale(across, v2_prev.sqrt(),
+                         torch.linalg.vector_norm(vel_mps, dim=-1, keepdim=True))
+    return lift - across * d_prev + across * scale * lift_direction(vel_mps)
 
 
 def net_cord_m(y_m: torch.Tensor) -> torch.Tensor:

@@ -27,7 +27,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from sportsngen.model.centre import DRAG_PER_M, GRAVITY_MPS2, MAX_LIFT_MPS2, MAX_LIFT_PER_M
+from sportsngen.model.centre import (
+    DRAG_PER_M,
+    GRAVITY_MPS2,
+    MAGNUS_PER_M,
+    MAX_LIFT_COEFFICIENT,
+    MAX_LIFT_MPS2,
+    MAX_LIFT_PER_M,
+)
 from sportsngen.tennis.court import BALL_RADIUS_M, BASELINE_X_M, SINGLES_HALF_WIDTH_M
 
 STRIKE_DIMS = ("depth_m", "lateral_m", "net_height_m", "lift_per_s")
@@ -135,7 +142,12 @@ def _turned_lift(lift: np.ndarray, prev_v: np.ndarray, v: np.ndarray) -> np.ndar
     v2_prev = np.maximum((prev_v * prev_v).sum(-1, keepdims=True), 1e-6)
     d_prev = _lift_direction(prev_v)
     across = (lift * d_prev).sum(-1, keepdims=True) / v2_prev
-    return lift - across * d_prev + across * _lift_direction(v)
+    u = np.sqrt(v2_prev)
+    w = np.linalg.norm(v, axis=-1, keepdims=True)
+    c = np.minimum(np.abs(across) / (MAGNUS_PER_M * u), MAX_LIFT_COEFFICIENT)
+    two_spin = 2.0 * c * u / (1.0 - 2.0 * c)
+    scale = w * (two_spin + u) / (u * np.maximum(two_spin + w, 1e-6))
+    return lift - across * d_prev + across * scale * _lift_direction(v)
 
 
 def _centre_acceleration(v: np.ndarray, prev_v: np.ndarray, fps: float) -> np.ndarray:

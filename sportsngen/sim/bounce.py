@@ -23,7 +23,8 @@ import torch
 
 from sportsngen.data.tokens import BALL
 from sportsngen.model.centre import (
-    DRAG_PER_M,
+    MAGNUS_PER_M,
+    MAX_LIFT_COEFFICIENT,
     ball_acceleration_mps2,
     lift_direction,
     read_lift_mps2,
@@ -31,11 +32,6 @@ from sportsngen.model.centre import (
 from sportsngen.synth.physics import fly
 from sportsngen.tennis.court import BALL_RADIUS_M
 
-# The generator's lift coefficient C_L = -spin / (2 |spin| + |v|) stays below 1/2; a reading at
-# or above it (a noisy track) is capped here rather than inverted to an infinite spin.
-MAX_LIFT_COEFFICIENT = 0.45
-# The drag coefficient the centre's `DRAG_PER_M` was built from (k C_d with C_d 0.55).
-_K_PER_M = DRAG_PER_M / 0.55
 FRAMES = 2    # the bounce's frame and the one after it (whose backward velocity mixes the two)
 
 
@@ -46,7 +42,7 @@ def spin_from_lift_mps(lift_mps2: torch.Tensor, vel_mps: torch.Tensor) -> torch.
     speed = torch.linalg.vector_norm(vel_mps, dim=-1)
     across = (lift_mps2 * lift_direction(vel_mps)).sum(-1) / \
         (speed * speed).clamp_min(1e-9)                            # = k C_L |v|
-    cl = (across / (_K_PER_M * speed.clamp_min(1e-6))).clamp(-MAX_LIFT_COEFFICIENT,
+    cl = (across / (MAGNUS_PER_M * speed.clamp_min(1e-6))).clamp(-MAX_LIFT_COEFFICIENT,
                                                               MAX_LIFT_COEFFICIENT)
     return -torch.sign(cl) * cl.abs() * speed / (1.0 - 2.0 * cl.abs())
 

@@ -84,16 +84,17 @@ def _width_in_play(logits: torch.Tensor, tilt: torch.Tensor, inside: torch.Tenso
 
 @torch.no_grad()
 def fit_strike_width(model: SportsNGEN, states: HeadStates, prior_strikes: float = 200.0,
-                     min_strikes: int = 50) -> pd.DataFrame:
+                     min_strikes: int = 50, refit_wide: bool = True) -> pd.DataFrame:
     """Fill `model.strike_width` (in place) from the recorded rally strikes `states`, per
     hitter and role with at least `min_strikes` strikes in play sideways: the tilt whose mean
     distance from the centre line of the head's lateral draws in play (read at the record's
     depth bin) equals his record's, pulled toward the head's own by `prior_strikes`
     pseudo-strikes (it rises with the tilt, so a bisection finds it); then, the tilt moving
-    a little of the lateral mass across the singles lines, his wide error's shift refitted on
-    the tilted odds (`fit_strike_bias` must have run). -> per (hitter_id, receiver): n, the
-    record's, the head's before and after mean distances (m), the tilt and the wide error's
-    shift after."""
+    a little of the lateral mass across the singles lines, with `refit_wide` his wide error's
+    shift refitted on the tilted odds (`fit_strike_bias` must have run; a file with the returns'
+    and opponents' tables refits them all instead, `fit_strike_pressure`, which reads the
+    tilt). -> per (hitter_id, receiver): n, the record's, the head's before and after mean
+    distances (m), the tilt and (with `refit_wide`) the wide error's shift after."""
     if model.strike_width is None or model.strike_bias is None:
         raise ValueError("the model has no per-hitter width (cfg.strike_width): add it with "
                          "with_strike_width after fit_strike_bias")
@@ -119,17 +120,19 @@ def fit_strike_width(model: SportsNGEN, states: HeadStates, prior_strikes: float
         shift = bisect_shift(lambda s, lg=play: _width_in_play(lg, tilt, inside, offset_m, s),
                              target, MAX_SHIFT)
         model.strike_width[int(hid), int(recv)] = shift
-        # The wide error's shift again, on all his strikes' lateral odds with the tilt.
-        tilted = logits + shift * tilt
-        mask = wide.expand(len(i), -1)
-        fit = matched_shift(tilted, mask, mask.to(tilted.dtype),
-                            float(wide[bins[:, 1]].float().mean()), prior_strikes)
-        model.strike_bias[int(hid), int(recv), strike_bias.WIDE] = fit["shift"]
-        rows.append({"hitter_id": int(hid), "receiver": bool(recv), "n": n,
-                     "width_record_m": record, "width_head_m": before,
-                     "width_after_m": _width_in_play(play, tilt, inside, offset_m, shift),
-                     "width_shift": shift, "wide_shift": fit["shift"],
-                     "wide_after": fit["after"]})
+        row = {"hitter_id": int(hid), "receiver": bool(recv), "n": n,
+               "width_record_m": record, "width_head_m": before,
+               "width_after_m": _width_in_play(play, tilt, inside, offset_m, shift),
+               "width_shift": shift}
+        if refit_wide:
+            # The wide error's shift again, on all his strikes' lateral odds with the tilt.
+            tilted = logits + shift * tilt
+            mask = wide.expand(len(i), -1)
+            fit = matched_shift(tilted, mask, mask.to(tilted.dtype),
+                                float(wide[bins[:, 1]].float().mean()), prior_strikes)
+            model.strike_bias[int(hid), int(recv), strike_bias.WIDE] = fit["shift"]
+            row.update({"wide_shift": fit["shift"], "wide_after": fit["after"]})
+        rows.append(row)
     return pd.DataFrame(rows)
 
 
