@@ -29,6 +29,7 @@ from sportsngen.tennis.court import BASELINE_X_M
 
 PROFILE_COLUMNS = ("n", "in_play", "answered", "depth_m", "side_m", "net_height_m",
                    "speed_mps", "hitter_behind_m")
+SLOW_FLIGHT_S = 1.32       # a first bounce this long after the contact: a slow ball
 
 
 def first_strike(ball_m: np.ndarray, from_frame: int, fps: float,
@@ -117,9 +118,6 @@ def shot_profile(data: RallyData, max_shot: int = 6,
                     **{c: float(s[c].median()) if len(s) else np.nan
                        for c in PROFILE_COLUMNS[3:]}})
     return pd.DataFrame(out).set_index("shot")[list(PROFILE_COLUMNS)]
-
-
-SLOW_FLIGHT_S = 1.32       # a first bounce this long after the contact: a slow ball
 
 
 def unanswered_by_flight(data: RallyData, rules: pd.DataFrame | None = None,

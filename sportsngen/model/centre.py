@@ -116,17 +116,26 @@ def lift_direction(vel_mps: torch.Tensor) -> torch.Tensor:
     return torch.cat([-vel_mps[..., 2:3] * u_hat, vu], dim=-1)
 
 
+def magnus_ratio(coefficient, speed_from_mps, speed_to_mps):
+    """The factor on `lift_direction` of a ball whose lift coefficient |C_L| is `coefficient`
+    (< 1/2) at speed `speed_from_mps` (> 0) when its speed becomes `speed_to_mps` at the same
+    spin: the generator's Magnus is k C_L |v| `lift_direction` with C_L = -spin / (2 |spin| +
+    |v|), so the factor goes as |v| / (2 |spin| + |v|). Plain arithmetic: numpy arrays or
+    tensors (the strike's numpy flight shares it)."""
+    two_spin = 2.0 * coefficient * speed_from_mps / (1.0 - 2.0 * coefficient)
+    return speed_to_mps * (two_spin + speed_from_mps) / \
+        (speed_from_mps * (two_spin + speed_to_mps) + 1e-12)
+
+
 def magnus_scale(across: torch.Tensor, speed_from_mps: torch.Tensor,
                  speed_to_mps: torch.Tensor) -> torch.Tensor:
     """How the lift across the flight, `across` (...) times `lift_direction` at speed
-    `speed_from_mps`, scales when the ball's speed becomes `speed_to_mps` at the same spin:
-    the generator's Magnus is k C_L |v| `lift_direction` with C_L = -spin / (2 |spin| + |v|),
-    so the factor on `lift_direction` goes as |v| / (2 |spin| + |v|), the spin read back from
-    `across` (its coefficient capped at `MAX_LIFT_COEFFICIENT`)."""
+    `speed_from_mps`, scales when the ball's speed becomes `speed_to_mps` at the same spin
+    (`magnus_ratio`), the spin read back from `across` (its coefficient capped at
+    `MAX_LIFT_COEFFICIENT`)."""
     u = speed_from_mps.clamp_min(1e-6)
     c = (across.abs() / (MAGNUS_PER_M * u)).clamp(max=MAX_LIFT_COEFFICIENT)
-    two_spin = 2.0 * c * u / (1.0 - 2.0 * c)
-    return speed_to_mps * (two_spin + u) / (u * (two_spin + speed_to_mps).clamp_min(1e-6))
+    return magnus_ratio(c, u, speed_to_mps)
 
 
 def turned_lift_mps2(lift_mps2: torch.Tensor, prev_vel_mps: torch.Tensor,

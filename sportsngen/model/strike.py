@@ -34,6 +34,7 @@ from sportsngen.model.centre import (
     MAX_LIFT_COEFFICIENT,
     MAX_LIFT_MPS2,
     MAX_LIFT_PER_M,
+    magnus_ratio,
 )
 from sportsngen.tennis.court import BALL_RADIUS_M, BASELINE_X_M, SINGLES_HALF_WIDTH_M
 
@@ -143,10 +144,8 @@ def _turned_lift(lift: np.ndarray, prev_v: np.ndarray, v: np.ndarray) -> np.ndar
     d_prev = _lift_direction(prev_v)
     across = (lift * d_prev).sum(-1, keepdims=True) / v2_prev
     u = np.sqrt(v2_prev)
-    w = np.linalg.norm(v, axis=-1, keepdims=True)
     c = np.minimum(np.abs(across) / (MAGNUS_PER_M * u), MAX_LIFT_COEFFICIENT)
-    two_spin = 2.0 * c * u / (1.0 - 2.0 * c)
-    scale = w * (two_spin + u) / (u * np.maximum(two_spin + w, 1e-6))
+    scale = magnus_ratio(c, u, np.linalg.norm(v, axis=-1, keepdims=True))
     return lift - across * d_prev + across * scale * _lift_direction(v)
 
 
