@@ -24,9 +24,12 @@ import torch
 from sportsngen.data.tokens import BALL, POS_SCALE_M, VEL_SCALE_MPS
 from sportsngen.model.centre import (
     BOUNCE_RESTITUTION,
+    MAGNUS_PER_M,
+    MAX_LIFT_COEFFICIENT,
     flight_acceleration_mps2,
+    lift_direction,
+    magnus_ratio,
     read_lift_mps2,
-    turned_lift_mps2,
 )
 from sportsngen.tennis.court import BALL_RADIUS_M
 
@@ -81,12 +84,27 @@ def ball_forecast(pos_m: torch.Tensor, vel_mps: torch.Tensor,
     # are skipped on steps where no row needs them (a zero lift turns to zero; no row down,
     # nothing to change), which keeps every value and cuts a third of its time for one ball.
     spin = bool(lift.any())
+    if spin:
+        # The lift split once (as `turned_lift_mps2` splits it): its part across the flight, a
+        # coefficient on `lift_direction` sized at each step as the generator's Magnus at the
+        # spin it reads as (`magnus_ratio`), and the sideways rest, kept; its part along the
+        # velocity dropped. Split at every step instead, the forecast cost 40 % more of a
+        # rollout's time.
+        v2 = (v * v).sum(-1, keepdim=True).clamp_min(1e-6)
+        lift = lift - (lift * v).sum(-1, keepdim=True) / v2 * v
+        d0 = lift_direction(v)
+        across = (lift * d0).sum(-1, keepdim=True) / v2
+        side = lift - across * d0
+        speed0 = v2.sqrt()
+        coefficient = (across.abs() / (MAGNUS_PER_M * speed0)).clamp(max=MAX_LIFT_COEFFICIENT)
     at_horizon = p
     for k in range(1, n_path + 1):
         v_new = v + (flight_acceleration_mps2(v) + lift) * dt
         p = p + 0.5 * (v + v_new) * dt     # the trapezoid: exact for constant acceleration
         if spin:
-            lift = turned_lift_mps2(lift, v, v_new)
+            speed = torch.linalg.vector_norm(v_new, dim=-1, keepdim=True)
+            lift = across * magnus_ratio(coefficient, speed0, speed) * lift_direction(v_new) \
+                + side
         v = v_new
         down = (p[..., 2] < BALL_RADIUS_M) & (v[..., 2] < 0)
         if bool(down.any()):
@@ -98,6 +116,8 @@ def ball_forecast(pos_m: torch.Tensor, vel_mps: torch.Tensor,
             v = torch.where(down[..., None], v * keep, v)
             # A bounce changes the spin in ways the track has not shown yet: flown on without.
             if spin:
+                across = torch.where(down[..., None], torch.zeros_like(across), across)
+                side = torch.where(down[..., None], torch.zeros_like(side), side)
                 lift = torch.where(down[..., None], torch.zeros_like(lift), lift)
                 spin = bool(lift.any())
             p = torch.cat([p[..., :2], torch.where(down, 2 * BALL_RADIUS_M - p[..., 2],
