@@ -127,15 +127,32 @@ def magnus_ratio(coefficient, speed_from_mps, speed_to_mps):
         (speed_from_mps * (two_spin + speed_to_mps) + 1e-12)
 
 
+def lift_coefficient(across: torch.Tensor, speed_mps: torch.Tensor) -> torch.Tensor:
+    """|C_L| of a ball whose lift across the flight is `across` (...) times `lift_direction`
+    at speed `speed_mps` (> 0), capped at `MAX_LIFT_COEFFICIENT`."""
+    return (across.abs() / (MAGNUS_PER_M * speed_mps)).clamp(max=MAX_LIFT_COEFFICIENT)
+
+
 def magnus_scale(across: torch.Tensor, speed_from_mps: torch.Tensor,
                  speed_to_mps: torch.Tensor) -> torch.Tensor:
     """How the lift across the flight, `across` (...) times `lift_direction` at speed
     `speed_from_mps`, scales when the ball's speed becomes `speed_to_mps` at the same spin
-    (`magnus_ratio`), the spin read back from `across` (its coefficient capped at
-    `MAX_LIFT_COEFFICIENT`)."""
+    (`magnus_ratio`, the spin read back by `lift_coefficient`)."""
     u = speed_from_mps.clamp_min(1e-6)
-    c = (across.abs() / (MAGNUS_PER_M * u)).clamp(max=MAX_LIFT_COEFFICIENT)
-    return magnus_ratio(c, u, speed_to_mps)
+    return magnus_ratio(lift_coefficient(across, u), u, speed_to_mps)
+
+
+def split_lift(lift_mps2: torch.Tensor, along_vel_mps: torch.Tensor,
+               across_vel_mps: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """A lift (..., 3) without its part along `along_vel_mps`, split into its part across the
+    flight of `across_vel_mps` in that velocity's vertical plane, as a coefficient (..., 1) on
+    its `lift_direction`, and the sideways rest (..., 3)."""
+    a2 = (along_vel_mps * along_vel_mps).sum(-1, keepdim=True).clamp_min(1e-6)
+    lift = lift_mps2 - (lift_mps2 * along_vel_mps).sum(-1, keepdim=True) / a2 * along_vel_mps
+    v2 = (across_vel_mps * across_vel_mps).sum(-1, keepdim=True).clamp_min(1e-6)
+    d = lift_direction(across_vel_mps)
+    across = (lift * d).sum(-1, keepdim=True) / v2
+    return across, lift - across * d
 
 
 def turned_lift_mps2(lift_mps2: torch.Tensor, prev_vel_mps: torch.Tensor,
@@ -161,15 +178,10 @@ def turned_lift_mps2(lift_mps2: torch.Tensor, prev_vel_mps: torch.Tensor,
     part)."""
     # The lift is read at the frame between the two velocities (their mean): its part along
     # the velocity there is what Magnus cannot give.
-    mid = 0.5 * (prev_vel_mps + vel_mps)
-    mid2 = (mid * mid).sum(-1, keepdim=True).clamp_min(1e-6)
-    lift = lift_mps2 - (lift_mps2 * mid).sum(-1, keepdim=True) / mid2 * mid
-    v2_prev = (prev_vel_mps * prev_vel_mps).sum(-1, keepdim=True).clamp_min(1e-6)
-    d_prev = lift_direction(prev_vel_mps)
-    across = (lift * d_prev).sum(-1, keepdim=True) / v2_prev
-    scale = magnus_scale(across, v2_prev.sqrt(),
+    across, side = split_lift(lift_mps2, 0.5 * (prev_vel_mps + vel_mps), prev_vel_mps)
+    scale = magnus_scale(across, torch.linalg.vector_norm(prev_vel_mps, dim=-1, keepdim=True),
                          torch.linalg.vector_norm(vel_mps, dim=-1, keepdim=True))
-    return lift - across * d_prev + across * scale * lift_direction(vel_mps)
+    return side + across * scale * lift_direction(vel_mps)
 
 
 def net_cord_m(y_m: torch.Tensor) -> torch.Tensor:
