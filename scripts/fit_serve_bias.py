@@ -2,7 +2,11 @@
 serve and of its speed (`model.serve_bias`; `sportsngen.train.serve_bias`).
 
     .venv/bin/python scripts/fit_serve_bias.py --model FILE --out FILE [--more-data NAME]
-        [--prior-serves 100] [--threads 2]
+        [--prior-serves 100] [--threads 2] [--short]
+
+With `--short`, on a file that has the table: the short serves' shift added and fitted
+(`model.serve_short`, `fit_serve_short`) and each long shift refitted beside it; the other
+shifts are left as they are.
 
 The recorded serves are the file's own training split (`extra.split`, windows also turned as
 training turns them) and with `--more-data NAME` every serve of the data config
@@ -16,15 +20,22 @@ import time
 
 from sportsngen.data.tokens import N_SPECIAL_IDS
 from sportsngen.train.head_fit import HeadStates, collect_head_states
-from sportsngen.train.serve_bias import fit_serve_bias, with_serve_bias
+from sportsngen.train.serve_bias import (
+    fit_serve_bias,
+    fit_serve_short,
+    with_serve_bias,
+    with_serve_short,
+)
 from sportsngen.train.table_cli import open_table_run, table_parser
 
 
 def main() -> None:
-    args = table_parser(__doc__, "--prior-serves", 100.0,
-                        "pseudo-serves at the head's own odds added to each server's record",
-                        "also read every serve of this data config (conf/data/NAME.yaml)"
-                        ).parse_args()
+    ap = table_parser(__doc__, "--prior-serves", 100.0,
+                      "pseudo-serves at the head's own odds added to each server's record",
+                      "also read every serve of this data config (conf/data/NAME.yaml)")
+    ap.add_argument("--short", action="store_true",
+                    help="fit the short serves' shift on a file that has the table")
+    args = ap.parse_args()
     run = open_table_run(args, lambda m: None if m.serve_head is not None
                          else "no serve head (model.serve_head)")
     model, vocab = run.model, run.vocab
@@ -32,9 +43,18 @@ def main() -> None:
     parts = [collect_head_states(model, a, "serve", flip=True) for a in run.arrays]
     states = HeadStates.concat(parts)
     print(f"{len(states)} recorded serves read ({time.time() - t0:.0f} s)")
+    names = {N_SPECIAL_IDS + i: p for i, p in enumerate(vocab.players)}
+    if args.short:
+        if model.serve_bias is None:
+            raise SystemExit(f"{run.path}: --short needs the serve table: fit it first")
+        model = with_serve_short(model)
+        table = fit_serve_short(model, states, prior_serves=args.prior_serves)
+        table.insert(0, "server", table["server_id"].map(names))
+        print(table.drop(columns=["server_id"]).round(3).to_string(index=False))
+        run.save(model, args.out)
+        return
     model = with_serve_bias(model)
     table = fit_serve_bias(model, states, prior_serves=args.prior_serves)
-    names = {N_SPECIAL_IDS + i: p for i, p in enumerate(vocab.players)}
     table.insert(0, "server", table["server_id"].map(names))
     for kind in ("speed_record", "speed_head"):
         table[kind] *= 3.6                                     # km/h

@@ -12,7 +12,12 @@ from sportsngen.model.decoder import SportsNGEN
 from sportsngen.model.heads import FactorisedHead
 from sportsngen.tennis.court import SERVICE_LINE_X_M
 from sportsngen.train.head_fit import HeadStates
-from sportsngen.train.serve_bias import fit_serve_bias, with_serve_bias
+from sportsngen.train.serve_bias import (
+    fit_serve_bias,
+    fit_serve_short,
+    with_serve_bias,
+    with_serve_short,
+)
 
 FPS = 25.0
 
@@ -249,3 +254,76 @@ def test_a_player_added_for_fine_tuning_gets_a_row_at_zero():
     assert new.serve_bias.shape == (vocab.n_ids + 1, 2, 3)
     torch.testing.assert_close(new.serve_bias[:vocab.n_ids], model.serve_bias)
     assert idx == vocab.n_ids and (new.serve_bias[idx] == 0).all()
+
+
+def _short_states(model, n_per=(400, 400), seed=0):
+    """First serves of servers 2 and 3: server 2 lands 30 % of his short of 3.9 m, server 3
+    5 %, both 30 % long (the untrained head puts about half its mass beyond the line)."""
+    rng = np.random.default_rng(seed)
+    n = sum(n_per)
+    sid = np.repeat([2, 3], n_per)
+    frac = serve_bias.long_fraction()
+    short = np.flatnonzero(serve_bias.short_bins())
+    long_bins = np.flatnonzero(frac == 1)
+    mid = np.flatnonzero((frac == 0) & ~serve_bias.short_bins())
+    u = rng.random(n)
+    depth = np.where(u < 0.3, rng.choice(long_bins[:8], n),
+                     np.where(u < np.where(sid == 2, 0.6, 0.35), rng.choice(short[-6:], n),
+                              rng.choice(mid, n)))
+    bins = np.stack([depth, rng.integers(40, 56, n), rng.integers(30, 60, n),
+                     rng.integers(96, size=n)], -1)
+    return HeadStates(torch.randn(n, model.cfg.d_model), torch.as_tensor(bins), np.arange(n),
+                      np.zeros(n, dtype=np.int64), np.tile([11.9, -0.8, 2.9], (n, 1)),
+                      np.zeros(n, dtype=bool), sid.astype(np.int64))
+
+
+def test_the_short_bins_are_the_depths_wholly_short_of_the_line():
+    e = strike.serve_edges()[0]
+    short = serve_bias.short_bins()
+    assert (e[1:][short] <= serve_bias.SHORT_DEPTH_M).all()
+    assert (e[1:][~short] > serve_bias.SHORT_DEPTH_M).all()
+    assert short[:int(short.sum())].all() and not (short & (serve_bias.long_fraction() > 0)).any()
+    assert e[int(short.sum())] == pytest.approx(3.885)
+
+
+def test_the_short_shift_matches_each_servers_short_share_and_keeps_his_long_share():
+    model = with_serve_bias(small_model())
+    st = _short_states(model)
+    fit_serve_bias(model, st, prior_serves=0.0)
+    with pytest.raises(ValueError, match="with_serve_short"):
+        fit_serve_short(model, st)
+    model = with_serve_short(model)
+    assert model.serve_short.shape == (6, 2) and (model.serve_short == 0).all()
+    table = fit_serve_short(model, st, prior_serves=0.0).set_index("server_id")
+    short = serve_bias.short_bins()
+    for sid, want in ((2, 0.3), (3, 0.05)):
+        r = table.loc[sid]
+        assert r["short_record"] == pytest.approx(want, abs=0.05)
+        assert r["short_after"] == pytest.approx(r["short_record"], abs=1e-4)
+        assert r["long_after"] == pytest.approx(r["long_target"], abs=1e-4)
+    assert table.loc[2, "short_shift"] > table.loc[3, "short_shift"]
+    # Drawn with the tables: each server's short and long shares are his record's.
+    bias = model.serve_head_bias(torch.as_tensor(st.server_id), torch.as_tensor(st.serve),
+                                 torch.as_tensor(st.contact_m, dtype=torch.float32))
+    draws = torch.stack([model.serve_head.sample(st.h, 1.0, torch.Generator().manual_seed(k),
+                                                 dim_bias=bias) for k in range(10)])
+    depth = draws[..., 0].numpy()
+    long = serve_bias.long_fraction()
+    for sid in (2, 3):
+        mine = st.server_id == sid
+        assert short[depth[:, mine]].mean() == pytest.approx(
+            short[st.bins[mine, 0].numpy()].mean(), abs=0.03)
+        assert long[depth[:, mine]].mean() == pytest.approx(
+            long[st.bins[mine, 0].numpy()].mean(), abs=0.03)
+    # The shift is read on the short depth bins of that server's serve only.
+    model.serve_short.zero_()
+    model.serve_bias.zero_()
+    model.serve_short[3, 1] = 1.5
+    b = model.serve_head_bias(torch.tensor([3, 3]), torch.tensor([1, 0]), torch.zeros(2, 3))
+    assert (b[0, 0][torch.as_tensor(short)] == 1.5).all() and (b[0, 0][~torch.as_tensor(short)]
+                                                                 == 0).all()
+    assert (b[1] == 0).all() and (b[0, 1:] == 0).all()
+    with pytest.raises(ValueError, match="serve_bias"):
+        ModelConfig(serve_head=True, serve_short=True)
+    with pytest.raises(ValueError, match="fit it first"):
+        with_serve_short(small_model())

@@ -389,11 +389,12 @@ def test_a_player_added_for_fine_tuning_gets_a_zero_row_in_every_per_identity_ta
     from sportsngen.data.tokens import Vocab
     from sportsngen.train.finetune import add_player
     from sportsngen.train.receiver_start import with_receiver_start
-    from sportsngen.train.serve_bias import with_serve_aim, with_serve_bias
+    from sportsngen.train.serve_bias import with_serve_aim, with_serve_bias, with_serve_short
 
     vocab = Vocab(players=("A", "B", "C", "D"))
     model = with_strike_pressure(with_strike_return(with_strike_width(with_strike_bias(
-        with_receiver_start(with_serve_aim(with_serve_bias(small_model(n_ids=vocab.n_ids))))))))
+        with_receiver_start(with_serve_short(with_serve_aim(with_serve_bias(
+            small_model(n_ids=vocab.n_ids)))))))))
     per_identity = sorted(name for name, b in model.named_buffers()
                           if b.ndim >= 1 and b.shape[0] == vocab.n_ids)
     assert per_identity == sorted(SportsNGEN.PER_IDENTITY_TABLES)

@@ -220,6 +220,7 @@ def test_train_py_through_hydra_resume_mismatch_and_finetune(tmp_path, monkeypat
     m2, ec2, vocab2, cfg2 = load_model(ft["model_file"])
     assert vocab2.players == ("Toy Alpha",) and cfg2.n_ids == 3 and not cfg2.generic_identity
     assert ec2 is not None  # the event classifier of `init` is carried over
+    assert ft["player_tables"] == []   # the base has no per-player tables to fit his rows of
     w_old, w_new = model.embed.identity.weight, m2.embed.identity.weight
     assert torch.equal(w_old, w_new[:2]) and not torch.equal(w_new[2], w_old[GENERIC_ID])
     for k, v in model.state_dict().items():

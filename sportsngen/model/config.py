@@ -106,6 +106,12 @@ class ModelConfig:
     # model's own serves went wide less often than the record's: measured, its head already aims
     # as the record from its own tosses (docs/evaluation.md, thirty-seventh part), so off.
     serve_aim: bool = False
+    # With it, a per-server shift of the serve head's depth bins short of `SHORT_DEPTH_M`
+    # (`model.serve_bias.short_bins`, fitted by `train.serve_bias.fit_serve_short`; zero until
+    # then): a serve that short is in the net at a second serve's pace, and the head drew
+    # Williams' second serves short three times as often as her record (docs/evaluation.md,
+    # forty-second part).
+    serve_short: bool = False
     # A table of per-hitter shifts of the strike head's odds of a rally ball long, wide or into
     # the net, by his role in the point (`model.strike_bias`, fitted by `train.strike_bias`
     # after the head; zero until then): the head draws every named player's errors near the
@@ -195,6 +201,9 @@ class ModelConfig:
         if self.serve_bias and not self.serve_head:
             raise ValueError("model.serve_bias shifts the serve head's odds: it needs "
                              "serve_head=True")
+        if self.serve_short and not self.serve_bias:
+            raise ValueError("model.serve_short is read with the serve head's table: it needs "
+                             "serve_bias=True")
         if self.serve_aim and not self.serve_bias:
             raise ValueError("model.serve_aim is read with the serve head's table: it needs "
                              "serve_bias=True")

@@ -48,6 +48,19 @@ def _centres(dim: int) -> np.ndarray:
 
 
 _LONG_BINS = long_fraction() > 0.5
+# A serve landing this close to the net is in it at a second serve's pace: Williams' second
+# serves drawn at her recorded tosses went into the net 0.077 of the time against her record's
+# 0.023, all of the excess from serves drawn short of 4 m (16 % of the draws against 6 % of her
+# serves; docs/evaluation.md, forty-second part). An edge of the depth bins.
+SHORT_DEPTH_M = 3.9
+
+
+def short_bins() -> np.ndarray:
+    """(STRIKE_BINS,) bool: the serve depth bins wholly short of `SHORT_DEPTH_M`."""
+    return strike.serve_edges()[0][1:] <= SHORT_DEPTH_M
+
+
+_SHORT_BINS = short_bins()
 _LATERAL_CENTRES_M = _centres(1)
 
 
@@ -110,12 +123,14 @@ def aim_tilt(contact_m: torch.Tensor) -> torch.Tensor:
 
 
 def serve_dim_bias(table: torch.Tensor, server_id: torch.Tensor, serve: torch.Tensor,
-                   contact_m: torch.Tensor, aim: torch.Tensor | None = None) -> torch.Tensor:
+                   contact_m: torch.Tensor, aim: torch.Tensor | None = None,
+                   short: torch.Tensor | None = None) -> torch.Tensor:
     """The serve head's logit shifts for serves of `server_id` (N,) on serve `serve` (N,; 0
     first, 1 second) struck at `contact_m` (N, 3), from `table` (n_ids, N_SERVES, N_KINDS) ->
     (N, 4, STRIKE_BINS): the long depth bins and the wide lateral bins shifted, the speed bins
     tilted (`speed_tilt`), the spin's left alone; with the aim's table `aim` (n_ids,
-    N_SERVES), the lateral bins in the box tilted too (`aim_tilt`)."""
+    N_SERVES), the lateral bins in the box tilted too (`aim_tilt`); with the short serves'
+    table `short` (n_ids, N_SERVES), the depth bins short of `SHORT_DEPTH_M` shifted too."""
     n = len(server_id)
     shift = table[server_id.long(), serve.long().clamp(0, N_SERVES - 1)]      # (N, N_KINDS)
     out = torch.zeros(n, 4, strike.STRIKE_BINS, dtype=table.dtype, device=table.device)
@@ -127,4 +142,7 @@ def serve_dim_bias(table: torch.Tensor, server_id: torch.Tensor, serve: torch.Te
     if aim is not None:
         a = aim[server_id.long(), serve.long().clamp(0, N_SERVES - 1)]
         out[:, 1] += a[:, None] * aim_tilt(contact_m.to(table.dtype))
+    if short is not None:
+        s = short[server_id.long(), serve.long().clamp(0, N_SERVES - 1)]
+        out[:, 0] += s[:, None] * torch.as_tensor(_SHORT_BINS, device=table.device)
     return out

@@ -62,6 +62,18 @@ class HeadStates:
                             for k in ("rally_id", "serve", "contact_m", "receiver",
                                       "server_id")), receiver_id=recv)
 
+    def take(self, keep: np.ndarray) -> HeadStates:
+        """The rows where `keep` ((N,) bool) holds, in order."""
+        keep = np.asarray(keep, dtype=bool)
+        if keep.shape != (len(self),):
+            raise ValueError(f"keep has shape {keep.shape}, the states {len(self)} rows")
+        i = torch.as_tensor(np.flatnonzero(keep))
+        return HeadStates(self.h[i], self.bins[i],
+                          *(getattr(self, k)[keep] for k in ("rally_id", "serve", "contact_m",
+                                                             "receiver", "server_id")),
+                          receiver_id=None if self.receiver_id is None
+                          else self.receiver_id[keep])
+
     def hitter_id(self) -> np.ndarray:
         """(N,) int64: the identity of the player who strikes each target (the receiver's
         where `receiver`)."""

@@ -35,6 +35,7 @@ from sportsngen.train.finetune import (
     read_torch_file,
 )
 from sportsngen.train.module import TOKEN_WEIGHTS, DecoderModule, EventModule
+from sportsngen.train.player_tables import fit_player_tables
 
 log = logging.getLogger(__name__)
 
@@ -218,6 +219,15 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
     trainer = _trainer(cfg, out_dir, "decoder", int(cfg.trainer.max_steps),
                        ema_decay=cfg.get("ema_decay"))
     trainer.fit(module, dm, ckpt_path=resume or None)
+    player_tables = None
+    if cfg.get("init") and cfg.get("player") and ft.get("fit_tables", True):
+        # His rows of the per-player tables, on the rallies his identity row learned from
+        # (`train.player_tables`): zero rows would leave him the average player's errors.
+        player_tables = fit_player_tables(
+            module.model, vocab, data, cfg.player,
+            prior_serves=float(ft.get("prior_serves", 100.0)),
+            prior_strikes=float(ft.get("prior_strikes", 200.0)))
+        log.info("%s's table rows:\n%s", cfg.player, player_tables.round(3).to_string())
     # The checkpoint callback writes last.ckpt only at a validation, and a run whose last step
     # is not one left last.ckpt at an earlier step (a stage resumed from it repeated steps).
     # Written again here, the state the run ended in, for `resume=`. Not with an average of
@@ -229,6 +239,8 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
                "throughput": module.throughput(), "n_rallies": len(data),
                "n_params": sum(p.numel() for p in module.model.parameters()),
                "out_dir": str(out_dir)}
+    if player_tables is not None:
+        summary["player_tables"] = player_tables.to_dict("records")
     ev = cfg.get("events") or {}
     # From `init` the base model's classifier is kept unless asked to retrain it
     # (`events.retrain=true`, e.g. with trainer.max_steps=0 to retrain g alone).

@@ -24,6 +24,7 @@ from sportsngen.train.finetune import with_flag
 from sportsngen.train.head_fit import HeadStates
 
 MAX_SHIFT = 4.0          # logits: odds moved at most e^4 (a fault share 0.05 -> 0.74)
+SHORT_ROUNDS = 6         # `fit_serve_short`'s rounds of the short and long shifts in turn
 
 
 def with_serve_bias(model: SportsNGEN) -> SportsNGEN:
@@ -77,6 +78,15 @@ def matched_shift(logits: torch.Tensor, mask: torch.Tensor, weight: torch.Tensor
     return {"record": record, "head": before, "target": target, "after": after, "shift": shift}
 
 
+def _check_fit(table: torch.Tensor | None, what: str, adder: str, prior_serves: float,
+               min_serves: int) -> None:
+    """A fit's arguments: the model has the table it fills, and sensible counts."""
+    if table is None:
+        raise ValueError(f"the model has no {what}: add it with {adder}")
+    if prior_serves < 0 or min_serves < 1:
+        raise ValueError("prior_serves must be >= 0 and min_serves >= 1")
+
+
 @torch.no_grad()
 def fit_serve_bias(model: SportsNGEN, states: HeadStates, prior_serves: float = 100.0,
                    min_serves: int = 20) -> pd.DataFrame:
@@ -84,11 +94,8 @@ def fit_serve_bias(model: SportsNGEN, states: HeadStates, prior_serves: float = 
     serve with at least `min_serves` serves (others keep 0). -> per (server_id, serve): n,
     the record's long and wide shares and mean speed (m/s), the head's before and after, and
     the shifts."""
-    if model.serve_bias is None:
-        raise ValueError("the model has no per-server table (cfg.serve_bias): add it with "
-                         "with_serve_bias")
-    if prior_serves < 0 or min_serves < 1:
-        raise ValueError("prior_serves must be >= 0 and min_serves >= 1")
+    _check_fit(model.serve_bias, "per-server table (cfg.serve_bias)", "with_serve_bias",
+               prior_serves, min_serves)
     head = model.serve_head
     long_w = torch.as_tensor(serve_bias.long_fraction(), dtype=states.h.dtype)
     long_mask = long_w > 0.5
@@ -197,4 +204,68 @@ def fit_serve_aim(model: SportsNGEN, states: HeadStates, prior_serves: float = 1
                      "toward_after_m": _mean_toward(box, *box_args, aim), "aim": aim,
                      "wide_odds": wide_before, "wide_after": fit["after"],
                      "wide_shift": fit["shift"]})
+    return pd.DataFrame(rows)
+
+
+def with_serve_short(model: SportsNGEN) -> SportsNGEN:
+    """`model` (with the serve table) with the short serves' table added (`cfg.serve_short`),
+    at zero: it draws as before until `fit_serve_short` fills it. -> a new model."""
+    if model.serve_bias is None:
+        raise ValueError("the short serves' shift is read with the serve head's table "
+                         "(cfg.serve_bias): fit it first (scripts/fit_serve_bias.py)")
+    return with_flag(model, "serve_short", ["serve_short"])
+
+
+@torch.no_grad()
+def fit_serve_short(model: SportsNGEN, states: HeadStates, prior_serves: float = 100.0,
+                    min_serves: int = 20) -> pd.DataFrame:
+    """Fill `model.serve_short` (in place) from the recorded serves `states`, per server and
+    serve with at least `min_serves` serves: the shift of the depth bins short of
+    `serve_bias.SHORT_DEPTH_M` whose mean odds equal his record's share of serves that short,
+    pulled toward the head's own by `prior_serves` pseudo-serves, found in turn with his long
+    shift refitted to the target `fit_serve_bias` gives it (each moves the other's share a
+    little; `SHORT_ROUNDS` rounds). -> per (server_id, serve): n, the record's short share,
+    the head's before, the target, after, the shift, and the long share's target, odds after
+    and shift."""
+    _check_fit(model.serve_short, "short serves' table (cfg.serve_short)", "with_serve_short",
+               prior_serves, min_serves)
+    head = model.serve_head
+    dtype = states.h.dtype
+    short = torch.as_tensor(serve_bias.short_bins())
+    long_w = torch.as_tensor(serve_bias.long_fraction(), dtype=dtype)
+    long_mask = long_w > 0.5
+    keys = pd.DataFrame({"server_id": states.server_id, "serve": states.serve})
+    rows = []
+    for (sid, srv), g in keys.groupby(["server_id", "serve"]):
+        if len(g) < min_serves or not 0 <= srv < serve_bias.N_SERVES:
+            continue
+        sid, srv = int(sid), int(srv)
+        i = torch.as_tensor(g.index.to_numpy(copy=True))
+        n = len(i)
+        depth = head.dim_logits(states.h[i], states.bins[i], 0)
+        record = float(short[states.bins[i, 0]].float().mean())
+        short_head = float(mean_odds(depth, short, short.to(dtype), torch.zeros(1))[0])
+        short_target = (n * record + prior_serves * short_head) / (n + prior_serves)
+        long_record = float(long_w[states.bins[i, 0]].mean())
+        long_head = float(mean_odds(depth, long_mask, long_w, torch.zeros(1))[0])
+        long_target = (n * long_record + prior_serves * long_head) / (n + prior_serves)
+        # Each shift moves the other's share a little (the softmax's sum): a few rounds in turn
+        # bring both to their targets.
+        long_shift = float(model.serve_bias[sid, srv, serve_bias.LONG])
+        for _ in range(SHORT_ROUNDS):
+            short_shift = solve_shift(depth + long_shift * long_mask, short.expand(n, -1),
+                                      short.to(dtype).expand(n, -1), short_target)
+            long_shift = solve_shift(depth + short_shift * short, long_mask.expand(n, -1),
+                                     long_w.expand(n, -1), long_target)
+        model.serve_short[sid, srv] = short_shift
+        model.serve_bias[sid, srv, serve_bias.LONG] = long_shift
+        both = depth + short_shift * short + long_shift * long_mask
+        rows.append({"server_id": sid, "serve": srv, "n": n, "short_record": record,
+                     "short_head": short_head, "short_target": short_target,
+                     "short_after": float(mean_odds(both, short, short.to(dtype),
+                                                    torch.zeros(1))[0]),
+                     "short_shift": short_shift, "long_target": long_target,
+                     "long_after": float(mean_odds(both, long_mask, long_w,
+                                                   torch.zeros(1))[0]),
+                     "long_shift": long_shift})
     return pd.DataFrame(rows)
