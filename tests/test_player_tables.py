@@ -11,10 +11,10 @@ from sportsngen.model.decoder import SportsNGEN
 from sportsngen.train.finetune import add_player
 from sportsngen.train.head_fit import collect_head_states
 from sportsngen.train.player_tables import fit_player_tables
-from sportsngen.train.serve_bias import with_serve_bias
+from sportsngen.train.serve_bias import with_serve_bias, with_serve_short
 from sportsngen.train.strike_bias import with_strike_bias, with_strike_return
 
-TABLES = ("serve_bias", "strike_bias", "strike_return")
+TABLES = ("serve_bias", "serve_short", "strike_bias", "strike_return")
 
 
 @pytest.fixture(scope="module")
@@ -31,7 +31,8 @@ def model_for(vocab: Vocab) -> SportsNGEN:
                       head_hidden=16, window_s=4.0, fps=25.0, n_ids=vocab.n_ids,
                       n_tournaments=4, event_d_model=16, event_layers=1, event_heads=2,
                       ball_centre="physics", serve_head=True, strike_head=True)
-    return with_strike_return(with_strike_bias(with_serve_bias(SportsNGEN(cfg)))).eval()
+    return with_strike_return(with_strike_bias(with_serve_short(with_serve_bias(
+        SportsNGEN(cfg))))).eval()
 
 
 def _others_unchanged(model, before, row):
@@ -59,9 +60,10 @@ def test_only_the_players_rows_move_and_each_matches_his_own_record(data):
     table = fit_player_tables(model, vocab, data, server, prior_serves=0.0,
                               prior_strikes=0.0)
     _others_unchanged(model, before, row)
-    assert set(table["table"]) == {"serve_bias", "strike_bias"}
+    assert set(table["table"]) == {"serve_bias", "serve_short", "strike_bias"}
     assert set(table["role"]) == {"first", "second", "server"}
     assert (model.serve_bias[row] != 0).all() and (model.strike_bias[row, 0] != 0).all()
+    assert (model.serve_short[row] != 0).all()
     assert (model.strike_bias[row, 1] == 0).all() and (model.strike_return[row] == 0).all()
     # With no prior the head's odds after the fit are his record's, read on his serves.
     arrays = rally_arrays(data, vocab)
@@ -88,6 +90,7 @@ def test_only_the_players_rows_move_and_each_matches_his_own_record(data):
     assert sorted(zip(table["table"], table["role"])) == [
         ("strike_bias", "receiver"), ("strike_return", "return")]
     assert (model.serve_bias[row] == 0).all() and (model.strike_bias[row, 0] == 0).all()
+    assert (model.serve_short[row] == 0).all()
     assert (model.strike_bias[row, 1] != 0).all() and (model.strike_return[row] != 0).any()
     returns = st.returns() & (st.hitter_id() == row)
     ret = table[table["role"] == "return"].iloc[0]
@@ -113,7 +116,8 @@ def test_a_player_without_his_own_row_or_a_model_without_tables(data):
         fit_player_tables(model_for(vocab), vocab, data, "Nobody Known")
     plain = model_for(vocab)
     plain = SportsNGEN(ModelConfig(**{**plain.cfg.to_dict(), "serve_bias": False,
-                                      "strike_bias": False, "strike_return": False})).eval()
+                                      "serve_short": False, "strike_bias": False,
+                                      "strike_return": False})).eval()
     assert fit_player_tables(plain, vocab, data, vocab.players[0]).empty
     # A player added by fine-tuning but absent from the rallies: nothing to fit on.
     new, vocab2, idx = add_player(model_for(vocab), vocab, "New Player")
