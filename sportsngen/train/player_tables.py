@@ -44,8 +44,8 @@ def fit_player_tables(model: SportsNGEN, vocab: Vocab, data: RallyData, player: 
     if not vocab.players or player not in vocab.players:
         raise ValueError(f"{player!r} has no identity row of his own in the model's vocabulary: "
                          "add him first (train.finetune.add_player)")
-    r = data.rallies
-    if not ((r["server"] == player) | (r["receiver"] == player)).any():
+    rallies = data.rallies
+    if not ((rallies["server"] == player) | (rallies["receiver"] == player)).any():
         raise ValueError(f"{player!r} plays no rally in the data given")
     row = vocab.player_index(player)
     arrays = rally_arrays(data, vocab, unknown="generic")
