@@ -27,7 +27,7 @@ from sportsngen.model.decoder import SportsNGEN
 from sportsngen.train.finetune import with_flag
 from sportsngen.train.head_fit import window_batches
 from sportsngen.train.metrics import window_states
-from sportsngen.train.serve_bias import bisect_shift
+from sportsngen.train.serve_bias import bisect_shift, pulled_toward
 
 MAX_SHIFT = 8.0          # logits: a cell the record never strikes in goes to ~1e-4 a frame
 
@@ -140,7 +140,7 @@ def _match(logits: torch.Tensor, record: np.ndarray, prior_frames: float,
     n = len(logits)
     zero = torch.zeros(n, 2)
     before = contact_reach.kind_probabilities(logits, zero).mean(0)
-    targets = [(n * float(record[k]) + prior_frames * float(before[k])) / (n + prior_frames)
+    targets = [pulled_toward(float(record[k]), float(before[k]), n, prior_frames)
                for k in range(2)]
     shift = [0.0, 0.0]
     for _ in range(rounds):

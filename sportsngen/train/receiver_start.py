@@ -28,7 +28,7 @@ from sportsngen.model.decoder import SportsNGEN
 from sportsngen.train.finetune import with_flag
 from sportsngen.train.head_fit import cut_batch, window_batches
 from sportsngen.train.metrics import window_states
-from sportsngen.train.serve_bias import bisect_shift
+from sportsngen.train.serve_bias import bisect_shift, pulled_toward
 
 MAX_SHIFT = 6.0          # logits
 
@@ -146,7 +146,7 @@ def fit_receiver_start(model: SportsNGEN, states: WaitStates, prior_frames: floa
         record = float(states.start[i.numpy()].mean())
         before = float(receiver_start.start_probability(first, second,
                                                         torch.zeros(1))[0].mean())
-        target = (n * record + prior_frames * before) / (n + prior_frames)
+        target = pulled_toward(record, before, n, prior_frames)
         shift = _solve(first, second, target)
         model.receiver_start[int(sid), int(srv), int(k)] = shift
         after = float(receiver_start.start_probability(first, second,

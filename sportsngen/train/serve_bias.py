@@ -65,6 +65,12 @@ def solve_shift(logits: torch.Tensor, mask: torch.Tensor, weight: torch.Tensor,
                         target, MAX_SHIFT)
 
 
+def pulled_toward(record: float, head: float, n: int, prior: float) -> float:
+    """A fit's target: the record's share over `n` rows pulled toward the head's own by
+    `prior` pseudo-rows at the head's odds."""
+    return (n * record + prior * head) / (n + prior)
+
+
 def matched_shift(logits: torch.Tensor, mask: torch.Tensor, weight: torch.Tensor,
                   record: float, prior: float) -> dict:
     """One cell's fit: the shift whose mean odds over the rows of `logits` equal the record's
@@ -72,7 +78,7 @@ def matched_shift(logits: torch.Tensor, mask: torch.Tensor, weight: torch.Tensor
     before), target, after and shift."""
     n = len(logits)
     before = float(mean_odds(logits, mask, weight, torch.zeros(1))[0])
-    target = (n * record + prior * before) / (n + prior)
+    target = pulled_toward(record, before, n, prior)
     shift = solve_shift(logits, mask, weight, target)
     after = float(mean_odds(logits, mask, weight, torch.tensor([shift]))[0])
     return {"record": record, "head": before, "target": target, "after": after, "shift": shift}
@@ -190,7 +196,7 @@ def fit_serve_aim(model: SportsNGEN, states: HeadStates, prior_serves: float = 1
         box_args = (toward[in_box], inside[in_box].to(h.dtype), tilt[in_box])
         record = float(toward[rows_i, bins[:, 1]][in_box].mean())
         before = _mean_toward(box, *box_args, 0.0)
-        target = (n * record + prior_serves * before) / (n + prior_serves)
+        target = pulled_toward(record, before, n, prior_serves)
         aim = bisect_shift(lambda s, lg=box, a=box_args: _mean_toward(lg, *a, s), target,
                            MAX_SHIFT)
         model.serve_aim[int(sid), int(srv)] = aim
@@ -245,10 +251,10 @@ def fit_serve_short(model: SportsNGEN, states: HeadStates, prior_serves: float =
         depth = head.dim_logits(states.h[i], states.bins[i], 0)
         record = float(short[states.bins[i, 0]].float().mean())
         short_head = float(mean_odds(depth, short, short.to(dtype), torch.zeros(1))[0])
-        short_target = (n * record + prior_serves * short_head) / (n + prior_serves)
+        short_target = pulled_toward(record, short_head, n, prior_serves)
         long_record = float(long_w[states.bins[i, 0]].mean())
         long_head = float(mean_odds(depth, long_mask, long_w, torch.zeros(1))[0])
-        long_target = (n * long_record + prior_serves * long_head) / (n + prior_serves)
+        long_target = pulled_toward(long_record, long_head, n, prior_serves)
         # Each shift moves the other's share a little (the softmax's sum): a few rounds in turn
         # bring both to their targets.
         long_shift = float(model.serve_bias[sid, srv, serve_bias.LONG])

@@ -22,7 +22,7 @@ from sportsngen.model import strike_bias
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.train.finetune import with_flag
 from sportsngen.train.head_fit import HeadStates, head_inputs
-from sportsngen.train.serve_bias import MAX_SHIFT, bisect_shift, matched_shift
+from sportsngen.train.serve_bias import MAX_SHIFT, bisect_shift, matched_shift, pulled_toward
 
 KINDS = ("long", "wide", "net")
 
@@ -116,7 +116,7 @@ def fit_strike_width(model: SportsNGEN, states: HeadStates, prior_strikes: float
         play = logits[in_play]
         record = float(offset_m[bins[in_play, 1]].mean())
         before = _width_in_play(play, tilt, inside, offset_m, 0.0)
-        target = (n * record + prior_strikes * before) / (n + prior_strikes)
+        target = pulled_toward(record, before, n, prior_strikes)
         shift = bisect_shift(lambda s, lg=play: _width_in_play(lg, tilt, inside, offset_m, s),
                              target, MAX_SHIFT)
         model.strike_width[int(hid), int(recv)] = shift
