@@ -2,7 +2,8 @@
 wide or into the net (`model.strike_bias`; `sportsngen.train.strike_bias`).
 
     .venv/bin/python scripts/fit_strike_bias.py --model FILE --out FILE [--more-data NAME]
-        [--prior-strikes 200] [--width | --returns | --pressure] [--states FILE] [--threads 2]
+        [--prior-strikes 200] [--width | --returns | --pressure | --shape] [--states FILE]
+        [--threads 2]
 
 The recorded rally strikes are the file's own training split (`extra.split`) and with
 `--more-data NAME` every rally strike of the data config conf/data/NAME.yaml (synthetic_named:
@@ -14,7 +15,11 @@ fitted) each receiver's shifts are split instead: refitted on his strikes that a
 returns, and the returns' own table (`model.strike_return`, `fit_strike_return`) fitted on his
 returns. With `--pressure` (a file with the returns' table) a per-opponent table is added
 (`model.strike_pressure`, `fit_strike_pressure`) and fitted in turn with the hitters' rows on
-the strikes that are not returns, then the returns' table again on top. `--states FILE` keeps
+the strikes that are not returns, then the returns' table again on top. With `--shape` (a file
+with the opponents' table) per-hitter and per-opponent tilts of the depth of the balls in play
+and of their height over the net are added (`model.strike_shape`, `fit_strike_shape`), fitted
+in turn on the strikes that are not returns, and the error tables refitted with them as
+`--pressure` fits them. `--states FILE` keeps
 the decoder's states read (most of the time; they do not depend on the tables). Everything
 else in the file is copied unchanged.
 """
@@ -31,10 +36,12 @@ from sportsngen.train.strike_bias import (
     fit_strike_bias,
     fit_strike_pressure,
     fit_strike_return,
+    fit_strike_shape,
     fit_strike_width,
     with_strike_bias,
     with_strike_pressure,
     with_strike_return,
+    with_strike_shape,
     with_strike_width,
 )
 from sportsngen.train.table_cli import open_table_run, table_parser
@@ -71,6 +78,10 @@ def main() -> None:
     how.add_argument("--pressure", action="store_true",
                      help="add a per-opponent table (model.strike_pressure) fitted in turn with "
                           "the hitters' rows")
+    how.add_argument("--shape", action="store_true",
+                     help="add per-hitter and per-opponent tilts of the balls' depth and height "
+                          "over the net (model.strike_shape), the error tables refitted with "
+                          "them")
     ap.add_argument("--states", default=None,
                     help="cache of the decoder's states: written on the first run, read after")
     args = ap.parse_args()
@@ -92,6 +103,17 @@ def main() -> None:
         table.insert(0, "player", table["id"].map(names))
         print(table[["table", "player", "receiver", "n", "wide_record", "wide_after",
                      "wide_shift"]].round(3).to_string(index=False))
+        run.save(model, args.out)
+        return
+    if args.shape:
+        if model.strike_pressure is None:
+            raise SystemExit(f"{run.path}: no opponents' table (model.strike_pressure): fit it "
+                             "first (--pressure)")
+        model = with_strike_shape(model)
+        table = fit_strike_shape(model, states, states.returns(),
+                                 prior_strikes=args.prior_strikes)
+        table.insert(0, "player", table.pop("id").map(names))
+        print(table.round(3).to_string(index=False))
         run.save(model, args.out)
         return
     if args.pressure:

@@ -17,10 +17,12 @@ from sportsngen.train.strike_bias import (
     fit_strike_bias,
     fit_strike_pressure,
     fit_strike_return,
+    fit_strike_shape,
     fit_strike_width,
     with_strike_bias,
     with_strike_pressure,
     with_strike_return,
+    with_strike_shape,
     with_strike_width,
 )
 from tests.test_serve_bias import small_model as serve_small_model
@@ -392,9 +394,9 @@ def test_a_player_added_for_fine_tuning_gets_a_zero_row_in_every_per_identity_ta
     from sportsngen.train.serve_bias import with_serve_aim, with_serve_bias, with_serve_short
 
     vocab = Vocab(players=("A", "B", "C", "D"))
-    model = with_strike_pressure(with_strike_return(with_strike_width(with_strike_bias(
-        with_receiver_start(with_serve_short(with_serve_aim(with_serve_bias(
-            small_model(n_ids=vocab.n_ids)))))))))
+    model = with_strike_shape(with_strike_pressure(with_strike_return(with_strike_width(
+        with_strike_bias(with_receiver_start(with_serve_short(with_serve_aim(with_serve_bias(
+            small_model(n_ids=vocab.n_ids))))))))))
     per_identity = sorted(name for name, b in model.named_buffers()
                           if b.ndim >= 1 and b.shape[0] == vocab.n_ids)
     assert per_identity == sorted(SportsNGEN.PER_IDENTITY_TABLES)
@@ -503,3 +505,121 @@ def test_the_fit_finds_the_opponents_share_of_the_errors():
     assert (again.strike_return[[2, 3], 0] != 0).all()
     with pytest.raises(ValueError, match="with_strike_pressure"):
         fit_strike_pressure(with_strike_return(with_strike_bias(small_model())), st, returns)
+
+
+def _shape_model() -> SportsNGEN:
+    return with_strike_shape(with_strike_pressure(with_strike_return(with_strike_bias(
+        small_model()))))
+
+
+def test_the_shapes_tilt_the_depth_in_play_and_the_height_over_the_net_around_their_means():
+    errors = strike_bias.error_bins()
+    for tilt, dim, kind, centre_m in (
+            (strike_bias.depth_tilt(), 0, strike_bias.LONG, strike_bias.DEPTH_CENTRE_M),
+            (strike_bias.height_tilt(), 2, strike_bias.NET, strike_bias.HEIGHT_CENTRE_M)):
+        assert (tilt[errors[kind]] == 0).all()
+        keep = np.flatnonzero(~errors[kind])
+        # One unit a metre from the centre, which lies among the bins kept.
+        np.testing.assert_allclose(tilt[keep], _centres(dim)[keep] - centre_m, atol=1e-12)
+        assert tilt[keep].min() < 0 < tilt[keep].max()
+    model = _shape_model()
+    assert model.strike_shape.shape == (6, 2, 2) and (model.strike_shape == 0).all()
+    assert model.strike_shape_opponent.shape == (6, 2, 2)
+    model.strike_shape[3, 1] = torch.tensor([0.5, -1.0])
+    model.strike_shape_opponent[2, 1] = torch.tensor([0.25, 2.0])
+    model.strike_shape_opponent[2, 0] = torch.tensor([9.0, 9.0])   # another role: not read
+    b = model.strike_head_bias(torch.tensor([3, 3, 3]), torch.tensor([True, True, True]),
+                               torch.tensor([True, False, False]), torch.tensor([2, 2, 4]))
+    depth = torch.as_tensor(strike_bias.depth_tilt(), dtype=b.dtype)
+    height = torch.as_tensor(strike_bias.height_tilt(), dtype=b.dtype)
+    assert (b[0] == 0).all()                                      # the return: no shape
+    torch.testing.assert_close(b[1, 0], 0.75 * depth)             # his row and the opponent's
+    torch.testing.assert_close(b[1, 2], 1.0 * height)
+    assert (b[1, 1] == 0).all() and (b[1, 3] == 0).all()
+    torch.testing.assert_close(b[2, 0], 0.5 * depth)              # an opponent without a row
+    torch.testing.assert_close(b[2, 2], -1.0 * height)
+    again = SportsNGEN(model.cfg)
+    again.load_state_dict(model.state_dict())
+    torch.testing.assert_close(again.strike_shape_opponent, model.strike_shape_opponent)
+    with pytest.raises(ValueError, match="strike_pressure"):
+        ModelConfig(strike_head=True, strike_bias=True, strike_return=True, strike_shape=True)
+
+
+def _shape_states(model, n=400, seed=0):
+    """Receivers 2 and 3 against servers 4 and 5, `n` rally strikes a pair: against server 5
+    both receivers' balls in play land short and cross high, against server 4 deep and low
+    (receiver 3 a little deeper than 2 against both); a tenth of them long."""
+    rng = np.random.default_rng(seed)
+    errors = strike_bias.error_bins()
+    in_play = np.flatnonzero(~errors[0])
+    long_b = np.flatnonzero(errors[0])[:6]
+    above = np.flatnonzero(~errors[2])
+    depth_c, height_c = _centres(0), _centres(2)
+    pairs = [(2, 4), (2, 5), (3, 4), (3, 5)]
+    recv, srv, depth, height = [], [], [], []
+    for r, s in pairs:
+        target = (7.8 if s == 4 else 6.6) + (0.3 if r == 3 else 0.0)
+        d = in_play[np.abs(depth_c[in_play] - target) < 0.6]
+        h = above[np.abs(height_c[above] - (1.3 if s == 4 else 2.2)) < 0.3]
+        recv += [r] * n
+        srv += [s] * n
+        depth.append(np.where(rng.random(n) < 0.1, rng.choice(long_b, n), rng.choice(d, n)))
+        height.append(rng.choice(h, n))
+    m = len(recv)
+    bins = np.stack([np.concatenate(depth), rng.choice(np.flatnonzero(~errors[1]), m),
+                     np.concatenate(height), rng.integers(96, size=m)], -1)
+    return HeadStates(torch.randn(m, model.cfg.d_model), torch.as_tensor(bins), np.arange(m),
+                      np.zeros(m, dtype=np.int64), np.zeros((m, 3)), np.ones(m, dtype=bool),
+                      np.array(srv, dtype=np.int64), np.array(recv, dtype=np.int64)), pairs
+
+
+def test_the_shape_fit_finds_the_opponents_depth_and_height_and_keeps_the_errors():
+    model = _shape_model()
+    st, pairs = _shape_states(model)
+    returns = np.zeros(len(st), dtype=bool)
+    with pytest.raises(ValueError, match="with_strike_shape"):
+        fit_strike_shape(with_strike_pressure(with_strike_return(with_strike_bias(
+            small_model()))), st, returns)
+    table = fit_strike_shape(model, st, returns, rounds=8, prior_strikes=0.0)
+    assert set(table["table"]) == {"hitter", "opponent"}
+    assert set(table["shape"]) == {"depth", "height"}
+    # Server 5's opponents play shorter and higher than server 4's.
+    opp = model.strike_shape_opponent
+    assert opp[5, 1, 0] < opp[4, 1, 0] and opp[5, 1, 1] > opp[4, 1, 1]
+    # Teacher-forced, the two rows together give each pair's mean depth in play and height
+    # over the net, and each pair's long share stays the record's (the tables refitted).
+    ids = torch.as_tensor(st.receiver_id)
+    bias = model.strike_head_bias(ids, torch.ones(len(st), dtype=torch.bool),
+                                  torch.zeros(len(st), dtype=torch.bool),
+                                  torch.as_tensor(st.server_id))
+    errors = strike_bias.error_bins()
+    lab = st.bins.numpy()
+    with torch.no_grad():
+        p0 = model.strike_head.dim_logits(st.h, st.bins, 0, bias).softmax(-1).numpy()
+        p2 = model.strike_head.dim_logits(st.h, st.bins, 2, bias).softmax(-1).numpy()
+    keep0, keep2 = ~errors[0], ~errors[2]
+    depth = (p0 * keep0 * _centres(0)).sum(1) / (p0 * keep0).sum(1)
+    height = (p2 * keep2 * _centres(2)).sum(1) / (p2 * keep2).sum(1)
+    for k in range(len(pairs)):
+        rows = slice(k * 400, (k + 1) * 400)
+        ok = keep0[lab[rows, 0]]
+        assert depth[rows][ok].mean() == pytest.approx(_centres(0)[lab[rows, 0]][ok].mean(),
+                                                       abs=0.08)
+        assert height[rows].mean() == pytest.approx(_centres(2)[lab[rows, 2]].mean(), abs=0.08)
+        assert (p0[rows] * errors[0]).sum(1).mean() == pytest.approx(
+            errors[0][lab[rows, 0]].mean(), abs=0.03)
+    # A prior holds the cells near the head's own means.
+    held = _shape_model()
+    held.load_state_dict({k: v for k, v in model.state_dict().items()
+                          if not k.startswith("strike_shape")}, strict=False)
+    held.strike_shape.zero_()
+    held.strike_shape_opponent.zero_()
+    fit_strike_shape(held, st, returns, rounds=8, prior_strikes=1e6)
+    assert held.strike_shape_opponent.abs().max() < 0.05
+    # Returns move neither table.
+    marked = returns.copy()
+    marked[pairs.index((2, 5)) * 400:(pairs.index((2, 5)) + 1) * 400] = True
+    again = _shape_model()
+    fit_strike_shape(again, st, marked, rounds=8, prior_strikes=0.0)
+    assert again.strike_shape_opponent[5, 1, 0] < again.strike_shape_opponent[4, 1, 0]
+    assert again.strike_shape[2, 1, 0] != pytest.approx(float(model.strike_shape[2, 1, 0]))

@@ -175,7 +175,8 @@ class SportsNGEN(nn.Module):
     # added for fine-tuning gets a row at zero in each (`train.finetune.add_player`).
     PER_IDENTITY_TABLES = ("serve_bias", "serve_aim", "serve_short", "receiver_start",
                            "strike_bias",
-                           "strike_width", "strike_return", "strike_pressure")
+                           "strike_width", "strike_return", "strike_pressure",
+                           "strike_shape", "strike_shape_opponent")
 
     def __init__(self, cfg: ModelConfig):
         super().__init__()
@@ -233,6 +234,10 @@ class SportsNGEN(nn.Module):
                              torch.zeros(cfg.n_ids, strike_bias_table.N_ROLES,
                                          strike_bias_table.N_KINDS)
                              if cfg.strike_pressure else None)
+        shape = (cfg.n_ids, strike_bias_table.N_ROLES, strike_bias_table.N_SHAPES)
+        self.register_buffer("strike_shape", torch.zeros(shape) if cfg.strike_shape else None)
+        self.register_buffer("strike_shape_opponent",
+                             torch.zeros(shape) if cfg.strike_shape else None)
         self.register_buffer("receiver_start",
                              torch.zeros(cfg.n_ids, receiver_start.N_SERVES,
                                          receiver_start.N_WAIT)
@@ -478,15 +483,17 @@ class SportsNGEN(nn.Module):
         point's receiver where `receiver` (N,) bool (`model.strike_bias`, with the width's tilt
         where the model has `strike_width`, the returns' table on the rows `returning` (N,)
         bool where it has `strike_return`, and the row of `opponent_ident` (N,) on the others
-        where it has `strike_pressure`); None where the model has no table or the hitter is
-        not given."""
+        where it has `strike_pressure`, and the depth's and net height's tilts of both where it
+        has `strike_shape`); None where the model has no table or the hitter is not given."""
         if self.strike_bias is None or hitter_ident is None or receiver is None:
             return None
         opponent = None if opponent_ident is None else self._ident(opponent_ident)
         return strike_bias_table.strike_dim_bias(self.strike_bias, self._ident(hitter_ident),
                                                  receiver, self.strike_width,
                                                  self.strike_return, returning,
-                                                 self.strike_pressure, opponent)
+                                                 self.strike_pressure, opponent,
+                                                 self.strike_shape,
+                                                 self.strike_shape_opponent)
 
     def receiver_start_bias(self, server_ident: torch.Tensor | None,
                             serve: torch.Tensor | None,

@@ -28,6 +28,16 @@ on the receiver's rally balls, the server's serve initiative), so the receivers'
 after the return run 0.017-0.030 of their strikes for Djokovic v Murray and 0.039-0.063 for
 Federer v Nadal, while the head with one row per hitter drew 0.04-0.07 for all four at the
 record's states (docs/evaluation.md, thirty-eighth part).
+
+`ModelConfig.strike_shape` adds two tables, per hitter and per opponent by the hitter's role,
+of a tilt of the depth bins in play (by their depth) and of the net-height bins above the net
+(by their height), on every strike but the return. The generator's reply to a ball is shorter,
+higher and slower the harder that ball was (the opponent's rally pressure and, on the
+receiver's balls, the server's serve initiative), and each player has his own depth margin;
+teacher-forced on the training strikes the head's mean depth of the receivers' rally balls is
+7.27-7.46 m whoever of the men sent the ball, while the record's runs from 6.78 m (against
+Isner) to 7.52 (against Djokovic or Nadal). Measured on the bundled file, not bundled: the rallies
+came nearer the truth's, the serve points won further (docs/evaluation.md, forty-third part).
 """
 
 from __future__ import annotations
@@ -41,6 +51,8 @@ from sportsngen.tennis.court import BASELINE_X_M, SINGLES_HALF_WIDTH_M, net_heig
 LONG, WIDE, NET = 0, 1, 2      # the table's last axis: the kind of error
 N_KINDS = 3
 N_ROLES = 2                    # 0: the hitter serves this point; 1: he receives
+DEPTH, HEIGHT = 0, 1           # the shape tables' last axis: which dimension is tilted
+N_SHAPES = 2
 
 
 def error_bins() -> np.ndarray:
@@ -81,13 +93,47 @@ def width_tilt() -> np.ndarray:
 
 _WIDTH_TILT = width_tilt()
 _DIMS = (0, 1, 2)              # the strike dimension each kind shifts
+# The shapes' tilts: one unit of shift adds this many logits per metre from the tilt's centre.
+SHAPE_UNIT_M = 1.0
+# Each tilt is centred on the training strikes' mean (in-play depth beyond the net, height over
+# the net of the balls above it), where a strike's draws lie: centred on the bins' own mean
+# (4.1 m over the net) a tilt of -2 per metre lifted the balls in play 5 logits against the
+# net's bins, and the net's shift refitted with it ran into `MAX_SHIFT`.
+DEPTH_CENTRE_M = 7.6
+HEIGHT_CENTRE_M = 1.7
+
+
+def _centred_tilt(dim: int, error: np.ndarray, centre_m: float) -> np.ndarray:
+    e = strike.strike_edges()[dim]
+    value = 0.5 * (e[1:] + e[:-1])
+    return np.where(~error, value - centre_m, 0.0) / SHAPE_UNIT_M
+
+
+def depth_tilt() -> np.ndarray:
+    """(STRIKE_BINS,) the depth bins' logit per unit of the depth's shift: the bin centre's
+    depth beyond the net less `DEPTH_CENTRE_M` (m / `SHAPE_UNIT_M`), zero on the bins beyond
+    the baseline (the long error's), so the tilt moves the balls in play deeper or shorter."""
+    return _centred_tilt(0, _ERROR_BINS[LONG], DEPTH_CENTRE_M)
+
+
+def height_tilt() -> np.ndarray:
+    """(STRIKE_BINS,) the net-height bins' logit per unit of the height's shift: the bin
+    centre's height less `HEIGHT_CENTRE_M`, zero on the bins wholly below the net (the net
+    error's), so the tilt moves the balls over the net higher or lower."""
+    return _centred_tilt(2, _ERROR_BINS[NET], HEIGHT_CENTRE_M)
+
+
+_SHAPE_TILTS = np.stack([depth_tilt(), height_tilt()])
+_SHAPE_DIMS = (0, 2)           # the strike dimension each shape tilts
 
 
 def strike_dim_bias(table: torch.Tensor, hitter_id: torch.Tensor, receiver: torch.Tensor,
                     width: torch.Tensor | None = None, returns: torch.Tensor | None = None,
                     returning: torch.Tensor | None = None,
                     pressure: torch.Tensor | None = None,
-                    opponent_id: torch.Tensor | None = None) -> torch.Tensor:
+                    opponent_id: torch.Tensor | None = None,
+                    shape: torch.Tensor | None = None,
+                    shape_opponent: torch.Tensor | None = None) -> torch.Tensor:
     """The strike head's logit shifts for strikes of `hitter_id` (N,), who is the point's
     receiver where `receiver` (N,) bool, from `table` (n_ids, N_ROLES, N_KINDS) and the
     width's `width` (n_ids, N_ROLES) or None -> (N, 4, STRIKE_BINS): each kind's error bins
@@ -95,7 +141,10 @@ def strike_dim_bias(table: torch.Tensor, hitter_id: torch.Tensor, receiver: torc
     With the returns' table `returns` (n_ids, N_KINDS) and `returning` (N,) bool (the strike
     is the return), its row is added to the returns' shifts. With the opponents' table
     `pressure` (n_ids, N_ROLES, N_KINDS) and `opponent_id` (N,) (who struck the ball now
-    being answered), his row by the hitter's role is added on every strike but a return."""
+    being answered), his row by the hitter's role is added on every strike but a return. With
+    the shape tables `shape` and `shape_opponent` (n_ids, N_ROLES, N_SHAPES), the hitter's row
+    and (with `opponent_id`) the opponent's tilt the depth and net-height bins
+    (`depth_tilt`, `height_tilt`) on every strike but a return."""
     shift = table[hitter_id.long(), receiver.long()]                      # (N, N_KINDS)
     if returns is not None and returning is not None:
         shift = shift + returns[hitter_id.long()] * returning.to(shift.dtype)[:, None]
@@ -111,4 +160,28 @@ def strike_dim_bias(table: torch.Tensor, hitter_id: torch.Tensor, receiver: torc
     if width is not None:
         tilt = torch.as_tensor(_WIDTH_TILT, dtype=table.dtype, device=table.device)
         out[:, 1] += width[hitter_id.long(), receiver.long(), None] * tilt
+    if shape is not None:
+        out += shape_bias(shape, shape_opponent, hitter_id, receiver, returning, opponent_id)
+    return out
+
+
+def shape_bias(shape: torch.Tensor, shape_opponent: torch.Tensor | None,
+               hitter_id: torch.Tensor, receiver: torch.Tensor,
+               returning: torch.Tensor | None = None,
+               opponent_id: torch.Tensor | None = None) -> torch.Tensor:
+    """The shape tables' logit shifts (N, 4, STRIKE_BINS): per strike the hitter's row of
+    `shape` by his role plus (with `opponent_id`) the opponent's row of `shape_opponent`,
+    each unit a `depth_tilt` on the depth bins and a `height_tilt` on the net-height bins;
+    zero on the returns (`returning`)."""
+    r = receiver.long()
+    units = shape[hitter_id.long(), r]                                    # (N, N_SHAPES)
+    if shape_opponent is not None and opponent_id is not None:
+        units = units + shape_opponent[opponent_id.long(), r]
+    if returning is not None:
+        units = units * (~returning.bool()).to(units.dtype)[:, None]
+    tilts = torch.as_tensor(_SHAPE_TILTS, dtype=shape.dtype, device=shape.device)
+    out = torch.zeros(len(hitter_id), 4, strike.STRIKE_BINS, dtype=shape.dtype,
+                      device=shape.device)
+    for k, dim in enumerate(_SHAPE_DIMS):
+        out[:, dim] = units[:, k, None] * tilts[k]
     return out

@@ -14,7 +14,9 @@ the named players' (`train.serve_bias.fit_serve_bias`, `train.strike_bias.fit_st
 `fit_strike_return`, each pulled toward the head's own odds by its prior, so a player with few
 rallies moves little); every other row is left as it is. His row of the opponents' table
 (`model.strike_pressure`: how hard his balls are to play) is not fitted: it is read on the
-opponents' strikes, whose rows the fine-tune does not touch.
+opponents' strikes, whose rows the fine-tune does not touch. Nor are his rows of the shape
+tables (`model.strike_shape` and `strike_shape_opponent`, where the file has them): they stay
+at zero, the head's own depth and height for him.
 """
 
 from __future__ import annotations

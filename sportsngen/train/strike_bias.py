@@ -18,13 +18,14 @@ import numpy as np
 import pandas as pd
 import torch
 
-from sportsngen.model import strike_bias
+from sportsngen.model import strike, strike_bias
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.train.finetune import with_flag
 from sportsngen.train.head_fit import HeadStates, head_inputs
 from sportsngen.train.serve_bias import MAX_SHIFT, bisect_shift, matched_shift, pulled_toward
 
 KINDS = ("long", "wide", "net")
+SHAPES = ("depth", "height")
 
 
 def with_strike_bias(model: SportsNGEN) -> SportsNGEN:
@@ -239,6 +240,13 @@ def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarr
         tilt = torch.as_tensor(strike_bias.width_tilt(), dtype=x.dtype)
         w = model.strike_width[hitter, recv.long()]
         logits[strike_bias.WIDE] = logits[strike_bias.WIDE] + w[:, None] * tilt
+    if model.strike_shape is not None:
+        # The shapes' tilts move a little mass across the baseline and the net: the errors'
+        # odds are matched with them.
+        tilted = strike_bias.shape_bias(model.strike_shape, model.strike_shape_opponent,
+                                        hitter, recv, opponent_id=opponent)
+        for kind, dim in ((strike_bias.LONG, 0), (strike_bias.NET, 2)):
+            logits[kind] = logits[kind] + tilted[:, dim]
     record = [masks[k][bins[:, k]].to(x.dtype) for k in range(strike_bias.N_KINDS)]
     tables = {"opponent": (model.strike_pressure, opponent, model.strike_bias, hitter),
               "hitter": (model.strike_bias, hitter, model.strike_pressure, opponent)}
@@ -279,3 +287,92 @@ def error_shares(table: pd.DataFrame) -> pd.DataFrame:
             keep = keep * (1.0 - table[f"{name}_{when}"].to_numpy())
         out[f"error_{when}"] = 1.0 - keep
     return out
+
+
+def with_strike_shape(model: SportsNGEN) -> SportsNGEN:
+    """`model` (with the opponents' table) with the hitters' and opponents' shape tables added
+    (`cfg.strike_shape`), at zero: it draws as before until `fit_strike_shape` fills them.
+    -> a new model."""
+    return with_flag(model, "strike_shape", ["strike_shape", "strike_shape_opponent"])
+
+
+def _mean_kept(logits: torch.Tensor, tilt: torch.Tensor, keep: torch.Tensor,
+               value: torch.Tensor, shift: float) -> float:
+    """Mean over rows of the draw's mean `value` among the bins `keep`, with `shift` units of
+    `tilt` added to `logits`."""
+    p = (logits + shift * tilt).softmax(-1) * keep
+    return float(((p * value).sum(-1) / p.sum(-1).clamp_min(1e-12)).mean())
+
+
+@torch.no_grad()
+def fit_strike_shape(model: SportsNGEN, states: HeadStates, returns: np.ndarray,
+                     rounds: int = 4, prior_strikes: float = 200.0,
+                     min_strikes: int = 50) -> pd.DataFrame:
+    """Fill the shape tables (`model.strike_shape`, per hitter, and
+    `model.strike_shape_opponent`, per opponent, by the hitter's role), in place, on the
+    recorded rally strikes `states` that are not returns (`returns` (N,) bool), then refit
+    the error tables with the tilts (`fit_strike_pressure`). Per shape (the depth of the
+    balls in play, the height over the net of the balls not in it) a cell's tilt makes the
+    head's mean on its strikes whose record is in play (over the net) equal the record's,
+    pulled toward the head's before by `prior_strikes` pseudo-strikes (it rises with the
+    tilt: a bisection); the hitters' and the opponents' cells are found in turn for `rounds`
+    rounds, each on top of the other's. -> per (table, id, receiver, shape) of the last
+    round: n, the record's, the head's before and after means (m) and the tilt."""
+    if model.strike_shape is None:
+        raise ValueError("the model has no shape tables (cfg.strike_shape): add them with "
+                         "with_strike_shape")
+    if len(returns) != len(states):
+        raise ValueError(f"returns has {len(returns)} rows, the states {len(states)}")
+    if rounds < 1 or prior_strikes < 0 or min_strikes < 1:
+        raise ValueError(f"rounds and min_strikes must be >= 1 and prior_strikes >= 0, got "
+                         f"{rounds}, {min_strikes} and {prior_strikes}")
+    head = model.strike_head
+    rows = np.flatnonzero(~np.asarray(returns, dtype=bool))
+    i = torch.as_tensor(rows)
+    x, bins = head_inputs(model, "strike", states, i), states.bins[i]
+    recv = torch.as_tensor(states.receiver[rows].astype(bool))
+    ids = {"hitter": torch.as_tensor(states.hitter_id()[rows]),
+           "opponent": torch.as_tensor(states.opponent_id()[rows])}
+    tables = {"hitter": model.strike_shape, "opponent": model.strike_shape_opponent}
+    edges = strike.strike_edges()
+    errors = strike_bias.error_bins()
+    tilts = (strike_bias.depth_tilt(), strike_bias.height_tilt())
+    shapes = []
+    for k, (dim, kind) in enumerate(((0, strike_bias.LONG), (2, strike_bias.NET))):
+        keep = torch.as_tensor(~errors[kind])
+        value = torch.as_tensor(0.5 * (edges[dim, 1:] + edges[dim, :-1]), dtype=x.dtype)
+        kept = keep[bins[:, dim]]
+        shapes.append({"dim": dim, "logits": head.dim_logits(x, bins, dim), "kept": kept,
+                       "keep": keep.to(x.dtype), "value": value,
+                       "tilt": torch.as_tensor(tilts[k], dtype=x.dtype),
+                       "record": value[bins[:, dim]]})
+    out = []
+    for r in range(rounds):
+        for name, table in tables.items():
+            other = "opponent" if name == "hitter" else "hitter"
+            keys = pd.DataFrame({"id": ids[name].numpy(), "receiver": recv.numpy()})
+            for (cid, rcv), g in keys.groupby(["id", "receiver"]):
+                j = torch.as_tensor(g.index.to_numpy(copy=True))
+                for k, sh in enumerate(shapes):
+                    jj = j[sh["kept"][j]]
+                    n = len(jj)
+                    if n < min_strikes:
+                        continue
+                    base = sh["logits"][jj] + \
+                        tables[other][ids[other][jj], int(rcv), k][:, None] * sh["tilt"]
+
+                    def mean(s: float, lg=base, sh=sh) -> float:
+                        return _mean_kept(lg, sh["tilt"], sh["keep"], sh["value"], s)
+
+                    record = float(sh["record"][jj].mean())
+                    before = mean(0.0)
+                    shift = bisect_shift(mean, pulled_toward(record, before, n, prior_strikes),
+                                         MAX_SHIFT)
+                    table[int(cid), int(rcv), k] = shift
+                    if r == rounds - 1:
+                        out.append({"table": name, "id": int(cid), "receiver": bool(rcv),
+                                    "shape": SHAPES[k], "n": n, "record_m": record,
+                                    "head_m": before, "after_m": mean(shift), "tilt": shift})
+    fit_strike_pressure(model, states, returns, prior_strikes=prior_strikes,
+                        min_strikes=min_strikes)
+    return pd.DataFrame(out)
