@@ -204,6 +204,16 @@ def with_strike_pressure(model: SportsNGEN) -> SportsNGEN:
     return with_flag(model, "strike_pressure", ["strike_pressure"])
 
 
+def _check_rounds(states: HeadStates, returns: np.ndarray, rounds: int, prior_strikes: float,
+                  min_strikes: int) -> None:
+    """The arguments of a fit of two tables in turn over the strikes that are not returns."""
+    if len(returns) != len(states):
+        raise ValueError(f"returns has {len(returns)} rows, the states {len(states)}")
+    if rounds < 1 or prior_strikes < 0 or min_strikes < 1:
+        raise ValueError(f"rounds and min_strikes must be >= 1 and prior_strikes >= 0, got "
+                         f"{rounds}, {min_strikes} and {prior_strikes}")
+
+
 @torch.no_grad()
 def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarray,
                         rounds: int = 4, prior_strikes: float = 200.0,
@@ -222,11 +232,7 @@ def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarr
     if model.strike_pressure is None:
         raise ValueError("the model has no opponents' table (cfg.strike_pressure): add it with "
                          "with_strike_pressure")
-    if len(returns) != len(states):
-        raise ValueError(f"returns has {len(returns)} rows, the states {len(states)}")
-    if rounds < 1 or prior_strikes < 0 or min_strikes < 1:
-        raise ValueError(f"rounds and min_strikes must be >= 1 and prior_strikes >= 0, got "
-                         f"{rounds}, {min_strikes} and {prior_strikes}")
+    _check_rounds(states, returns, rounds, prior_strikes, min_strikes)
     head = model.strike_head
     masks = torch.as_tensor(strike_bias.error_bins())
     rows = np.flatnonzero(~np.asarray(returns, dtype=bool))
@@ -321,11 +327,7 @@ def fit_strike_shape(model: SportsNGEN, states: HeadStates, returns: np.ndarray,
     if model.strike_shape is None:
         raise ValueError("the model has no shape tables (cfg.strike_shape): add them with "
                          "with_strike_shape")
-    if len(returns) != len(states):
-        raise ValueError(f"returns has {len(returns)} rows, the states {len(states)}")
-    if rounds < 1 or prior_strikes < 0 or min_strikes < 1:
-        raise ValueError(f"rounds and min_strikes must be >= 1 and prior_strikes >= 0, got "
-                         f"{rounds}, {min_strikes} and {prior_strikes}")
+    _check_rounds(states, returns, rounds, prior_strikes, min_strikes)
     head = model.strike_head
     rows = np.flatnonzero(~np.asarray(returns, dtype=bool))
     i = torch.as_tensor(rows)
