@@ -105,27 +105,20 @@ def main() -> None:
                      "wide_shift"]].round(3).to_string(index=False))
         run.save(model, args.out)
         return
-    if args.shape:
-        if model.strike_pressure is None:
-            raise SystemExit(f"{run.path}: no opponents' table (model.strike_pressure): fit it "
-                             "first (--pressure)")
-        model = with_strike_shape(model)
-        table = fit_strike_shape(model, states, states.returns(),
-                                 prior_strikes=args.prior_strikes)
+    if args.shape or args.pressure:
+        # Two tables fitted in turn over the strikes that are not returns, on top of the one
+        # the file must already have.
+        needs, fit_first, add, fit = (
+            ("strike_pressure", "--pressure", with_strike_shape, fit_strike_shape) if args.shape
+            else ("strike_return", "--returns", with_strike_pressure, fit_strike_pressure))
+        if getattr(model, needs) is None:
+            raise SystemExit(f"{run.path}: no model.{needs}: fit it first ({fit_first})")
+        model = add(model)
+        table = fit(model, states, states.returns(), prior_strikes=args.prior_strikes)
         table.insert(0, "player", table.pop("id").map(names))
-        print(table.round(3).to_string(index=False))
-        run.save(model, args.out)
-        return
-    if args.pressure:
-        if model.strike_return is None:
-            raise SystemExit(f"{run.path}: no returns' table (model.strike_return): fit it "
-                             "first (--returns)")
-        model = with_strike_pressure(model)
-        table = fit_strike_pressure(model, states, states.returns(),
-                                    prior_strikes=args.prior_strikes)
-        table.insert(0, "player", table["id"].map(names))
-        cols = ["table", "player", "receiver", "n"] + [f"{k}_{w}" for k in KINDS
-                                                       for w in ("record", "after", "shift")]
+        cols = list(table.columns) if args.shape else \
+            ["table", "player", "receiver", "n"] + [f"{k}_{w}" for k in KINDS
+                                                    for w in ("record", "after", "shift")]
         print(table[cols].round(3).to_string(index=False))
         run.save(model, args.out)
         return
