@@ -2,7 +2,8 @@
 wide or into the net (`model.strike_bias`; `sportsngen.train.strike_bias`).
 
     .venv/bin/python scripts/fit_strike_bias.py --model FILE --out FILE [--more-data NAME]
-        [--prior-strikes 200] [--width | --returns | --pressure | --shape] [--states FILE]
+        [--prior-strikes 200] [--width | --returns | --pressure | --shape | --shots]
+        [--states FILE]
         [--threads 2]
 
 The recorded rally strikes are the file's own training split (`extra.split`) and with
@@ -19,7 +20,11 @@ the strikes that are not returns, then the returns' table again on top. With `--
 with the opponents' table) per-hitter and per-opponent tilts of the depth of the balls in play
 and of their height over the net are added (`model.strike_shape`, `fit_strike_shape`), fitted
 in turn on the strikes that are not returns, and the error tables refitted with them as
-`--pressure` fits them. `--states FILE` keeps
+`--pressure` fits them. With `--shots` (a file with the opponents' table) the strike head's
+input gets a learned shift by the strike's number in the rally (`model.strike_shots`,
+`train.strike_shots`), fitted on the strikes outside the held-out rallies (the head and the
+tables frozen; the held-out rallies' teacher-forced depth, height and NLL by shot printed before
+and after), then the error tables refitted with it as `--pressure` fits them. `--states FILE` keeps
 the decoder's states read (most of the time; they do not depend on the tables). Everything
 else in the file is copied unchanged.
 """
@@ -43,6 +48,12 @@ from sportsngen.train.strike_bias import (
     with_strike_return,
     with_strike_shape,
     with_strike_width,
+)
+from sportsngen.train.strike_shots import (
+    fit_strike_shots,
+    held_out,
+    shot_profile,
+    with_strike_shots,
 )
 from sportsngen.train.table_cli import open_table_run, table_parser
 
@@ -82,6 +93,9 @@ def main() -> None:
                      help="add per-hitter and per-opponent tilts of the balls' depth and height "
                           "over the net (model.strike_shape), the error tables refitted with "
                           "them")
+    how.add_argument("--shots", action="store_true",
+                     help="add a shift of the strike head's input by the strike's number in the "
+                          "rally (model.strike_shots), the error tables refitted with it")
     ap.add_argument("--states", default=None,
                     help="cache of the decoder's states: written on the first run, read after")
     args = ap.parse_args()
@@ -103,6 +117,27 @@ def main() -> None:
         table.insert(0, "player", table["id"].map(names))
         print(table[["table", "player", "receiver", "n", "wide_record", "wide_after",
                      "wide_shift"]].round(3).to_string(index=False))
+        run.save(model, args.out)
+        return
+    if args.shots:
+        if model.strike_pressure is None:
+            raise SystemExit(f"{run.path}: no model.strike_pressure: fit it first (--pressure)")
+        model = with_strike_shots(model)
+        val = held_out(states)
+        before = shot_profile(model, states, val)
+        history = fit_strike_shots(model, states)
+        print(f"held-out NLL {history[0]['val_nll']:.4f} -> "
+              f"{min(h['val_nll'] for h in history):.4f} nats a strike")
+        after = shot_profile(model, states, val)
+        both = before.merge(after, on=["shot_row", "serve", "n"], suffixes=("", "_shots"))
+        print(both.drop(columns=[c for c in both.columns if c.endswith("record_m_shots")])
+              .round(3).to_string(index=False))
+        table = fit_strike_pressure(model, states, states.returns(),
+                                    prior_strikes=args.prior_strikes)
+        table.insert(0, "player", table.pop("id").map(names))
+        print(table[["table", "player", "receiver", "n"] + [f"{k}_{w}" for k in KINDS
+                                                          for w in ("record", "after", "shift")]]
+              .round(3).to_string(index=False))
         run.save(model, args.out)
         return
     if args.shape or args.pressure:

@@ -64,6 +64,7 @@ def teacher_forced_strikes(model, arrays: RallyArrays, truth: RallyData, draws: 
         raise ValueError("no recorded rally strike (shot_index >= 1) in the rallies given")
     at = (shots["frame"] - shots["rally_id"].map(first)).to_numpy(np.int64)
     ri = shots["rally_id"].map(index).to_numpy(np.int64)
+    number = torch.as_tensor(shots["shot_index"].to_numpy(np.int64))
     starts = np.maximum(at - (window - lead_frames), 0)
     ds = WindowDataset(arrays, window, None, items=list(zip(ri.tolist(), starts.tolist())))
     loader = DataLoader(ds, batch_size=batch_size, shuffle=False, collate_fn=default_collate)
@@ -84,7 +85,8 @@ def teacher_forced_strikes(model, arrays: RallyArrays, truth: RallyData, draws: 
         h = window_states(model, batch)[..., BALL, :]
         recv = strike_heads.ball_on_receivers_end(batch["pos_m"][ok, t[ok]])
         role = strike_heads.role_index(recv, batch["serve"][ok])
-        h_rows.append(model.strike_input(h[ok, t[ok]], role))
+        h_rows.append(model.strike_input(h[ok, t[ok]], role,
+                                         number[b0 * batch_size + torch.as_tensor(ok)]))
         bin_rows.append(bins[ok, t[ok]])
         hitters.append(torch.where(recv, batch["ident"][ok, 1], batch["ident"][ok, 0]))
         opponents.append(torch.where(recv, batch["ident"][ok, 0], batch["ident"][ok, 1]))

@@ -90,6 +90,15 @@ class ModelConfig:
     # quarter of the time, the server's a tenth); the head read from the state alone drew
     # the same share for both from the fourth shot on (docs/evaluation.md, twentieth part).
     strike_roles: bool = False
+    # The strike head's input also carries the strike's number in the rally (1 the return, 2
+    # the server's first rally ball, ..., `strike_heads.shot_bucket`), as a learned shift
+    # (`SportsNGEN.strike_shot`, started at zero, fitted on the decoder's states by
+    # `train.strike_shots`): the rollout's tracker counts the contacts. Read from the ball's
+    # state alone the head placed the receiver's second rally ball short and his third deep
+    # against the record, and its spin was 0.085 nats a strike worse than with the number
+    # (docs/evaluation.md, forty-fourth part). Without a count (no tracker) the head reads as
+    # without the shift.
+    strike_shots: bool = False
     # A head of its own for the serve (`model.strike.is_serve`: struck from the toss) as where
     # it lands, its speed and its spin, the launch solved as a strike's: its fault, its box and
     # its speed come from a distribution over those, not from the ball's bins under a nucleus.

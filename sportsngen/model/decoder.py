@@ -214,6 +214,13 @@ class SportsNGEN(nn.Module):
             # Zero: a file without the shift reads the same with it.
             self.strike_role = nn.Embedding(strike_heads.N_STRIKE_ROLES, cfg.d_model)
             nn.init.zeros_(self.strike_role.weight)
+        self.strike_shot = None
+        if cfg.strike_shots:
+            if not cfg.strike_head:
+                raise ValueError("strike_shots shifts the strike head's input: it needs "
+                                 "strike_head=True")
+            self.strike_shot = nn.Embedding(strike_heads.N_SHOT_BUCKETS, cfg.d_model)
+            nn.init.zeros_(self.strike_shot.weight)
         # Fitted by moment matching (`train.serve_bias`), not by gradient: a buffer, zero until
         # then, so the head draws as without it.
         self.register_buffer("serve_bias", torch.zeros(cfg.n_ids, serve_bias.N_SERVES,
@@ -424,15 +431,21 @@ class SportsNGEN(nn.Module):
         return strike_heads.strike_targets(pos_m, vel_mps, next_pos_m, has_next, self.cfg.fps,
                                            serves)
 
-    def strike_input(self, h_ball: torch.Tensor, role: torch.Tensor | None) -> torch.Tensor:
+    def strike_input(self, h_ball: torch.Tensor, role: torch.Tensor | None,
+                     shot: torch.Tensor | None = None) -> torch.Tensor:
         """The strike head's input: the ball token's state (..., d), shifted by the learned
-        row of `role` (..., `strike_heads.strike_role_index`) where `cfg.strike_roles`."""
-        if self.strike_role is None:
-            return h_ball
-        if role is None:
-            raise ValueError("this model's strike head reads the hitter's role and the serve "
-                             "(cfg.strike_roles): give them (strike_heads.strike_role_index)")
-        return h_ball + self.strike_role(role)
+        row of `role` (..., `strike_heads.strike_role_index`) where `cfg.strike_roles`, and by
+        that of the strike's number `shot` (..., 1 the return) where `cfg.strike_shots` and
+        the number is given."""
+        if self.strike_role is not None:
+            if role is None:
+                raise ValueError("this model's strike head reads the hitter's role and the "
+                                 "serve (cfg.strike_roles): give them "
+                                 "(strike_heads.strike_role_index)")
+            h_ball = h_ball + self.strike_role(role)
+        if self.strike_shot is not None and shot is not None:
+            h_ball = h_ball + self.strike_shot(strike_heads.shot_bucket(shot))
+        return h_ball
 
     def strike_nll(self, h: torch.Tensor, mask: torch.Tensor, bins: torch.Tensor,
                    pos_m: torch.Tensor | None = None,
@@ -541,7 +554,8 @@ class SportsNGEN(nn.Module):
                       serve: torch.Tensor | None = None,
                       server_ident: torch.Tensor | None = None,
                       receiver_ident: torch.Tensor | None = None,
-                      returning: torch.Tensor | None = None
+                      returning: torch.Tensor | None = None,
+                      shot: torch.Tensor | None = None
                       ) -> tuple[torch.Tensor, torch.Tensor]:
         """This model's strike and serve heads' draws placed in the sampled frames `nxt`
         (`strike_heads.place_strikes`; `serve` (B,) the rallies' serve, 0 first, 1 second,
@@ -549,14 +563,18 @@ class SportsNGEN(nn.Module):
         identities, which `cfg.serve_bias` reads, and with `receiver_ident` (B,) the
         receivers', which `cfg.strike_bias` reads; `returning` (B,) bool: the rallies whose
         next contact is the return (only the serve struck so far), which `cfg.strike_return`
-        reads on a strike from the receiver's end). -> (nxt, the launches' next two frames
-        (B, 2, 3))."""
+        reads on a strike from the receiver's end; `shot` (B,): the rallies' contacts so far,
+        the number of a strike drawn now (1 the return), which `cfg.strike_shots` reads). ->
+        (nxt, the launches' next two frames (B, 2, 3))."""
         strike_h = None
         if self.strike_role is not None:
             if serve is None:
                 raise ValueError("this model's strike head reads the serve (cfg.strike_roles): "
                                  "give serve")
-            strike_h = self.strike_input(h[:, BALL], strike_heads.strike_role_index(pos_m, serve))
+            strike_h = self.strike_input(h[:, BALL], strike_heads.strike_role_index(pos_m, serve),
+                                         shot)
+        elif self.strike_shot is not None and shot is not None:
+            strike_h = self.strike_input(h[:, BALL], None, shot)
         serve_shift = None
         if self.serve_bias is not None and server_ident is not None and serve is not None:
             def serve_shift(rows: torch.Tensor) -> torch.Tensor:

@@ -21,6 +21,8 @@ from sportsngen.model.sampling import uniform_in_bin
 SERVER = OBJECTS.index("server")
 FORCED_DRAWS = 8       # draws of the strike head for a forced strike until one launches
 N_STRIKE_ROLES = 4     # (server, receiver) x (first serve, second serve)
+# Shots 1 (the return) to 6 each, then the receiver's (odd) and the server's (even) pooled.
+N_SHOT_BUCKETS = 8
 
 
 def ball_on_receivers_end(pos_m: torch.Tensor) -> torch.Tensor:
@@ -33,6 +35,16 @@ def role_index(receiver: torch.Tensor, serve: torch.Tensor) -> torch.Tensor:
     """(...) the hitter is the receiver, (...) the serve (0 first, 1 second) -> (...) the
     strike role's row: 2 * receiver + serve."""
     return 2 * receiver.long() + serve.long()
+
+
+def shot_bucket(shot: torch.Tensor) -> torch.Tensor:
+    """(...) a rally strike's number (1 the return, 2 the server's first rally ball, ...) ->
+    (...) its row of the strike head's shot shift: shots 1-6 rows 0-5, later shots the
+    receiver's (odd) row 6 and the server's (even) row 7. A number under 1 counts as the
+    return."""
+    shot = shot.long().clamp_min(1)
+    late = torch.where(shot % 2 == 1, torch.full_like(shot, 6), torch.full_like(shot, 7))
+    return torch.where(shot <= 6, shot - 1, late)
 
 
 def strike_role_index(pos_m: torch.Tensor, serve: torch.Tensor) -> torch.Tensor:

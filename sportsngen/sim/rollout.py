@@ -166,7 +166,8 @@ def _follow_strikes(model: SportsNGEN, h: torch.Tensor, pos: torch.Tensor, vel: 
                     serve: torch.Tensor | None = None,
                     server_ident: torch.Tensor | None = None,
                     receiver_ident: torch.Tensor | None = None,
-                    returning: torch.Tensor | None = None
+                    returning: torch.Tensor | None = None,
+                    shot: torch.Tensor | None = None
                     ) -> tuple[torch.Tensor, torch.Tensor]:
     """With a strike head: a ball in the frames after its strike flies the launch solved at the
     strike (`plan`, (B, 2, 3), NaN where none), so the physics centre reads the strike's spin
@@ -176,7 +177,8 @@ def _follow_strikes(model: SportsNGEN, h: torch.Tensor, pos: torch.Tensor, vel: 
     strike head with `cfg.strike_roles` reads, and with `server_ident` (B,) a serve head's
     per-server shift (`cfg.serve_bias`), with `receiver_ident` (B,) too the strike head's
     per-hitter shift (`cfg.strike_bias`), with `returning` (B,) bool (only the serve struck
-    so far) the returns' (`cfg.strike_return`)."""
+    so far) the returns' (`cfg.strike_return`), with `shot` (B,) (the contacts so far) the
+    strike's number (`cfg.strike_shots`)."""
     planned = ~torch.isnan(plan[:, 0, 0])
     if bool(planned.any()):
         nxt = nxt.clone()
@@ -187,7 +189,7 @@ def _follow_strikes(model: SportsNGEN, h: torch.Tensor, pos: torch.Tensor, vel: 
     nxt, new = model.place_strikes(h, pos, vel, nxt, generator, allowed=~planned, forced=force,
                                    top_p_serve=top_p_serve, serve=serve,
                                    server_ident=server_ident, receiver_ident=receiver_ident,
-                                   returning=returning)
+                                   returning=returning, shot=shot)
     return nxt, torch.where(torch.isnan(new[:, :1, :1]), plan, new)
 
 
@@ -368,9 +370,11 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                 shots = getattr(tracker, "n_shots", None)
                 returning = None if shots is None or model.strike_return is None else \
                     torch.as_tensor(awaiting_return(np.asarray(shots)[alive]), device=dev)
+                shot = None if shots is None or model.strike_shot is None else \
+                    torch.as_tensor(np.asarray(shots)[alive], device=dev)
                 nxt, plan = _follow_strikes(model, h, pos, vel, nxt, plan, generator, forced,
                                             top_p_serve, serve, ident[:, 0], ident[:, 1],
-                                            returning)
+                                            returning, shot)
             if bounce_surfaces is not None and n >= 3:
                 nxt, plan = place_bounces(nxt, plan, pos, vel, prev_vel, fps, bounce_surfaces,
                                           alive, planned)

@@ -49,6 +49,7 @@ class HeadStates:
     receiver: np.ndarray     # (N,) bool: the hitter is the rally's receiver (the ball on his end)
     server_id: np.ndarray    # (N,) int64: the rally's server's identity (the Vocab's index)
     receiver_id: np.ndarray | None = None   # (N,) int64: the rally's receiver's, where read
+    shot: np.ndarray | None = None   # (N,) int64: the strike's number, where fixed (`take`)
 
     def __len__(self) -> int:
         return len(self.bins)
@@ -60,10 +61,12 @@ class HeadStates:
         return HeadStates(torch.cat([p.h for p in parts]), torch.cat([p.bins for p in parts]),
                           *(np.concatenate([getattr(p, k) for p in parts])
                             for k in ("rally_id", "serve", "contact_m", "receiver",
-                                      "server_id")), receiver_id=recv)
+                                      "server_id")), receiver_id=recv,
+                          shot=np.concatenate([p.shot_numbers() for p in parts]))
 
     def take(self, keep: np.ndarray) -> HeadStates:
-        """The rows where `keep` ((N,) bool) holds, in order."""
+        """The rows where `keep` ((N,) bool) holds, in order, with their shot numbers counted
+        on the whole (`shot_numbers`)."""
         keep = np.asarray(keep, dtype=bool)
         if keep.shape != (len(self),):
             raise ValueError(f"keep has shape {keep.shape}, the states {len(self)} rows")
@@ -72,7 +75,7 @@ class HeadStates:
                           *(getattr(self, k)[keep] for k in ("rally_id", "serve", "contact_m",
                                                              "receiver", "server_id")),
                           receiver_id=None if self.receiver_id is None
-                          else self.receiver_id[keep])
+                          else self.receiver_id[keep], shot=self.shot_numbers()[keep])
 
     def hitter_id(self) -> np.ndarray:
         """(N,) int64: the identity of the player who strikes each target (the receiver's
@@ -95,9 +98,32 @@ class HeadStates:
         reads each rally's windows in turn, its strikes in time): a rally's first strike, where
         the receiver struck it. A rally whose return was not a target (its next frames cut by
         the window) has none, rather than a later strike taken for it."""
+        return self._run_starts() & self.receiver.astype(bool)
+
+    def shot_numbers(self) -> np.ndarray:
+        """(N,) int64: each rally strike's number in its rally (1 the return, 2 the server's
+        first rally ball, ...), counted along the strikes read in order as `returns` reads
+        them: the receiver strikes the odd shots and the server the even ones, so a strike
+        the windows missed between two read ones (its next frames cut by a window's end) is
+        counted by the turn of the hitter; two missed in a row are not. Rows taken from
+        others (`take`, `concat`) keep the numbers counted there."""
+        if self.shot is not None:
+            return self.shot
+        recv = self.receiver.astype(bool)
+        start = self._run_starts()
+        same_hitter = np.zeros(len(recv), dtype=bool)
+        same_hitter[1:] = recv[1:] == recv[:-1]
+        step = np.where(start, np.where(recv, 1, 2), np.where(same_hitter, 2, 1))
+        total = np.cumsum(step)
+        # Each run's count restarts: subtract the total before its first strike.
+        before = np.maximum.accumulate(np.where(start, total - step, 0))
+        return (total - before).astype(np.int64)
+
+    def _run_starts(self) -> np.ndarray:
+        """(N,) bool: the first strike read of each rally (a new rally id in the order)."""
         first = np.ones(len(self.rally_id), dtype=bool)
         first[1:] = self.rally_id[1:] != self.rally_id[:-1]
-        return first & self.receiver.astype(bool)
+        return first
 
 
 def _head(model: SportsNGEN, which: str):
@@ -197,21 +223,26 @@ def collect_head_states(model: SportsNGEN, arrays: RallyArrays, which: str = "se
 
 
 def _fitted(model: SportsNGEN, which: str) -> list[torch.nn.Module]:
-    """The modules a head's fit moves: the head, and the strike head's role shift if any."""
+    """The modules a head's fit moves: the head, and the strike head's role and shot shifts
+    if any."""
     head = _head(model, which)
-    roles = model.strike_role if which == "strike" else None
-    return [head] if roles is None else [head, roles]
+    if which != "strike":
+        return [head]
+    return [head] + [m for m in (model.strike_role, model.strike_shot) if m is not None]
 
 
 def head_inputs(model: SportsNGEN, which: str, states: HeadStates, idx) -> torch.Tensor:
     """The head's input at `states[idx]`: the ball token's state, for a strike head with
-    `cfg.strike_roles` shifted by the hitter's role and the serve."""
+    `cfg.strike_roles` shifted by the hitter's role and the serve, with `cfg.strike_shots` by
+    the strike's number (`HeadStates.shot_numbers`)."""
     h = states.h[idx]
-    if which != "strike" or model.strike_role is None:
+    if which != "strike" or (model.strike_role is None and model.strike_shot is None):
         return h
-    role = strike_heads.role_index(torch.as_tensor(states.receiver[idx]),
-                                   torch.as_tensor(states.serve[idx]))
-    return model.strike_input(h, role)
+    role = None if model.strike_role is None else strike_heads.role_index(
+        torch.as_tensor(states.receiver[idx]), torch.as_tensor(states.serve[idx]))
+    shot = None if model.strike_shot is None else \
+        torch.as_tensor(states.shot_numbers()[idx])
+    return model.strike_input(h, role, shot)
 
 
 @torch.no_grad()

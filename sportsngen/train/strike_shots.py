@@ -1,0 +1,159 @@
+"""Fit the strike head's shift by the strike's number in the rally (`ModelConfig.strike_shots`).
+
+The decoder's ball state does not say how many shots a rally has had: read at recorded rally
+strikes, the head placed the receiver's second rally ball (shot 3) 0.2 m short of the record and
+his third (shot 5) 0.45 m deep after first serves, and its spin was 0.085 nats a strike worse
+than with the number (docs/evaluation.md, forty-fourth part). The rollout's tracker counts the
+contacts, so the number is known where the head draws; here one learned vector per
+`strike_heads.shot_bucket` row is added to the head's input and fitted on the decoder's states
+at recorded strikes (`train.head_fit.collect_head_states`), with the head and everything else
+frozen and the file's per-player tables applied as a rollout draws with them, kept at its best
+likelihood on held-out rallies. The tables were fitted on the head without it: refit them after
+(`fit_strike_pressure`, as `scripts/fit_strike_bias.py --shots` does).
+"""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pandas as pd
+import torch
+from tqdm.auto import tqdm
+
+from sportsngen.model import strike, strike_bias
+from sportsngen.model.decoder import SportsNGEN
+from sportsngen.model.strike_heads import shot_bucket
+from sportsngen.train.finetune import with_flag
+from sportsngen.train.head_fit import HeadStates, head_inputs
+
+HELD_OUT_EVERY = 5     # rallies whose id is a multiple of this are held out
+
+
+def with_strike_shots(model: SportsNGEN) -> SportsNGEN:
+    """`model` (with a strike head) with the shot shift added (`cfg.strike_shots`), at zero: it
+    draws as before until `fit_strike_shots` fills it. -> a new model (the same one if it has
+    it)."""
+    if model.strike_head is None:
+        raise ValueError("the model has no strike head (model.strike_head is off)")
+    return with_flag(model, "strike_shots", ["strike_shot.weight"])
+
+
+@torch.no_grad()
+def table_bias(model: SportsNGEN, states: HeadStates) -> torch.Tensor | None:
+    """The file's per-player shifts of the strike head's logits at `states` (N, 4, bins), as a
+    rollout draws them (hitter, role, returns, opponent); None where the model has none."""
+    if states.receiver_id is None:
+        return None
+    return model.strike_head_bias(torch.as_tensor(states.hitter_id()),
+                                  torch.as_tensor(states.receiver),
+                                  torch.as_tensor(states.returns()),
+                                  torch.as_tensor(states.opponent_id()))
+
+
+def held_out(states: HeadStates, every: int = HELD_OUT_EVERY) -> np.ndarray:
+    """(N,) bool: the strikes of the held-out rallies (whole rallies: id a multiple of
+    `every`)."""
+    if every < 2:
+        raise ValueError(f"every must be >= 2, got {every}")
+    return states.rally_id % every == 0
+
+
+def _nll(model: SportsNGEN, states: HeadStates, rows: torch.Tensor,
+         bias: torch.Tensor | None) -> torch.Tensor:
+    return model.strike_head.nll(head_inputs(model, "strike", states, rows), states.bins[rows],
+                                 None if bias is None else bias[rows])
+
+
+def fit_strike_shots(model: SportsNGEN, states: HeadStates, steps: int = 3000,
+                     lr: float = 3e-3, batch_size: int = 512, eval_every: int = 250,
+                     every: int = HELD_OUT_EVERY, seed: int = 0,
+                     progress: bool = True) -> list[dict]:
+    """Fit `model.strike_shot` (in place; nothing else moves) on the strikes `states` outside
+    the held-out rallies (`held_out`) with Adam, keeping the vectors at their best held-out
+    NLL. -> the history [{"step", "val_nll"}], step 0 the model as it came."""
+    if model.strike_shot is None:
+        raise ValueError("the model has no shot shift (cfg.strike_shots): add it with "
+                         "with_strike_shots")
+    if steps < 1 or batch_size < 1 or eval_every < 1:
+        raise ValueError("steps, batch_size and eval_every must be positive")
+    val = held_out(states, every)
+    train_rows = torch.as_tensor(np.flatnonzero(~val))
+    val_rows = torch.as_tensor(np.flatnonzero(val))
+    if len(train_rows) == 0 or len(val_rows) == 0:
+        raise ValueError("fit_strike_shots needs strikes in and out of the held-out rallies")
+    bias = table_bias(model, states)
+    was_training = model.training
+    model.eval()        # the head's dropout off: only the shift is fitted
+    for p in model.parameters():
+        p.requires_grad_(False)
+    emb = model.strike_shot
+    emb.weight.requires_grad_(True)
+    opt = torch.optim.Adam(emb.parameters(), lr=lr)
+    g = torch.Generator().manual_seed(seed)
+
+    def val_nll() -> float:
+        with torch.no_grad():
+            return float(_nll(model, states, val_rows, bias).mean())
+
+    history = [{"step": 0, "val_nll": val_nll()}]
+    best = (history[0]["val_nll"], copy.deepcopy(emb.state_dict()))
+    bar = tqdm(range(steps), desc="fit shot shift", disable=not progress)
+    for step in bar:
+        rows = train_rows[torch.randint(len(train_rows), (batch_size,), generator=g)]
+        loss = _nll(model, states, rows, bias).mean()
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        opt.step()
+        if (step + 1) % eval_every == 0 or step + 1 == steps:
+            v = val_nll()
+            history.append({"step": step + 1, "val_nll": v})
+            if v < best[0]:
+                best = (v, copy.deepcopy(emb.state_dict()))
+            bar.set_postfix(val_nll=f"{v:.4f}", best=f"{best[0]:.4f}")
+    emb.load_state_dict(best[1])
+    emb.weight.requires_grad_(False)
+    model.train(was_training)
+    return history
+
+
+@torch.no_grad()
+def shot_profile(model: SportsNGEN, states: HeadStates,
+                 keep: np.ndarray | None = None) -> pd.DataFrame:
+    """The head teacher-forced at the strikes `states` (rows `keep`, default all), by shot
+    bucket (`strike_heads.shot_bucket`) and serve: n, over the strikes whose record is in
+    play the record's and the head's mean depth beyond the net of the balls in play, over
+    those whose record clears the net their mean height over the net of the balls above it
+    (the head's means over those bins, each dimension given the record's earlier ones, with
+    the file's tables), and the head's NLL per dimension (nats)."""
+    keep = np.ones(len(states), dtype=bool) if keep is None else np.asarray(keep, dtype=bool)
+    rows = torch.as_tensor(np.flatnonzero(keep))
+    x, bins = head_inputs(model, "strike", states, rows), states.bins[rows]
+    bias = table_bias(model, states)
+    bias = None if bias is None else bias[rows]
+    edges = strike.strike_edges()
+    centre = torch.as_tensor(0.5 * (edges[:, 1:] + edges[:, :-1]))
+    errors = torch.as_tensor(strike_bias.error_bins())
+    cols = {}
+    for k, name in ((0, "depth"), (2, "height")):
+        logits = model.strike_head.dim_logits(x, bins, k, bias)
+        ok = ~errors[k]                     # in play (depth) or above the net (height)
+        p = logits.softmax(-1) * ok
+        head = (p * centre[k]).sum(-1) / p.sum(-1).clamp_min(1e-12)
+        # Both over the strikes whose record is in play (above the net).
+        mine = ok[bins[:, k]]
+        cols[f"{name}_record_m"] = torch.where(mine, centre[k][bins[:, k]].double(),
+                                               float("nan")).numpy()
+        cols[f"{name}_head_m"] = torch.where(mine, head.double(), float("nan")).numpy()
+    for k, name in enumerate(strike.STRIKE_DIMS):
+        lp = model.strike_head.dim_logits(x, bins, k, bias).log_softmax(-1)
+        cols[f"nll_{name}"] = -lp.gather(-1, bins[:, k:k + 1])[:, 0].double().numpy()
+    shot = states.shot_numbers()[keep]
+    t = pd.DataFrame({"shot_row": shot_bucket(torch.as_tensor(shot)).numpy(),
+                      "serve": states.serve[keep] + 1, **cols})
+    out = t.groupby(["shot_row", "serve"]).agg(n=("serve", "size"),
+                                               **{c: (c, "mean") for c in cols})
+    return out.reset_index()
+
+
+__all__ = ["fit_strike_shots", "held_out", "shot_profile", "table_bias", "with_strike_shots"]
