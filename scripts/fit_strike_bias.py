@@ -2,8 +2,8 @@
 wide or into the net (`model.strike_bias`; `sportsngen.train.strike_bias`).
 
     .venv/bin/python scripts/fit_strike_bias.py --model FILE --out FILE [--more-data NAME]
-        [--prior-strikes 200] [--width | --returns | --pressure | --shape | --shots]
-        [--states FILE]
+        [--prior-strikes 200] [--width | --returns | --pressure | --shape | --shots |
+        --players] [--states FILE]
         [--threads 2]
 
 The recorded rally strikes are the file's own training split (`extra.split`) and with
@@ -24,7 +24,9 @@ in turn on the strikes that are not returns, and the error tables refitted with 
 input gets a learned shift by the strike's number in the rally (`model.strike_shots`,
 `train.strike_shots`), fitted on the strikes outside the held-out rallies (the head and the
 tables frozen; the held-out rallies' teacher-forced depth, height and NLL by shot printed before
-and after), then the error tables refitted with it as `--pressure` fits them. `--states FILE` keeps
+and after), then the error tables refitted with it as `--pressure` fits them. `--players` does
+the same with a shift per hitter and role and one per opponent and the hitter's role
+(`model.strike_players`). `--states FILE` keeps
 the decoder's states read (most of the time; they do not depend on the tables). Everything
 else in the file is copied unchanged.
 """
@@ -49,10 +51,11 @@ from sportsngen.train.strike_bias import (
     with_strike_shape,
     with_strike_width,
 )
-from sportsngen.train.strike_shots import (
-    fit_strike_shots,
+from sportsngen.train.strike_inputs import (
+    fit_strike_inputs,
     held_out,
     shot_profile,
+    with_strike_players,
     with_strike_shots,
 )
 from sportsngen.train.table_cli import open_table_run, table_parser
@@ -96,6 +99,9 @@ def main() -> None:
     how.add_argument("--shots", action="store_true",
                      help="add a shift of the strike head's input by the strike's number in the "
                           "rally (model.strike_shots), the error tables refitted with it")
+    how.add_argument("--players", action="store_true",
+                     help="add shifts of the strike head's input per hitter and per opponent "
+                          "(model.strike_players), the error tables refitted with them")
     ap.add_argument("--states", default=None,
                     help="cache of the decoder's states: written on the first run, read after")
     args = ap.parse_args()
@@ -119,13 +125,18 @@ def main() -> None:
                      "wide_shift"]].round(3).to_string(index=False))
         run.save(model, args.out)
         return
-    if args.shots:
+    if args.shots or args.players:
         if model.strike_pressure is None:
             raise SystemExit(f"{run.path}: no model.strike_pressure: fit it first (--pressure)")
-        model = with_strike_shots(model)
+        if args.players and model.strike_role is None:
+            raise SystemExit(f"{run.path}: no model.strike_roles, which the players' shifts "
+                             "read")
+        model = with_strike_shots(model) if args.shots else with_strike_players(model)
         val = held_out(states)
         before = shot_profile(model, states, val)
-        history = fit_strike_shots(model, states)
+        # A row per player: weight decay holds the rows of players with few strikes near 0.
+        history = fit_strike_inputs(model, states, ("shot",)) if args.shots else \
+            fit_strike_inputs(model, states, ("players",), steps=4000, weight_decay=0.01)
         print(f"held-out NLL {history[0]['val_nll']:.4f} -> "
               f"{min(h['val_nll'] for h in history):.4f} nats a strike")
         after = shot_profile(model, states, val)

@@ -4,6 +4,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+import torch
 
 from sportsngen.data.tokens import Vocab, WindowDataset, rally_arrays
 from sportsngen.eval.strike_draws import (
@@ -76,6 +77,23 @@ def test_the_records_strikes_read_as_the_shots_table_says(federer_points_and_hea
     sel = (rows["shot"] == 1) & (rows["serve"] == 0)
     assert first_returns["n"] == sel.sum()
     assert first_returns["record"] == pytest.approx(rows.loc[sel, "record_error"].mean())
+
+
+def test_each_strike_is_read_with_its_number(federer_points_and_head_model, monkeypatch):
+    """The head's input at a recorded strike is given that strike's number (the shots table's
+    `shot_index`, 1 the return), which a model with `cfg.strike_shots` reads."""
+    data, model, sim = federer_points_and_head_model
+    seen = []
+    read = model.strike_input
+
+    def spy(h, role, shot=None, hitter=None, opponent=None):
+        seen.append(shot.clone())
+        return read(h, role, shot, hitter, opponent)
+
+    monkeypatch.setattr(model, "strike_input", spy)
+    rows = teacher_forced_strikes(model, rally_arrays(data, sim.vocab), data, draws=1)
+    assert torch.cat(seen).tolist() == rows["shot"].tolist()
+    assert rows["shot"].max() >= 4
 
 
 def test_the_table_pools_the_late_shots():

@@ -85,11 +85,12 @@ def teacher_forced_strikes(model, arrays: RallyArrays, truth: RallyData, draws: 
         h = window_states(model, batch)[..., BALL, :]
         recv = strike_heads.ball_on_receivers_end(batch["pos_m"][ok, t[ok]])
         role = strike_heads.role_index(recv, batch["serve"][ok])
-        h_rows.append(model.strike_input(h[ok, t[ok]], role,
-                                         number[b0 * batch_size + torch.as_tensor(ok)]))
-        bin_rows.append(bins[ok, t[ok]])
         hitters.append(torch.where(recv, batch["ident"][ok, 1], batch["ident"][ok, 0]))
         opponents.append(torch.where(recv, batch["ident"][ok, 0], batch["ident"][ok, 1]))
+        h_rows.append(model.strike_input(h[ok, t[ok]], role,
+                                         number[b0 * batch_size + torch.as_tensor(ok)],
+                                         hitters[-1], opponents[-1]))
+        bin_rows.append(bins[ok, t[ok]])
         receivers.append(recv)
         found.append(b0 * batch_size + ok)
     model.train(was_training)

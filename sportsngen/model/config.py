@@ -93,12 +93,19 @@ class ModelConfig:
     # The strike head's input also carries the strike's number in the rally (1 the return, 2
     # the server's first rally ball, ..., `strike_heads.shot_bucket`), as a learned shift
     # (`SportsNGEN.strike_shot`, started at zero, fitted on the decoder's states by
-    # `train.strike_shots`): the rollout's tracker counts the contacts. Read from the ball's
+    # `train.strike_inputs`): the rollout's tracker counts the contacts. Read from the ball's
     # state alone the head placed the receiver's second rally ball short and his third deep
     # against the record, and its spin was 0.085 nats a strike worse than with the number
     # (docs/evaluation.md, forty-fourth part). Without a count (no tracker) the head reads as
     # without the shift.
     strike_shots: bool = False
+    # With the role shift, two more learned shifts of the strike head's input: one per hitter
+    # and his role in the point, one per opponent (who struck the ball being answered) and the
+    # hitter's role (`SportsNGEN.strike_player` / `strike_opponent`, (n_ids, 2, d), zero until
+    # fitted by `train.strike_inputs`): the head reads the players only through the ball's
+    # state, and held out its likelihood rose 0.25 nats a strike with them (docs/evaluation.md,
+    # forty-fourth part). A player added for fine-tuning gets zero rows.
+    strike_players: bool = False
     # A head of its own for the serve (`model.strike.is_serve`: struck from the toss) as where
     # it lands, its speed and its spin, the launch solved as a strike's: its fault, its box and
     # its speed come from a distribution over those, not from the ball's bins under a nucleus.
@@ -233,6 +240,9 @@ class ModelConfig:
         if self.strike_pressure and not self.strike_return:
             raise ValueError("model.strike_pressure is read beside the returns' table (it "
                              "leaves the returns alone): it needs strike_return=True")
+        if self.strike_players and not self.strike_roles:
+            raise ValueError("model.strike_players reads the hitter's role from the role "
+                             "shift's index: it needs model.strike_roles")
         if self.strike_shape and not self.strike_pressure:
             raise ValueError("model.strike_shape is read with the opponents' table: it needs "
                              "strike_pressure=True")

@@ -176,7 +176,8 @@ class SportsNGEN(nn.Module):
     PER_IDENTITY_TABLES = ("serve_bias", "serve_aim", "serve_short", "receiver_start",
                            "strike_bias",
                            "strike_width", "strike_return", "strike_pressure",
-                           "strike_shape", "strike_shape_opponent")
+                           "strike_shape", "strike_shape_opponent", "strike_player",
+                           "strike_opponent")
 
     def __init__(self, cfg: ModelConfig):
         super().__init__()
@@ -221,6 +222,10 @@ class SportsNGEN(nn.Module):
                                  "strike_head=True")
             self.strike_shot = nn.Embedding(strike_heads.N_SHOT_BUCKETS, cfg.d_model)
             nn.init.zeros_(self.strike_shot.weight)
+        self.strike_player = self.strike_opponent = None
+        if cfg.strike_players:
+            self.strike_player = nn.Parameter(torch.zeros(cfg.n_ids, 2, cfg.d_model))
+            self.strike_opponent = nn.Parameter(torch.zeros(cfg.n_ids, 2, cfg.d_model))
         # Fitted by moment matching (`train.serve_bias`), not by gradient: a buffer, zero until
         # then, so the head draws as without it.
         self.register_buffer("serve_bias", torch.zeros(cfg.n_ids, serve_bias.N_SERVES,
@@ -432,11 +437,13 @@ class SportsNGEN(nn.Module):
                                            serves)
 
     def strike_input(self, h_ball: torch.Tensor, role: torch.Tensor | None,
-                     shot: torch.Tensor | None = None) -> torch.Tensor:
+                     shot: torch.Tensor | None = None, hitter: torch.Tensor | None = None,
+                     opponent: torch.Tensor | None = None) -> torch.Tensor:
         """The strike head's input: the ball token's state (..., d), shifted by the learned
-        row of `role` (..., `strike_heads.strike_role_index`) where `cfg.strike_roles`, and by
+        row of `role` (..., `strike_heads.strike_role_index`) where `cfg.strike_roles`, by
         that of the strike's number `shot` (..., 1 the return) where `cfg.strike_shots` and
-        the number is given."""
+        the number is given, and by the rows of the `hitter`'s and the `opponent`'s identities
+        (...) in the hitter's role where `cfg.strike_players` and they are given."""
         if self.strike_role is not None:
             if role is None:
                 raise ValueError("this model's strike head reads the hitter's role and the "
@@ -445,6 +452,12 @@ class SportsNGEN(nn.Module):
             h_ball = h_ball + self.strike_role(role)
         if self.strike_shot is not None and shot is not None:
             h_ball = h_ball + self.strike_shot(strike_heads.shot_bucket(shot))
+        if self.strike_player is not None and role is not None:
+            receiver = torch.div(role, 2, rounding_mode="floor")
+            if hitter is not None:
+                h_ball = h_ball + self.strike_player[self._ident(hitter), receiver]
+            if opponent is not None:
+                h_ball = h_ball + self.strike_opponent[self._ident(opponent), receiver]
         return h_ball
 
     def strike_nll(self, h: torch.Tensor, mask: torch.Tensor, bins: torch.Tensor,
@@ -571,8 +584,14 @@ class SportsNGEN(nn.Module):
             if serve is None:
                 raise ValueError("this model's strike head reads the serve (cfg.strike_roles): "
                                  "give serve")
+            hitter = opponent = None
+            if self.strike_player is not None and server_ident is not None and \
+                    receiver_ident is not None:
+                recv = strike_heads.ball_on_receivers_end(pos_m)
+                hitter = torch.where(recv, receiver_ident, server_ident)
+                opponent = torch.where(recv, server_ident, receiver_ident)
             strike_h = self.strike_input(h[:, BALL], strike_heads.strike_role_index(pos_m, serve),
-                                         shot)
+                                         shot, hitter, opponent)
         elif self.strike_shot is not None and shot is not None:
             strike_h = self.strike_input(h[:, BALL], None, shot)
         serve_shift = None

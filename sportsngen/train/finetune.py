@@ -132,10 +132,12 @@ def graft_strike_head(model: SportsNGEN, donor: SportsNGEN) -> SportsNGEN:
     # The donor's serve head, where it has one, comes with its strike head.
     new = SportsNGEN(dataclasses.replace(model.cfg, strike_head=True,
                                          serve_head=donor.cfg.serve_head or model.cfg.serve_head,
-                                         strike_roles=donor.cfg.strike_roles))
-    ours = {k: v for k, v in ours.items() if not k.startswith("strike_role.")}
+                                         strike_roles=donor.cfg.strike_roles,
+                                         strike_shots=donor.cfg.strike_shots))
+    shifts = ("strike_role.", "strike_shot.")
+    ours = {k: v for k, v in ours.items() if not k.startswith(shifts)}
     state = {**ours, **{k: v for k, v in theirs.items()
-                        if k.startswith(("strike_head.", "serve_head.", "strike_role."))}}
+                        if k.startswith(("strike_head.", "serve_head.") + shifts)}}
     new.load_state_dict(state)
     return new.eval()
 

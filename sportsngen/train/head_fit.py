@@ -224,7 +224,7 @@ def collect_head_states(model: SportsNGEN, arrays: RallyArrays, which: str = "se
 
 def _fitted(model: SportsNGEN, which: str) -> list[torch.nn.Module]:
     """The modules a head's fit moves: the head, and the strike head's role and shot shifts
-    if any."""
+    if any (the players' shifts are fitted on their own: `train.strike_inputs`)."""
     head = _head(model, which)
     if which != "strike":
         return [head]
@@ -234,7 +234,8 @@ def _fitted(model: SportsNGEN, which: str) -> list[torch.nn.Module]:
 def head_inputs(model: SportsNGEN, which: str, states: HeadStates, idx) -> torch.Tensor:
     """The head's input at `states[idx]`: the ball token's state, for a strike head with
     `cfg.strike_roles` shifted by the hitter's role and the serve, with `cfg.strike_shots` by
-    the strike's number (`HeadStates.shot_numbers`)."""
+    the strike's number (`HeadStates.shot_numbers`), with `cfg.strike_players` by the hitter's
+    and the opponent's rows (where the states hold the receivers' identities)."""
     h = states.h[idx]
     if which != "strike" or (model.strike_role is None and model.strike_shot is None):
         return h
@@ -242,7 +243,11 @@ def head_inputs(model: SportsNGEN, which: str, states: HeadStates, idx) -> torch
         torch.as_tensor(states.receiver[idx]), torch.as_tensor(states.serve[idx]))
     shot = None if model.strike_shot is None else \
         torch.as_tensor(states.shot_numbers()[idx])
-    return model.strike_input(h, role, shot)
+    hitter = opponent = None
+    if model.strike_player is not None and states.receiver_id is not None:
+        hitter = torch.as_tensor(states.hitter_id()[idx])
+        opponent = torch.as_tensor(states.opponent_id()[idx])
+    return model.strike_input(h, role, shot, hitter, opponent)
 
 
 @torch.no_grad()

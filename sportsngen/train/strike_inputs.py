@@ -1,4 +1,5 @@
-"""Fit the strike head's shift by the strike's number in the rally (`ModelConfig.strike_shots`).
+"""Fit the strike head's learned input shifts: by the strike's number in the rally
+(`ModelConfig.strike_shots`) and by the hitter and his opponent (`ModelConfig.strike_players`).
 
 The decoder's ball state does not say how many shots a rally has had: read at recorded rally
 strikes, the head placed the receiver's second rally ball (shot 3) 0.2 m short of the record and
@@ -10,11 +11,13 @@ at recorded strikes (`train.head_fit.collect_head_states`), with the head and ev
 frozen and the file's per-player tables applied as a rollout draws with them, kept at its best
 likelihood on held-out rallies. The tables were fitted on the head without it: refit them after
 (`fit_strike_pressure`, as `scripts/fit_strike_bias.py --shots` does).
+
+The players' shifts are fitted the same way: the head reads who strikes and whom he answers only
+through the ball's state, and the per-player tables (`model.strike_bias`) correct the means of
+one or two of its dimensions each, where a vector per (player, role) moves all four together.
 """
 
 from __future__ import annotations
-
-import copy
 
 import numpy as np
 import pandas as pd
@@ -30,6 +33,9 @@ from sportsngen.train.head_fit import HeadStates, head_inputs
 HELD_OUT_EVERY = 5     # rallies whose id is a multiple of this are held out
 
 
+PARTS = ("shot", "players")     # what `fit_strike_inputs` may fit
+
+
 def with_strike_shots(model: SportsNGEN) -> SportsNGEN:
     """`model` (with a strike head) with the shot shift added (`cfg.strike_shots`), at zero: it
     draws as before until `fit_strike_shots` fills it. -> a new model (the same one if it has
@@ -37,6 +43,33 @@ def with_strike_shots(model: SportsNGEN) -> SportsNGEN:
     if model.strike_head is None:
         raise ValueError("the model has no strike head (model.strike_head is off)")
     return with_flag(model, "strike_shots", ["strike_shot.weight"])
+
+
+def with_strike_players(model: SportsNGEN) -> SportsNGEN:
+    """`model` (with a strike head and its role shift) with the players' shifts added
+    (`cfg.strike_players`), at zero. -> a new model (the same one if it has them)."""
+    if model.strike_role is None:
+        raise ValueError("the players' shifts read the hitter's role from the role shift: the "
+                         "model needs model.strike_roles")
+    return with_flag(model, "strike_players", ["strike_player", "strike_opponent"])
+
+
+def _parameters(model: SportsNGEN, parts: tuple[str, ...]) -> list[torch.nn.Parameter]:
+    bad = [p for p in parts if p not in PARTS]
+    if bad or not parts:
+        raise ValueError(f"parts must be a non-empty subset of {PARTS}, got {parts}")
+    out = []
+    if "shot" in parts:
+        if model.strike_shot is None:
+            raise ValueError("the model has no shot shift (cfg.strike_shots): add it with "
+                             "with_strike_shots")
+        out.append(model.strike_shot.weight)
+    if "players" in parts:
+        if model.strike_player is None:
+            raise ValueError("the model has no players' shifts (cfg.strike_players): add them "
+                             "with with_strike_players")
+        out += [model.strike_player, model.strike_opponent]
+    return out
 
 
 @torch.no_grad()
@@ -65,40 +98,45 @@ def _nll(model: SportsNGEN, states: HeadStates, rows: torch.Tensor,
                                  None if bias is None else bias[rows])
 
 
-def fit_strike_shots(model: SportsNGEN, states: HeadStates, steps: int = 3000,
-                     lr: float = 3e-3, batch_size: int = 512, eval_every: int = 250,
-                     every: int = HELD_OUT_EVERY, seed: int = 0,
-                     progress: bool = True) -> list[dict]:
-    """Fit `model.strike_shot` (in place; nothing else moves) on the strikes `states` outside
-    the held-out rallies (`held_out`) with Adam, keeping the vectors at their best held-out
-    NLL. -> the history [{"step", "val_nll"}], step 0 the model as it came."""
-    if model.strike_shot is None:
-        raise ValueError("the model has no shot shift (cfg.strike_shots): add it with "
-                         "with_strike_shots")
+def fit_strike_inputs(model: SportsNGEN, states: HeadStates, parts: tuple[str, ...] = ("shot",),
+                      steps: int = 3000, lr: float = 3e-3, weight_decay: float = 0.0,
+                      batch_size: int = 512, eval_every: int = 250,
+                      every: int = HELD_OUT_EVERY, seed: int = 0,
+                      progress: bool = True) -> list[dict]:
+    """Fit the strike head's input shifts named in `parts` ("shot": `model.strike_shot`,
+    "players": `model.strike_player` and `strike_opponent`) in place, nothing else moving, on
+    the strikes `states` outside the held-out rallies (`held_out`) with AdamW, keeping them at
+    their best held-out NLL. -> the history [{"step", "val_nll"}], step 0 the model as it
+    came."""
+    params = _parameters(model, tuple(parts))
     if steps < 1 or batch_size < 1 or eval_every < 1:
         raise ValueError("steps, batch_size and eval_every must be positive")
     val = held_out(states, every)
     train_rows = torch.as_tensor(np.flatnonzero(~val))
     val_rows = torch.as_tensor(np.flatnonzero(val))
     if len(train_rows) == 0 or len(val_rows) == 0:
-        raise ValueError("fit_strike_shots needs strikes in and out of the held-out rallies")
+        raise ValueError("the fit needs strikes in and out of the held-out rallies")
     bias = table_bias(model, states)
     was_training = model.training
-    model.eval()        # the head's dropout off: only the shift is fitted
+    model.eval()        # the head's dropout off: only the shifts are fitted
+    grads = {id(p): p.requires_grad for p in model.parameters()}
     for p in model.parameters():
         p.requires_grad_(False)
-    emb = model.strike_shot
-    emb.weight.requires_grad_(True)
-    opt = torch.optim.Adam(emb.parameters(), lr=lr)
+    for p in params:
+        p.requires_grad_(True)
+    opt = torch.optim.AdamW(params, lr=lr, weight_decay=weight_decay)
     g = torch.Generator().manual_seed(seed)
 
     def val_nll() -> float:
         with torch.no_grad():
             return float(_nll(model, states, val_rows, bias).mean())
 
+    def snapshot() -> list[torch.Tensor]:
+        return [p.detach().clone() for p in params]
+
     history = [{"step": 0, "val_nll": val_nll()}]
-    best = (history[0]["val_nll"], copy.deepcopy(emb.state_dict()))
-    bar = tqdm(range(steps), desc="fit shot shift", disable=not progress)
+    best = (history[0]["val_nll"], snapshot())
+    bar = tqdm(range(steps), desc=f"fit {'+'.join(parts)} shifts", disable=not progress)
     for step in bar:
         rows = train_rows[torch.randint(len(train_rows), (batch_size,), generator=g)]
         loss = _nll(model, states, rows, bias).mean()
@@ -109,10 +147,13 @@ def fit_strike_shots(model: SportsNGEN, states: HeadStates, steps: int = 3000,
             v = val_nll()
             history.append({"step": step + 1, "val_nll": v})
             if v < best[0]:
-                best = (v, copy.deepcopy(emb.state_dict()))
+                best = (v, snapshot())
             bar.set_postfix(val_nll=f"{v:.4f}", best=f"{best[0]:.4f}")
-    emb.load_state_dict(best[1])
-    emb.weight.requires_grad_(False)
+    with torch.no_grad():
+        for p, kept in zip(params, best[1]):
+            p.copy_(kept)
+    for p in model.parameters():
+        p.requires_grad_(grads[id(p)])
     model.train(was_training)
     return history
 
@@ -156,4 +197,5 @@ def shot_profile(model: SportsNGEN, states: HeadStates,
     return out.reset_index()
 
 
-__all__ = ["fit_strike_shots", "held_out", "shot_profile", "table_bias", "with_strike_shots"]
+__all__ = ["PARTS", "fit_strike_inputs", "held_out", "shot_profile", "table_bias",
+           "with_strike_players", "with_strike_shots"]
