@@ -393,15 +393,20 @@ def test_a_player_added_for_fine_tuning_gets_a_zero_row_in_every_per_identity_ta
     from sportsngen.train.receiver_start import with_receiver_start
     from sportsngen.train.serve_bias import with_serve_aim, with_serve_bias, with_serve_short
 
+    from sportsngen.train.strike_inputs import with_strike_players
+
     vocab = Vocab(players=("A", "B", "C", "D"))
-    model = with_strike_shape(with_strike_pressure(with_strike_return(with_strike_width(
-        with_strike_bias(with_receiver_start(with_serve_short(with_serve_aim(with_serve_bias(
-            small_model(n_ids=vocab.n_ids))))))))))
-    per_identity = sorted(name for name, b in model.named_buffers()
-                          if b.ndim >= 1 and b.shape[0] == vocab.n_ids)
+    model = with_strike_players(with_strike_shape(with_strike_pressure(with_strike_return(
+        with_strike_width(with_strike_bias(with_receiver_start(with_serve_short(with_serve_aim(
+            with_serve_bias(small_model(n_ids=vocab.n_ids, strike_roles=True)))))))))))
+    # The tables are buffers, the players' input shifts parameters of the model itself (the
+    # identity embedding's rows are copied, not zeroed: not a table).
+    per_identity = sorted(name for name, b in [*model.named_buffers(), *model.named_parameters()]
+                          if "." not in name and b.ndim >= 1 and b.shape[0] == vocab.n_ids)
     assert per_identity == sorted(SportsNGEN.PER_IDENTITY_TABLES)
-    for name in per_identity:
-        getattr(model, name).fill_(0.5)
+    with torch.no_grad():
+        for name in per_identity:
+            getattr(model, name).fill_(0.5)
     new, _, idx = add_player(model, vocab, "New Player")
     assert idx == vocab.n_ids
     for name in per_identity:

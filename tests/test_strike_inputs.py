@@ -15,6 +15,7 @@ from sportsngen.train.strike_inputs import (
     fit_strike_inputs,
     held_out,
     shot_profile,
+    with_strike_players,
     with_strike_shots,
 )
 from tests.test_strike_bias import small_model
@@ -197,3 +198,78 @@ def test_the_fit_refuses_a_model_without_the_shift_and_bad_arguments():
         held_out(st, every=1)
     with pytest.raises(ValueError, match="no strike head"):
         with_strike_shots(SportsNGEN(ModelConfig(d_model=32, n_heads=2, n_layers=1)))
+
+
+def test_the_players_shifts_are_read_by_the_hitters_and_the_opponents_rows_in_his_role():
+    plain = small_model(strike_roles=True)
+    model = with_strike_players(plain)
+    assert model.strike_player.shape == (6, 2, model.cfg.d_model)
+    assert with_strike_players(model) is model
+    with torch.no_grad():
+        model.strike_player[3, 1] = 1.0          # player 3 receiving
+        model.strike_player[3, 0] = 2.0          # player 3 serving
+        model.strike_opponent[2, 1] = 10.0       # answering player 2, as the receiver
+        model.strike_player[2, 0] = 4.0          # player 2 serving
+    h = torch.zeros(3, model.cfg.d_model)
+    role = torch.tensor([2, 0, 3])               # receiver, server, receiver (second serve)
+    got = model.strike_input(h, role, None, torch.tensor([3, 3, 4]), torch.tensor([2, 2, 2]))
+    assert got[:, 0].tolist() == [11.0, 2.0, 10.0]
+    # Without the identities the head reads as without the shifts.
+    torch.testing.assert_close(model.strike_input(h, role), plain.strike_input(h, role))
+    # In a rollout frame: the receiver strikes a ball on his end, the server one on his.
+    seen = []
+
+    def sample(x, top_p, generator, dim_bias=None):
+        seen.append(x.clone())
+        return torch.full((len(x), 4), 40, dtype=torch.long)
+
+    model.strike_head.sample = sample
+    pos = torch.zeros(2, 3, 3)
+    pos[:, 0, 0], pos[:, 1, 0] = 12.0, -12.0
+    pos[0, 2] = torch.tensor([-11.0, 0.0, 1.0])
+    pos[1, 2] = torch.tensor([11.0, 0.0, 1.0])
+    model.place_strikes(torch.zeros(2, 3, model.cfg.d_model), pos, torch.zeros(2, 3, 3),
+                        pos.clone(), forced=torch.tensor([True, True]),
+                        serve=torch.tensor([0, 0]), server_ident=torch.tensor([2, 2]),
+                        receiver_ident=torch.tensor([3, 3]))
+    assert seen[0][:, 0].tolist() == [11.0, 4.0]      # receiver 3 answering 2; server 2
+    with pytest.raises(ValueError, match="strike_roles"):
+        with_strike_players(small_model())
+    with pytest.raises(ValueError, match="strike_roles"):
+        ModelConfig(strike_head=True, strike_players=True)
+
+
+def test_the_players_fit_learns_each_servers_depth_and_leaves_absent_players_at_zero():
+    model = with_strike_players(small_model(strike_roles=True))
+    st = _shot_states(model, n_rallies=300, seed=2)
+    # Two servers: player 2's rally balls all short, player 4's all deep; the receivers' as
+    # `_shot_states` makes them.
+    server = np.where(st.rally_id % 2 == 0, 2, 4)
+    st.server_id = server.astype(np.int64)
+    in_play = np.flatnonzero(~strike_bias.error_bins()[0])
+    rng = np.random.default_rng(5)
+    mine = ~st.receiver
+    depth = st.bins[:, 0].numpy().copy()
+    depth[mine] = np.where(server[mine] == 2, rng.choice(in_play[:12], mine.sum()),
+                           rng.choice(in_play[-12:], mine.sum()))
+    st.bins[:, 0] = torch.as_tensor(depth)
+    short = torch.zeros(strike_bias.error_bins().shape[1], dtype=torch.bool)
+    short[in_play[:24]] = True
+
+    def short_odds(who: int) -> float:
+        rows = torch.as_tensor(np.flatnonzero(mine & (server == who)))
+        x = head_inputs(model, "strike", st, rows)
+        p = model.strike_head.dim_logits(x, st.bins[rows], 0).softmax(-1).detach()
+        return float(p[:, short].sum(-1).mean())
+
+    before = short_odds(2), short_odds(4)
+    assert abs(before[0] - before[1]) < 0.05
+    history = fit_strike_inputs(model, st, ("players",), steps=300, lr=0.05, batch_size=256,
+                                eval_every=100, weight_decay=0.01, progress=False)
+    assert min(h["val_nll"] for h in history) < history[0]["val_nll"] - 0.3
+    assert short_odds(2) > before[0] + 0.3 and short_odds(4) < before[1]
+    # Players who strike nowhere in the states keep zero rows; the head is not fitted and
+    # trainable again after.
+    assert (model.strike_player[[0, 1, 5]] == 0).all()
+    assert (model.strike_opponent[[0, 1, 5]] == 0).all()
+    assert all(p.requires_grad for p in model.strike_head.parameters())
