@@ -392,7 +392,6 @@ def test_a_player_added_for_fine_tuning_gets_a_zero_row_in_every_per_identity_ta
     from sportsngen.train.finetune import add_player
     from sportsngen.train.receiver_start import with_receiver_start
     from sportsngen.train.serve_bias import with_serve_aim, with_serve_bias, with_serve_short
-
     from sportsngen.train.strike_inputs import with_strike_players
 
     vocab = Vocab(players=("A", "B", "C", "D"))
