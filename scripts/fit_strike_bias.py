@@ -78,30 +78,29 @@ def _read_states(model, run, args) -> HeadStates:
     return states
 
 
+# What each of the exclusive fits adds (each on top of the table the docstring names).
+FITS = (
+    ("--width", "also fit each hitter's width of the balls in play (model.strike_width)"),
+    ("--returns", "split each receiver's shifts: his returns' own (model.strike_return) and "
+                  "the rest"),
+    ("--pressure", "add a per-opponent table (model.strike_pressure) fitted in turn with the "
+                   "hitters' rows"),
+    ("--shape", "add per-hitter and per-opponent tilts of the balls' depth and height over "
+                "the net (model.strike_shape), the error tables refitted with them"),
+    ("--shots", "add a shift of the strike head's input by the strike's number in the rally "
+                "(model.strike_shots), the error tables refitted with it"),
+    ("--players", "add shifts of the strike head's input per hitter and per opponent "
+                  "(model.strike_players), the error tables refitted with them"),
+)
+
+
 def main() -> None:
     ap = table_parser(__doc__, "--prior-strikes", 200.0,
                       "pseudo-strikes at the head's own odds added to each hitter's record",
                       "also read every rally strike of this data config (conf/data/NAME.yaml)")
     how = ap.add_mutually_exclusive_group()
-    how.add_argument("--width", action="store_true",
-                     help="also fit each hitter's width of the balls in play "
-                          "(model.strike_width)")
-    how.add_argument("--returns", action="store_true",
-                     help="split each receiver's shifts: his returns' own (model.strike_return)"
-                          " and the rest")
-    how.add_argument("--pressure", action="store_true",
-                     help="add a per-opponent table (model.strike_pressure) fitted in turn with "
-                          "the hitters' rows")
-    how.add_argument("--shape", action="store_true",
-                     help="add per-hitter and per-opponent tilts of the balls' depth and height "
-                          "over the net (model.strike_shape), the error tables refitted with "
-                          "them")
-    how.add_argument("--shots", action="store_true",
-                     help="add a shift of the strike head's input by the strike's number in the "
-                          "rally (model.strike_shots), the error tables refitted with it")
-    how.add_argument("--players", action="store_true",
-                     help="add shifts of the strike head's input per hitter and per opponent "
-                          "(model.strike_players), the error tables refitted with them")
+    for flag, what in FITS:
+        how.add_argument(flag, action="store_true", help=what)
     ap.add_argument("--states", default=None,
                     help="cache of the decoder's states: written on the first run, read after")
     args = ap.parse_args()

@@ -168,6 +168,18 @@ def _empty_ring(ctx_kv: torch.Tensor, max_frames: int) -> torch.Tensor:
 CONTACT_OFFSET_M = 0.5
 
 
+def _input_shift(cfg: ModelConfig, flag: str, rows: int) -> nn.Embedding | None:
+    """A learned shift of the strike head's input with `rows` rows where `cfg.<flag>` is on,
+    at zero: a file without the shift reads the same with it."""
+    if not getattr(cfg, flag):
+        return None
+    if not cfg.strike_head:
+        raise ValueError(f"{flag} shifts the strike head's input: it needs strike_head=True")
+    shift = nn.Embedding(rows, cfg.d_model)
+    nn.init.zeros_(shift.weight)
+    return shift
+
+
 class SportsNGEN(nn.Module):
     """Decoder f with its output bins and heads (players 2-D, ball 3-D)."""
 
@@ -207,21 +219,8 @@ class SportsNGEN(nn.Module):
             if cfg.strike_head else None
         self.serve_head = FactorisedHead(cfg.d_model, strike.STRIKE_BINS, 4, cfg.head_hidden) \
             if cfg.serve_head else None
-        self.strike_role = None
-        if cfg.strike_roles:
-            if not cfg.strike_head:
-                raise ValueError("strike_roles shifts the strike head's input: it needs "
-                                 "strike_head=True")
-            # Zero: a file without the shift reads the same with it.
-            self.strike_role = nn.Embedding(strike_heads.N_STRIKE_ROLES, cfg.d_model)
-            nn.init.zeros_(self.strike_role.weight)
-        self.strike_shot = None
-        if cfg.strike_shots:
-            if not cfg.strike_head:
-                raise ValueError("strike_shots shifts the strike head's input: it needs "
-                                 "strike_head=True")
-            self.strike_shot = nn.Embedding(strike_heads.N_SHOT_BUCKETS, cfg.d_model)
-            nn.init.zeros_(self.strike_shot.weight)
+        self.strike_role = _input_shift(cfg, "strike_roles", strike_heads.N_STRIKE_ROLES)
+        self.strike_shot = _input_shift(cfg, "strike_shots", strike_heads.N_SHOT_BUCKETS)
         self.strike_player = self.strike_opponent = None
         if cfg.strike_players:
             self.strike_player = nn.Parameter(torch.zeros(cfg.n_ids, 2, cfg.d_model))
