@@ -64,7 +64,7 @@ def teacher_forced_strikes(model, arrays: RallyArrays, truth: RallyData, draws: 
         raise ValueError("no recorded rally strike (shot_index >= 1) in the rallies given")
     at = (shots["frame"] - shots["rally_id"].map(first)).to_numpy(np.int64)
     ri = shots["rally_id"].map(index).to_numpy(np.int64)
-    number = torch.as_tensor(shots["shot_index"].to_numpy(np.int64))
+    number = torch.as_tensor(shots["shot_index"].to_numpy(np.int64, copy=True))
     starts = np.maximum(at - (window - lead_frames), 0)
     ds = WindowDataset(arrays, window, None, items=list(zip(ri.tolist(), starts.tolist())))
     loader = DataLoader(ds, batch_size=batch_size, shuffle=False, collate_fn=default_collate)
