@@ -127,10 +127,10 @@ def main() -> None:
     if args.shots or args.players:
         if model.strike_pressure is None:
             raise SystemExit(f"{run.path}: no model.strike_pressure: fit it first (--pressure)")
-        if args.players and model.strike_role is None:
-            raise SystemExit(f"{run.path}: no model.strike_roles, which the players' shifts "
-                             "read")
-        model = with_strike_shots(model) if args.shots else with_strike_players(model)
+        try:
+            model = with_strike_shots(model) if args.shots else with_strike_players(model)
+        except ValueError as exc:
+            raise SystemExit(f"{run.path}: {exc}") from None
         val = held_out(states)
         before = shot_profile(model, states, val)
         # A row per player: weight decay holds the rows of players with few strikes near 0.

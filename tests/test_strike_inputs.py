@@ -196,7 +196,7 @@ def test_the_fit_refuses_a_model_without_the_shift_and_bad_arguments():
         fit_strike_inputs(model, st, steps=0)
     with pytest.raises(ValueError, match="every"):
         held_out(st, every=1)
-    with pytest.raises(ValueError, match="no strike head"):
+    with pytest.raises(ValueError, match="strike_head"):
         with_strike_shots(SportsNGEN(ModelConfig(d_model=32, n_heads=2, n_layers=1)))
 
 

@@ -578,34 +578,28 @@ class SportsNGEN(nn.Module):
         reads on a strike from the receiver's end; `shot` (B,): the rallies' contacts so far,
         the number of a strike drawn now (1 the return), which `cfg.strike_shots` reads). ->
         (nxt, the launches' next two frames (B, 2, 3))."""
+        # Whose strike a frame would be: the receiver's on his end, else the server's.
+        recv = strike_heads.ball_on_receivers_end(pos_m)
+        hitter = opponent = None
+        if server_ident is not None and receiver_ident is not None:
+            hitter = torch.where(recv, receiver_ident, server_ident)
+            opponent = torch.where(recv, server_ident, receiver_ident)
         strike_h = None
-        if self.strike_role is not None:
-            if serve is None:
+        if self.strike_role is not None or (self.strike_shot is not None and shot is not None):
+            if self.strike_role is not None and serve is None:
                 raise ValueError("this model's strike head reads the serve (cfg.strike_roles): "
                                  "give serve")
-            hitter = opponent = None
-            if self.strike_player is not None and server_ident is not None and \
-                    receiver_ident is not None:
-                recv = strike_heads.ball_on_receivers_end(pos_m)
-                hitter = torch.where(recv, receiver_ident, server_ident)
-                opponent = torch.where(recv, server_ident, receiver_ident)
-            strike_h = self.strike_input(h[:, BALL], strike_heads.strike_role_index(pos_m, serve),
-                                         shot, hitter, opponent)
-        elif self.strike_shot is not None and shot is not None:
-            strike_h = self.strike_input(h[:, BALL], None, shot)
+            role = None if self.strike_role is None else strike_heads.role_index(recv, serve)
+            strike_h = self.strike_input(h[:, BALL], role, shot, hitter, opponent)
         serve_shift = None
         if self.serve_bias is not None and server_ident is not None and serve is not None:
             def serve_shift(rows: torch.Tensor) -> torch.Tensor:
                 return self.serve_head_bias(server_ident[rows], serve[rows], pos_m[rows, BALL])
         strike_shift = None
-        if self.strike_bias is not None and server_ident is not None and \
-                receiver_ident is not None:
+        if self.strike_bias is not None and hitter is not None:
             def strike_shift(rows: torch.Tensor) -> torch.Tensor:
-                recv = strike_heads.ball_on_receivers_end(pos_m[rows])
-                hitter = torch.where(recv, receiver_ident[rows], server_ident[rows])
-                opponent = torch.where(recv, server_ident[rows], receiver_ident[rows])
-                ret = None if returning is None else recv & returning[rows]
-                return self.strike_head_bias(hitter, recv, ret, opponent)
+                ret = None if returning is None else recv[rows] & returning[rows]
+                return self.strike_head_bias(hitter[rows], recv[rows], ret, opponent[rows])
         return strike_heads.place_strikes(self.strike_head, self.serve_head, h, pos_m, vel_mps,
                                           nxt, self.cfg.fps, generator, top_p, allowed, forced,
                                           top_p_serve, strike_h, serve_shift, strike_shift)

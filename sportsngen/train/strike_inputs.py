@@ -23,6 +23,8 @@ file (docs/evaluation.md, forty-fourth part).
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pandas as pd
 import torch
@@ -42,19 +44,15 @@ PARTS = ("shot", "players")     # what `fit_strike_inputs` may fit
 
 def with_strike_shots(model: SportsNGEN) -> SportsNGEN:
     """`model` (with a strike head) with the shot shift added (`cfg.strike_shots`), at zero: it
-    draws as before until `fit_strike_inputs` fills it. -> a new model (the same one if it has
-    it)."""
-    if model.strike_head is None:
-        raise ValueError("the model has no strike head (model.strike_head is off)")
+    draws as before until `fit_strike_inputs` fills it (a model without a strike head is
+    refused by its config). -> a new model (the same one if it has it)."""
     return with_flag(model, "strike_shots", ["strike_shot.weight"])
 
 
 def with_strike_players(model: SportsNGEN) -> SportsNGEN:
     """`model` (with a strike head and its role shift) with the players' shifts added
-    (`cfg.strike_players`), at zero. -> a new model (the same one if it has them)."""
-    if model.strike_role is None:
-        raise ValueError("the players' shifts read the hitter's role from the role shift: the "
-                         "model needs model.strike_roles")
+    (`cfg.strike_players`), at zero (a model without the role shift is refused by its config).
+    -> a new model (the same one if it has them)."""
     return with_flag(model, "strike_players", ["strike_player", "strike_opponent"])
 
 
@@ -120,6 +118,8 @@ def fit_strike_inputs(model: SportsNGEN, states: HeadStates, parts: tuple[str, .
     val_rows = torch.as_tensor(np.flatnonzero(val))
     if len(train_rows) == 0 or len(val_rows) == 0:
         raise ValueError("the fit needs strikes in and out of the held-out rallies")
+    # The shot numbers counted once, not at every step's `head_inputs`.
+    states = dataclasses.replace(states, shot=states.shot_numbers())
     bias = table_bias(model, states)
     was_training = model.training
     model.eval()        # the head's dropout off: only the shifts are fitted
