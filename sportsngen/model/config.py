@@ -103,7 +103,7 @@ class ModelConfig:
     # and his role in the point, one per opponent (who struck the ball being answered) and the
     # hitter's role (`SportsNGEN.strike_player` / `strike_opponent`, (n_ids, 2, d), zero until
     # fitted by `train.strike_inputs`): the head reads the players only through the ball's
-    # state, and held out its likelihood rose 0.25 nats a strike with them (docs/evaluation.md,
+    # state, and held out its likelihood rose 0.26 nats a strike with them (docs/evaluation.md,
     # forty-fourth part). A player added for fine-tuning gets zero rows.
     strike_players: bool = False
     # A head of its own for the serve (`model.strike.is_serve`: struck from the toss) as where
