@@ -106,7 +106,7 @@ def main() -> None:
              "Shot-cycle: fitted on each matchup's ground truth, "
              f"{2 * args.points} points a matchup. All figures pooled over the four matchups, "
              "all from `sportsngen.eval.physical.compare_data`; speeds from the ball tracks "
-             "(first whole frame after contact) for every engine.", "",
+             "(one to two frame times after the contact) for every engine.", "",
              "| metric | ground truth | SportsNGEN | shot-cycle |", "|---|---:|---:|---:|"]
     for section, metric, stat, label, scale in ROWS:
         digits = 1 if (scale != 1 or "km/h" in label) else 2

@@ -349,17 +349,18 @@ def test_recorded_serves_are_found_once_and_read_where_they_bounced():
     # serve bounced, to millimetres (no spin model to read).
     assert len(err) > 20 and np.median(err) < 0.01 and np.percentile(err, 90) < 0.05
     # Solved for its landing and speed from the toss's frame, each serve flies as recorded:
-    # the same height over the net to 5 cm (its speed is the statistics' reading, a frame
-    # later than the launch's, so the solved serve is a frame's drag slower and 2-4 cm higher).
+    # the same height over the net to 4 cm (its speed read at the time after the contact where
+    # a placed serve's is; read over its second and third frames, 2.7 cm higher at the median
+    # instead of 2.2 and up to 3.2 instead of 2.7).
     after, contact = np.array(after), np.array(contact)
     side = np.sign(contact[:, 0])
-    labels = S.serve_labels(after, side, data.fps)
+    labels = S.serve_labels(after, side, data.fps, contact_m=contact)
     v0, found = S.solve_serve(contact, side, labels, data.fps)
     assert found.all()
     solved = S.launch_frames(contact, v0, labels[:, 3], data.fps)
     net = S.strike_labels(solved, side, data.fps)[:, 2] - S.strike_labels(after, side,
                                                                              data.fps)[:, 2]
-    assert np.abs(net).max() < 0.05
+    assert np.abs(net).max() < 0.04
     assert np.median(labels[:, 2]) > 40.0          # first and second serves, m/s
 
 

@@ -10,11 +10,14 @@ Quantities (one sample a shot or a bounce; speeds in km/h, heights in metres):
 - ``groundstroke_kmh``: forehands and backhands after the return (shot 2 on);
 - ``bounce_speed_ratio``: ball speed just after over just before a bounce, by surface.
 
-Speeds are measured from the ball track by default (`speed_from="tracks"`): the distance covered
-over the first whole frame after the shot's contact frame, times fps; the same finite difference
-the simulator writes into its shots table. The generator's ``speed_mps`` is the launch speed,
-about 5 % above that on serves (drag over the first 60 ms), so taking both from the tracks
-compares like with like. A bounce's speeds are over the segments (f-2, f-1) and (f+1, f+2)
+Speeds are measured from the ball track by default (`speed_from="tracks"`): the ball's speed
+over one to two frame times after the contact, read off the track wherever the contact fell
+between frames (`tennis.contact_speed`); a simulator strikes on a frame and reads there. The
+generator's ``speed_mps`` is the launch speed, about 5 % above that on serves (drag over the
+first 60 ms), so taking both from the tracks compares like with like. (Read as the first whole
+frame after the shot's contact frame, a serve's speed depended on where its contact fell in the
+frame, which the generator fixes per player: Williams' serves read 5 km/h faster than a
+simulator's of the same flight.) A bounce's speeds are over the segments (f-2, f-1) and (f+1, f+2)
 around its frame f (events from the rally rules, `sportsngen.tennis.rally`); a bounce with a
 racket contact within two frames is left out.
 
@@ -42,6 +45,7 @@ from scipy.stats import wasserstein_distance
 
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.stats import SERVE_STATS_COLUMNS, rally_distribution, serve_stats
+from sportsngen.tennis.contact_speed import speed_frame_after_contact_mps
 from sportsngen.tennis.rally import BALL, RECEIVER, SERVER, analyse_rallies
 
 KMH_PER_MPS = 3.6
@@ -159,8 +163,10 @@ def rally_events(tracks: Tracks, fps: float) -> pd.DataFrame:
 
 # -- shots ------------------------------------------------------------------------------------
 def _track_speeds_mps(data: RallyData, shots: pd.DataFrame) -> np.ndarray:
-    """Ball speed over the first whole frame after each shot's contact frame (NaN where the
-    track ends first), in the order of `shots`."""
+    """Ball speed over one to two frame times after each shot's contact (its position in the
+    shots table; `tennis.contact_speed`) read off the three frames after its contact frame
+    (NaN where the track ends first), in the order of `shots`. The contact frame is the one
+    nearest the contact, so the first of them lies 0.5-1.5 frame times after it."""
     out = np.full(len(shots), np.nan)
     if len(shots) == 0:
         return out
@@ -170,10 +176,11 @@ def _track_speeds_mps(data: RallyData, shots: pd.DataFrame) -> np.ndarray:
         mine = shots[shots["rally_id"].isin(ids)]
         ri = np.searchsorted(ids, mine["rally_id"].to_numpy(np.int64))
         k = mine["frame"].to_numpy(np.int64) - tr.first_frame[ri]
-        ok = (k + 1 >= 0) & (k + 2 < tr.length[ri])
-        a = tr.pos_m[ri[ok], k[ok] + 1, BALL]
-        b = tr.pos_m[ri[ok], k[ok] + 2, BALL]
-        out[pos_of[mine.index[ok]].to_numpy()] = np.linalg.norm(b - a, axis=1) * data.fps
+        ok = (k + 1 >= 0) & (k + 3 < tr.length[ri])
+        after = np.stack([tr.pos_m[ri[ok], k[ok] + j, BALL] for j in (1, 2, 3)], axis=1)
+        contact = mine.loc[ok, ["contact_x", "contact_y", "contact_z"]].to_numpy(float)
+        out[pos_of[mine.index[ok]].to_numpy()] = speed_frame_after_contact_mps(
+            contact, after, data.fps, first_offset=(0.5, 1.5))
     return out
 
 

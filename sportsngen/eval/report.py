@@ -218,8 +218,9 @@ def _markdown(m: pd.DataFrame, sim: RallyData, ref: RallyData, names: dict[str, 
         "## Definitions\n\n" + "\n".join([
             "- Simulated rallies count when realistic and decided; points when all their rallies "
             "count. Physical quantities use counted rallies, statistics counted points.",
-            "- Speeds are measured from the ball track over the first whole frame after the "
-            "contact frame (the same way for every tracking source); serves include faults.",
+            "- Speeds are measured from the ball track over one to two frame times after the "
+            "contact, wherever it fell between frames (the same way for every tracking "
+            "source); serves include faults.",
             "- Real serve speeds are the slams' radar speeds of serves that went in (no fault "
             "is recorded), so the real column of the serve speed rows is not quite like for "
             "like; the serving statistics' speeds come from each points table (generator: "

@@ -36,6 +36,7 @@ from sportsngen.model.centre import (
     MAX_LIFT_PER_M,
     magnus_ratio,
 )
+from sportsngen.tennis.contact_speed import speed_frame_after_contact_mps
 from sportsngen.tennis.court import BALL_RADIUS_M, BASELINE_X_M, SINGLES_HALF_WIDTH_M
 
 STRIKE_DIMS = ("depth_m", "lateral_m", "net_height_m", "lift_per_s")
@@ -60,11 +61,14 @@ SERVE_MIN_OUT_MPS = MIN_INCOMING_MPS
 # A serve is drawn by its speed instead of its height over the net: struck from 2.5-3 m, a
 # flat serve's landing and net height fix a near-straight line, and the speed that fits them
 # is ill-conditioned (landing 5.5 m beyond the net at 1.20 m over it: 188 km/h; 5.8 m at
-# 1.15 m: 254 km/h), so a bin of either would span tens of km/h. The speed is what the
-# serve-speed statistics read (`eval.physical`: over the frame after the shots table's contact
-# frame): a recorded serve is struck between frames and its contact frame is the first after
-# it, so it reads the third and second frames after the contact; a placed serve is struck on
-# its frame, so it reads the launch's first two frames (`serve_labels`, `solve_serve`).
+# 1.15 m: 254 km/h), so a bin of either would span tens of km/h. The speed is the ball's over
+# one to two frame times after the contact, what the serve-speed statistics read
+# (`eval.physical`, `tennis.contact_speed`): a placed serve is struck on its frame, so it reads
+# the launch's first two frames (`solve_serve`); a recorded serve is struck between frames, and
+# its track is read at that time after its contact (`serve_labels`). Read instead over its third
+# and second frames after the contact, a serve struck 0.84 of a frame before its first frame
+# after (every one of the generator's Williams') was read 0.84 frames later in its flight than
+# a placed one: her model's serves flew 4-5 km/h slower than hers.
 SERVE_DIMS = ("depth_m", "lateral_m", "speed_mps", "lift_per_s")
 SERVE_RANGES = (STRIKE_RANGES[0], STRIKE_RANGES[1], (10.0, 74.0), STRIKE_RANGES[3])
 
@@ -319,13 +323,18 @@ def is_serve(pos_m: np.ndarray, vel_mps: np.ndarray, next_pos_m: np.ndarray,
             & (np.abs(pos_m[..., 0]) >= SERVE_MIN_BACK_M) & (side * v_out <= -SERVE_MIN_OUT_MPS))
 
 
-def serve_labels(after_m: np.ndarray, side: np.ndarray, fps: float) -> np.ndarray:
+def serve_labels(after_m: np.ndarray, side: np.ndarray, fps: float,
+                 contact_m: np.ndarray | None = None) -> np.ndarray:
     """(N, 3, 3) a recorded serve's first three frames after the contact, struck from `side`
-    (N,) -> (N, 4) `SERVE_DIMS`: `strike_labels` with the speed the statistics read (over the
-    third and second frames) in place of the height over the net."""
+    (N,) -> (N, 4) `SERVE_DIMS`: `strike_labels` with the speed in place of the height over
+    the net: over one to two frame times after the contact (`contact_m` (N, 3), or the toss's
+    last frame before it; `tennis.contact_speed`), where a placed serve's speed is read; without
+    it, over the third and second frames after the contact, which is that only for a serve
+    struck on a frame."""
     out = strike_labels(after_m, side, fps)
-    out[:, 2] = np.where(np.isfinite(out[:, 2]),
-                         np.linalg.norm(after_m[:, 2] - after_m[:, 1], axis=-1) * fps, np.nan)
+    speed = (np.linalg.norm(after_m[:, 2] - after_m[:, 1], axis=-1) * fps if contact_m is None
+             else speed_frame_after_contact_mps(contact_m, after_m, fps))
+    out[:, 2] = np.where(np.isfinite(out[:, 2]), speed, np.nan)
     return out
 
 

@@ -61,7 +61,6 @@ def strike_targets(pos_m: torch.Tensor, vel_mps: torch.Tensor, next_pos_m: torch
     the net and lands: (B, T) bool, and their bins (B, T, 4) (0 elsewhere). Positions
     (B, T, 3, 3), `has_next` (B, T)."""
     found = strike.is_serve if serves else strike.is_strike
-    read = strike.serve_labels if serves else strike.strike_labels
     edges = strike.serve_edges() if serves else None
     b, t = has_next.shape
     mask = torch.zeros(b, t, dtype=torch.bool, device=has_next.device)
@@ -79,7 +78,11 @@ def strike_targets(pos_m: torch.Tensor, vel_mps: torch.Tensor, next_pos_m: torch
     if len(rb) == 0:
         return mask, bins
     after = np.stack([nxt[rb, rt], nxt[rb, rt + 1], nxt[rb, rt + 2]], axis=1)
-    labels = read(after, np.sign(ball[rb, rt, 0]), fps)
+    side = np.sign(ball[rb, rt, 0])
+    # A serve's speed is read at one frame time after its contact, which the toss's last
+    # frame before it stands for (a few cm away at the toss's top).
+    labels = (strike.serve_labels(after, side, fps, contact_m=ball[rb, rt]) if serves
+              else strike.strike_labels(after, side, fps))
     good = np.isfinite(labels).all(-1)
     rb, rt = rb[good], rt[good]
     mask[rb, rt] = True

@@ -63,7 +63,8 @@ def rules_shot_outcome(end_reason: str, shot_index: int, n_shots: int) -> tuple[
 
 
 def _speed_after_mps(track: np.ndarray, frame: int, length: int, fps: float) -> float:
-    """Ball speed over the first whole frame after a contact at `frame` (NaN near the end)."""
+    """Ball speed over one to two frame times after a contact struck on `frame`, as the
+    statistics read any track (`tennis.contact_speed`; NaN near the end)."""
     a, b = frame + 1, frame + 2
     if b >= length:
         return float("nan")
