@@ -153,8 +153,16 @@ def test_recovery_curves_read_the_record_exactly_and_branch_the_model(tiny_model
     assert (table["n_branch"].isna() == table["branch_behind_m"].isna()).all()
     np.testing.assert_allclose(table["behind_m"].iloc[0],
                                rec.loc[rec["k"] < 5, "behind_m"].mean(), rtol=1e-9)
-    with pytest.raises(ValueError, match="after the serve"):
-        recovery_curves(sim, truth, shot=0)
+    # Shot 0 is the server's run back from his serve, read in the branches rolled out from 3
+    # frames after it: every branch keeps its recorded serve, so every one is read.
+    serve = recovery_curves(sim, truth, shot=0, frames=10, bin_frames=5, draws=2)
+    assert serve["frames_after"].tolist() == [0, 5]
+    assert (serve["n_branch"] >= 0.8 * serve["n"]).all()
+    first = _hitter_tracks(truth, rules, 0, 10)
+    np.testing.assert_allclose(serve["behind_m"].iloc[0],
+                               first.loc[first["k"] < 5, "behind_m"].mean(), rtol=1e-9)
+    with pytest.raises(ValueError, match="from the serve"):
+        recovery_curves(sim, truth, shot=-1)
 
 
 def test_chase_curves_read_the_run_to_the_strike_from_the_record(tiny_model_file):
@@ -203,7 +211,7 @@ def test_chase_curves_read_the_run_to_the_strike_from_the_record(tiny_model_file
 def test_the_command_line_refuses_bad_shots(tmp_path, capsys):
     from sportsngen.eval.__main__ import main
 
-    assert main(["movement", "--shot", "0"]) == 2
+    assert main(["movement", "--shot", "-1"]) == 2
     assert "--shot" in capsys.readouterr().err
     assert main(["expert", str(tmp_path / "absent")]) == 2
     assert "no tracking folder" in capsys.readouterr().err

@@ -274,8 +274,8 @@ def run_movement(args: argparse.Namespace) -> int:
         return _run_model_table(args, "movement", lambda sim, setup: chase_curves(
             sim, truth_points(setup), shot=shot, seed=args.seed))
     shot = 2 if args.shot is None else args.shot
-    if shot < 1:
-        raise UsageError(f"--shot counts contacts after the serve (>= 1), got {shot}")
+    if shot < 0:
+        raise UsageError(f"--shot counts contacts from the serve (>= 0), got {shot}")
     return _run_model_table(args, "movement", lambda sim, setup: recovery_curves(
         sim, truth_points(setup), shot=shot, seed=args.seed))
 
@@ -459,8 +459,9 @@ def build_parser() -> argparse.ArgumentParser:
                       help="ground-truth points generated (default 600)")
     move.add_argument("--shot", type=int, default=None,
                       help="the hitter's shot, counted after the serve (default 2: the "
-                           "server's first rally ball); with --chase the shot whose ball is "
-                           "chased (default 1: the return, chased by the server)")
+                           "server's first rally ball; 0 the server's run back from his "
+                           "serve); with --chase the shot whose ball is chased (default 1: the "
+                           "return, chased by the server)")
     move.add_argument("--chase", action="store_true",
                       help="the answering player's run to the ball, record and teacher-forced, "
                            "by how far he had to go")

@@ -13,7 +13,8 @@ contact of shot `shot` (1 the return):
 - teacher-forced: the model's expected change of that speed at the record's own states (the
   mean over `draws` samples of its next frame), which shows a bias one frame at a time;
 - rolled out: the same depth and speed in the model's branches of the same recorded points,
-  rolled out from 3 frames after shot `shot - 1`, measured after the branch's own shot.
+  rolled out from 3 frames after shot `shot - 1` (after the serve itself for shot 0, the
+  server's run back from his serve), measured after the branch's own shot.
 """
 
 from __future__ import annotations
@@ -220,15 +221,17 @@ def recovery_curves(sim, truth: RallyData, shot: int = 2, frames: int = RECOVERY
     the contact: the record's `behind_m`, `speed_mps`, `dv_record`; the teacher-forced
     `dv_model`; the branches' `branch_behind_m` and `branch_speed_mps`; and `n` / `n_branch`,
     the rallies behind each."""
-    if shot < 1:
-        raise ValueError(f"shot counts contacts after the serve (>= 1), got {shot}")
+    if shot < 0:
+        raise ValueError(f"shot counts contacts from the serve (>= 0), got {shot}")
     if frames < bin_frames or bin_frames < 1:
         raise ValueError(f"need frames >= bin_frames >= 1, got {frames}, {bin_frames}")
     rules = analyse_rally_data(truth)
     tf = teacher_forced_recovery(sim.model, sim.vocab, truth, shot, frames, draws, seed,
                                  rules=rules)
     rec = _hitter_tracks(truth, rules, shot, frames).merge(tf, on=["rally_id", "k"])
-    if shot == 1:
+    # The server's run after his serve (shot 0) is read in the branches from 3 frames after
+    # it, as the return's after it.
+    if shot <= 1:
         branches, _ = serve_branches(sim, truth, seed=seed, horizon_s=BRANCH_HORIZON_S)
     else:
         branches, _ = shot_branches(sim, truth, shot=shot - 1, seed=seed,
