@@ -121,8 +121,10 @@ def test_a_serve_is_solved_for_its_landing_and_speed_and_read_back():
     v0, found = S.solve_serve(contact, side, asked, FPS)
     assert found.all()
     frames = S.launch_frames(contact, v0, asked[:, 3], FPS)
-    read = S.serve_labels(frames, side, FPS)
+    read = S.serve_labels(frames, side, FPS, contact_m=contact)
     np.testing.assert_allclose(read[:, [0, 1, 3]], asked[:, [0, 1, 3]], atol=0.02)
+    # Labelled as recorded serves are, a placed serve reads its own speed.
+    np.testing.assert_allclose(read[:, 2], asked[:, 2], atol=0.1)
     # Struck on a frame, the serve's speed is read over its first two frames.
     speed = np.linalg.norm(frames[:, 1] - frames[:, 0], axis=-1) * FPS
     np.testing.assert_allclose(speed, asked[:, 2], atol=0.1)
@@ -399,7 +401,7 @@ def test_a_sampled_serve_is_placed_on_its_solved_flight_and_a_toss_is_left_alone
     launch = S.launch_frames(contact, v0, value[:, 3], FPS)[0]
     np.testing.assert_allclose(out[0, 2].numpy(), launch[0], atol=1e-5)
     np.testing.assert_allclose(plan[0].numpy(), launch[1:], atol=1e-5)
-    read = S.serve_labels(launch[None], np.array([1.0]), FPS)[0]
+    read = S.serve_labels(launch[None], np.array([1.0]), FPS, contact_m=contact)[0]
     assert abs(read[0] - value[0, 0]) < 0.02
     assert abs(np.linalg.norm(launch[1] - launch[0]) * FPS - value[0, 2]) < 0.1
 

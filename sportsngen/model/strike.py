@@ -324,17 +324,14 @@ def is_serve(pos_m: np.ndarray, vel_mps: np.ndarray, next_pos_m: np.ndarray,
 
 
 def serve_labels(after_m: np.ndarray, side: np.ndarray, fps: float,
-                 contact_m: np.ndarray | None = None) -> np.ndarray:
-    """(N, 3, 3) a recorded serve's first three frames after the contact, struck from `side`
-    (N,) -> (N, 4) `SERVE_DIMS`: `strike_labels` with the speed in place of the height over
-    the net: over one to two frame times after the contact (`contact_m` (N, 3), or the toss's
-    last frame before it; `tennis.contact_speed`), where a placed serve's speed is read; without
-    it, over the third and second frames after the contact, which is that only for a serve
-    struck on a frame."""
+                 contact_m: np.ndarray) -> np.ndarray:
+    """(N, 3, 3) a recorded serve's first three frames after the contact at `contact_m` (N, 3;
+    or the toss's last frame before it), struck from `side` (N,) -> (N, 4) `SERVE_DIMS`:
+    `strike_labels` with the speed in place of the height over the net, over one to two frame
+    times after the contact (`tennis.contact_speed`), where a placed serve's speed is read."""
     out = strike_labels(after_m, side, fps)
-    speed = (np.linalg.norm(after_m[:, 2] - after_m[:, 1], axis=-1) * fps if contact_m is None
-             else speed_frame_after_contact_mps(contact_m, after_m, fps))
-    out[:, 2] = np.where(np.isfinite(out[:, 2]), speed, np.nan)
+    out[:, 2] = np.where(np.isfinite(out[:, 2]),
+                         speed_frame_after_contact_mps(contact_m, after_m, fps), np.nan)
     return out
 
 

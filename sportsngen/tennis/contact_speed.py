@@ -31,7 +31,8 @@ def speed_frame_after_contact_mps(contact_m: np.ndarray, after_m: np.ndarray, fp
     time since the contact, in frames, is then the one that covers its distance from the
     contact along the flight (clipped to `first_offset`), and the speeds over the two steps
     are interpolated (or extrapolated) to the interval. A ball flying at a constant speed reads
-    that speed whatever the offset."""
+    that speed whatever the offset; a contact not known (NaN) is taken one frame time before
+    the first frame, which reads the speed between the first two."""
     contact = np.asarray(contact_m, dtype=float)
     after = np.asarray(after_m, dtype=float)
     step_a = after[:, 1] - after[:, 0]
@@ -45,5 +46,5 @@ def speed_frame_after_contact_mps(contact_m: np.ndarray, after_m: np.ndarray, fp
     half = len_a - 0.5 * slope
     offset = 2.0 * along / np.maximum(half + np.sqrt(np.maximum(half * half - 2.0 * slope * along,
                                                                 0.0)), 1e-9)
-    offset = np.clip(offset, *first_offset)
+    offset = np.clip(np.where(np.isfinite(offset), offset, 1.0), *first_offset)
     return (len_a + slope * (1.0 - offset)) * fps
