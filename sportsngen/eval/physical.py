@@ -16,10 +16,11 @@ between frames (`tennis.contact_speed`); a simulator strikes on a frame and read
 generator's ``speed_mps`` is the launch speed, about 5 % above that on serves (drag over the
 first 60 ms), so taking both from the tracks compares like with like. (Read as the first whole
 frame after the shot's contact frame, a serve's speed depended on where its contact fell in the
-frame, which the generator fixes per player: Williams' serves read 5 km/h faster than a
-simulator's of the same flight.) A bounce's speeds are over the segments (f-2, f-1) and (f+1, f+2)
-around its frame f (events from the rally rules, `sportsngen.tennis.rally`); a bounce with a
-racket contact within two frames is left out.
+frame, which the generator fixes per player: Williams' serves were read 0.16 of a frame sooner
+after their contact than a simulator's, Sharapova's and the men's 0.25-0.34 later.) A
+bounce's speeds are over the segments (f-2, f-1) and (f+1, f+2) around its frame f (events
+from the rally rules, `sportsngen.tennis.rally`); a bounce with a racket contact within two
+frames is left out.
 
 Simulated rallies carry ``realistic`` and may end undecided (end_reason "none"). Physical
 quantities keep the rallies that are realistic and decided; point statistics keep the points all

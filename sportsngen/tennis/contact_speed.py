@@ -5,11 +5,12 @@ A track samples the flight every 1/fps s, and the contact falls anywhere in a fr
 the first frame after it lies between 0 and 1 frame times into the flight. Read as "the speed
 over the first (or second) whole frame after the contact frame", a serve's speed then depends
 on that fraction, by up to a frame's worth of drag (about 5 km/h on a 160 km/h serve). The
-generator strikes each player's serves at the same fraction of a frame (frame 26 of the rally,
-Williams 0.16 of a frame after it, the men and Sharapova 0.25-0.34 before it), so the record of
-one player read her serves 0.84 frames later in the flight than a simulator that strikes on a
-frame, and another 0.25: a per-player bias of the serve's speed, learned by a model's serve
-head and carried into its rollouts as serves physically slower than the record's. Reading
+generator strikes each player's serves at the same fraction of a frame (Williams 0.16 of a
+frame after a frame, the men and Sharapova 0.25-0.34 before one), so the serve head's labels,
+read over the second and third frames after the contact, read Williams' serves 0.84 of a frame
+later in their flight than a simulator that strikes on a frame places its own, the others'
+0.25-0.34: a per-player bias of the serve's speed, learned by the head and carried into its
+rollouts as serves physically slower than the record's. Reading
 every track at the same time after the contact (one to two frame times, where a serve placed
 on a frame is read) removes it.
 """
