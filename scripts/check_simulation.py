@@ -16,7 +16,11 @@ double faults %, serve points won % (over the realistic points), median first-se
 mean rally length, simulated beside ground truth (serve speeds from the ball tracks for both:
 all first serves, faults included, `sportsngen.eval.physical.shot_quantities`), and which of
 them miss the acceptance tolerances (5 points, 8 km/h, 0.5 shot; earlier parts of
-docs/evaluation.md counted the rally at 1 shot, and the count at 1 shot is printed beside);
+docs/evaluation.md counted the rally at 1 shot, and the count at 1 shot is printed beside),
+each gap with its standard error from resampling both sides' points and how many of the twelve
+a right simulator would bring within tolerance (`eval.check_noise`: both sides are samples, and
+the generator itself, run as a simulator, scores about 11.8 of 12; `scripts/pool_checks.py`
+pools the gaps of several seeds' `--json` files);
 non-realistic rallies against the issue's 5 % (15 % with --no-physical-limits); and how often
 the event classifier's point winner agrees with the rules' winner on simulated rallies and on
 ground-truth rallies.
@@ -35,6 +39,13 @@ import torch
 
 from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.errors import ArgumentError
+from sportsngen.eval.check_noise import (
+    CHECK_COLUMNS,
+    CHECK_SCALE,
+    CHECK_TOLERANCE,
+    expected_within,
+    gap_noise,
+)
 from sportsngen.eval.long_rallies import points_after_window
 from sportsngen.eval.physical import shot_quantities
 from sportsngen.eval.rules import analyse_rally_data
@@ -54,12 +65,8 @@ from sportsngen.synth.generate import generate_matches
 
 PLAYERS = ("Roger Federer", "Rafael Nadal")
 SURFACES = ("hard", "clay", "grass")
-COLUMNS = (("first_serve_in", "1st in %", 100), ("ace", "ace %", 100),
-           ("double_fault", "DF %", 100), ("serve_points_won", "srv won %", 100),
-           ("first_serve_kmh_median", "1st km/h", 1), ("rally_mean", "rally", 1))
-# The simulation issue's acceptance: |sim - truth| at most this, in the printed units.
-TOLERANCE = {"first_serve_in": 5.0, "ace": 5.0, "double_fault": 5.0, "serve_points_won": 5.0,
-             "first_serve_kmh_median": 8.0, "rally_mean": 0.5}
+COLUMNS = CHECK_COLUMNS
+TOLERANCE = CHECK_TOLERANCE
 # Up to the thirty-first part of docs/evaluation.md the check counted the rally at 1 shot.
 RALLY_TOLERANCE_BEFORE = 1.0
 # Non-realistic rallies: the issue's limit with the physical limits on, and without them.
@@ -168,10 +175,14 @@ def main() -> None:
     s_true = serve_stats(points["truth"]).reindex(list(players))
     # Serve speeds measured the same way on both (the ball track's first frame after contact:
     # the generator's table holds launch speeds, the simulator's track speeds).
-    for st, d in ((s_sim, simd), (s_true, truth)):
+    speeds = {}
+    for source, st, d in (("sim", s_sim, simd), ("truth", s_true, truth)):
         q = shot_quantities(d, speed_from="tracks")
-        first = q[q["quantity"] == "first_serve_kmh"].groupby("hitter")["value"].median()
-        st["first_serve_kmh_median"] = first.reindex(st.index).to_numpy()
+        q = q[q["quantity"] == "first_serve_kmh"]
+        st["first_serve_kmh_median"] = q.groupby("hitter")["value"].median().reindex(
+            st.index).to_numpy()
+        speeds.update({(source, p, "first_serve_kmh_median"):
+                       q.loc[q["hitter"] == p, "value"].to_numpy() for p in players})
     rows = []
     print(f"\n{'server':<15} {'':>6} " + " ".join(f"{h:>10}" for _, h, _ in COLUMNS))
     for p in players:
@@ -198,6 +209,18 @@ def main() -> None:
           f"{'under' if unreal < limit else 'NOT under'} {100 * limit:.0f} %")
     for m in misses:
         print(f"  outside: {m}")
+    # Both sides are samples: a right simulator misses some tolerances too (eval.check_noise).
+    noise = gap_noise(points["sim"], points["truth"], list(players),
+                      [c for c, _, _ in COLUMNS], values=speeds, seed=args.seed)
+    expected = expected_within(noise, TOLERANCE, CHECK_SCALE)
+    print(f"\nthe gaps' noise (both sides resampled): a right simulator brings {expected:.1f} "
+          f"of {2 * len(COLUMNS)} within tolerance on average; |z| over 3 is a bias")
+    print(f"{'server':<15} " + " ".join(f"{h:>16}" for _, h, _ in COLUMNS))
+    for p in players:
+        cells = noise[noise["server"] == p].set_index("statistic")
+        print(f"{p:<15} " + " ".join(
+            f"{cells.at[c, 'gap'] * f:>+7.2f}±{cells.at[c, 'se'] * f:<4.2f} "
+            f"z{cells.at[c, 'z']:>+4.1f}" for c, _, f in COLUMNS))
     # Shot by shot, where the points end: odd lengths are the server's wins, even ones the
     # receiver's (docs/evaluation.md, tenth part: where serve points are lost).
     hz = {name: rally_hazards(pts["rally"], 6)["hazard"] for name, pts in points.items()}
@@ -235,6 +258,8 @@ def main() -> None:
         with open(args.json, "w") as fh:
             json.dump({"non_realistic": unreal, "failed_checks": dict(failed), "stats": rows,
                        "outside_tolerance": misses, "within_tolerance": within,
+                       "noise": noise.to_dict(orient="records"),
+                       "expected_within_right_simulator": expected,
                        "within_rally_1_shot": within + lenient,
                        "agreement_sim": agree_sim, "agreement_truth": agree_true,
                        "rally_hazards": {k: [float(v) for v in h] for k, h in hz.items()},

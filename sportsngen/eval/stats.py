@@ -50,7 +50,7 @@ def _require(points: pd.DataFrame, cols: tuple[str, ...], who: str) -> None:
         raise ValueError(f"{who}: points table is missing columns {missing}")
 
 
-def _per_point_frame(points: pd.DataFrame) -> pd.DataFrame:
+def per_point_frame(points: pd.DataFrame) -> pd.DataFrame:
     """Per-point numeric columns (NaN where unknown) from which every statistic is a group mean.
 
     Conditional quantities (won on first serve, first-serve speed, ...) are NaN outside their
@@ -81,7 +81,7 @@ def serve_stats(points: pd.DataFrame) -> pd.DataFrame:
     ``serve_kmh`` and ``rally`` are optional (absent or all-missing -> NaN in the result).
     """
     _require(points, ("server", "winner"), "serve_stats")
-    per = _per_point_frame(points)
+    per = per_point_frame(points)
     per["server"] = points["server"].astype("string")
     g = per.groupby("server", sort=True)
     out = pd.DataFrame({
@@ -111,7 +111,7 @@ def return_stats(points: pd.DataFrame) -> pd.DataFrame:
     source has no serve flags.
     """
     _require(points, ("server", "receiver", "winner"), "return_stats")
-    per = _per_point_frame(points)
+    per = per_point_frame(points)
     per["receiver"] = points["receiver"].astype("string")
     g = per.groupby("receiver", sort=True)
     out = pd.DataFrame({
