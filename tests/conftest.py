@@ -29,8 +29,8 @@ def tiny_model_file(tmp_path_factory) -> Path:
 @pytest.fixture(scope="session")
 def federer_points_and_head_model():
     """80 generated points of Federer serving to Nadal, a small untrained model with serve and
-    strike heads, and a stand-in for a Simulator (its `vocab` and `model`): what the
-    teacher-forced head tables read."""
+    strike heads, and a stand-in for a Simulator (its `vocab`, `model` and serve nucleus): what
+    the teacher-forced head tables read."""
     from types import SimpleNamespace
 
     from sportsngen.data.tokens import Vocab
@@ -39,4 +39,5 @@ def federer_points_and_head_model():
 
     data = truth_points(DiagnosticsSetup(n_points=80, seed=5))
     model = small_model()
-    return data, model, SimpleNamespace(vocab=Vocab.from_data(data), model=model)
+    return data, model, SimpleNamespace(vocab=Vocab.from_data(data), model=model,
+                                        top_p_serve=1.0)

@@ -5,6 +5,7 @@ import pandas as pd
 import pytest
 
 from sportsngen.eval.serve_draws import serve_draw_table, serve_faults, teacher_forced_serves
+from sportsngen.model import strike
 
 FPS = 25.0
 
@@ -56,6 +57,17 @@ def test_the_records_serves_read_as_the_shots_table_says(federer_points_and_head
         fault.loc[data.rallies.loc[data.rallies["serve_number"] == 1, "rally_id"]].mean(),
         abs=3.0 / n_first)
     assert isinstance(table, pd.DataFrame)
+    # The nucleus is the rollouts': at a tiny one every draw is the head's top bin whatever
+    # the seed, so the speeds differ only inside their bin (`--top-p-serve` had been accepted
+    # and ignored); the full head's draws differ by more.
+    def model_speeds(seed: int, top_p: float) -> np.ndarray:
+        got = teacher_forced_serves(model, rally_arrays(data, sim.vocab), draws=2, seed=seed,
+                                    top_p=top_p)
+        return got.loc[got["source"] == "model", "speed_mps"].to_numpy()
+
+    bin_mps = float(np.diff(strike.serve_edges()[2])[0])
+    assert np.abs(model_speeds(0, 1e-6) - model_speeds(1, 1e-6)).max() < bin_mps
+    assert np.abs(model_speeds(0, 1.0) - model_speeds(1, 1.0)).max() > 3 * bin_mps
 
 
 def test_a_model_without_a_serve_head_is_refused(federer_points_and_head_model):

@@ -39,12 +39,13 @@ def serve_faults(contact_m: np.ndarray, values: np.ndarray, fps: float) -> pd.Da
 
 
 @torch.no_grad()
-def teacher_forced_serves(model, arrays, draws: int = 6, seed: int = 0) -> pd.DataFrame:
+def teacher_forced_serves(model, arrays, draws: int = 6, seed: int = 0,
+                          top_p: float = 1.0) -> pd.DataFrame:
     """At every recorded serve of `arrays` (`RallyArrays`; the states read by
     `train.head_fit.collect_head_states`): the record's serve and `draws` draws of the serve
-    head, each read by `serve_faults`. -> one row per (serve, source): rally_id, serve (0
-    first, 1 second), source ("record" or "model"), the fault flags (the model's: shares over
-    its draws) and speed_mps."""
+    head (nucleus `top_p`, as a rollout's `top_p_serve`), each read by `serve_faults`. -> one
+    row per (serve, source): rally_id, serve (0 first, 1 second), source ("record" or
+    "model"), the fault flags (the model's: shares over its draws) and speed_mps."""
     from sportsngen.train.head_fit import collect_head_states
 
     if model.serve_head is None:
@@ -55,7 +56,7 @@ def teacher_forced_serves(model, arrays, draws: int = 6, seed: int = 0) -> pd.Da
     rng = np.random.default_rng(seed)
     bias = model.serve_head_bias(torch.as_tensor(st.server_id), torch.as_tensor(st.serve),
                                  torch.as_tensor(st.contact_m, dtype=torch.float32))
-    idx = torch.stack([model.serve_head.sample(st.h, 1.0, gen, dim_bias=bias)
+    idx = torch.stack([model.serve_head.sample(st.h, top_p, gen, dim_bias=bias)
                        for _ in range(draws)], 1)
     rec_vals = strike.strike_bin_value(st.bins.numpy(), rng.random((len(st), 4)), edges)
     mod_vals = strike.strike_bin_value(idx.numpy(), rng.random(tuple(idx.shape)), edges)
@@ -84,8 +85,10 @@ def serve_fault_table(rows: pd.DataFrame) -> pd.DataFrame:
 
 
 def serve_draw_table(sim, truth, draws: int = 6, seed: int = 0) -> pd.DataFrame:
-    """`serve_fault_table` of `sim`'s model at the serves of `truth` (a `RallyData`)."""
+    """`serve_fault_table` of `sim`'s model at the serves of `truth` (a `RallyData`), drawn
+    with its serve nucleus (`sim.top_p_serve`, as its rollouts draw)."""
     from sportsngen.data.tokens import rally_arrays
 
     arr = rally_arrays(truth, sim.vocab, unknown="generic")
-    return serve_fault_table(teacher_forced_serves(sim.model, arr, draws, seed))
+    return serve_fault_table(teacher_forced_serves(sim.model, arr, draws, seed,
+                                                   top_p=sim.top_p_serve))
