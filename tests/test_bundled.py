@@ -2,6 +2,7 @@
 
 from pathlib import Path
 
+import pytest
 import torch
 
 from sportsngen.model.export import load_model
@@ -63,11 +64,11 @@ def test_bundled_model_gives_the_return_its_reach_and_its_own_error_shifts():
     named = torch.tensor([vocab.player_index(p) for p in
                           ("Roger Federer", "Serena Williams", "Maria Sharapova", "John Isner")])
     assert (model.strike_return[named, 0] < 0).all()
-    # As fitted (`scripts/fit_strike_bias.py --pressure`, which refits the returns' table on
-    # top of the hitters' rows; model card): Sharapova's long, wide and net shifts on her
+    # As fitted (`scripts/fit_strike_bias.py --players`, which refits the returns' table on
+    # top of the players' shifts; model card): Sharapova's long, wide and net shifts on her
     # returns.
     torch.testing.assert_close(model.strike_return[vocab.player_index("Maria Sharapova")],
-                               torch.tensor([-1.080, -1.440, -1.069]), atol=1e-3, rtol=0)
+                               torch.tensor([-1.007, -1.597, -0.646]), atol=1e-3, rtol=0)
     assert Simulator.from_pretrained(return_reach_m=1.8).return_reach_m == 1.8
 
 
@@ -77,7 +78,8 @@ def test_bundled_model_reads_whom_a_player_answers():
     initiative times his rally pressure (Isner's 3.59 x 1.04, Djokovic's 1.59 x 0.91), and the
     fitted table has the receivers err wide more often against Isner than against Djokovic, the
     other way on the servers' rally balls too by their own opponents' pressure, and leaves the
-    return to its own table."""
+    return to its own table. Refitted after the players' shifts (forty-sixth part), which carry
+    part of whom a player answers, the gap is 0.87 (1.15 before)."""
     from sportsngen.model import strike_bias
     from sportsngen.sim import Simulator
 
@@ -86,9 +88,9 @@ def test_bundled_model_reads_whom_a_player_answers():
     assert model.cfg.strike_pressure
     isner, djokovic = (vocab.player_index(p) for p in ("John Isner", "Novak Djokovic"))
     wide = strike_bias.WIDE
-    assert model.strike_pressure[isner, 1, wide] - model.strike_pressure[djokovic, 1, wide] > 1.0
+    assert model.strike_pressure[isner, 1, wide] - model.strike_pressure[djokovic, 1, wide] > 0.8
     torch.testing.assert_close(model.strike_pressure[djokovic, 1],
-                               torch.tensor([-0.245, -0.821, 1.108]), atol=1e-3, rtol=0)
+                               torch.tensor([-0.246, -0.306, 0.792]), atol=1e-3, rtol=0)
     receiver = torch.tensor([True, True])
     rally = model.strike_head_bias(torch.tensor([djokovic] * 2), receiver,
                                    torch.tensor([True, False]), torch.tensor([isner] * 2))
@@ -125,3 +127,24 @@ def test_bundled_model_limits_its_players_acceleration_to_the_generators():
 
     assert Simulator.from_pretrained().player_accel_mps2 == 6.0
     assert Simulator.from_pretrained(player_accel_mps2=None).player_accel_mps2 is None
+
+
+def test_bundled_model_reads_the_shot_and_the_players_and_holds_short_second_serves():
+    """The forty-sixth part's file: the strike head's input shifted by the strike's number and
+    by the hitter and his opponent (`model.strike_shots`, `model.strike_players`), and the serve
+    head's short serves held per server (`model.serve_short`): Williams' second serves, drawn
+    short of 3.9 m 0.131 of the time against her record's 0.040, get the largest cut; Sharapova's,
+    drawn short too rarely, a rise."""
+    from sportsngen.sim import Simulator
+
+    sim = Simulator.from_pretrained()
+    model, vocab = sim.model, sim.vocab
+    assert model.cfg.strike_shots and model.cfg.strike_players and model.cfg.serve_short
+    assert (model.strike_shot.weight.norm(dim=1) > 1.0).all()
+    djokovic = vocab.player_index("Novak Djokovic")
+    assert (model.strike_player[djokovic].norm(dim=-1) > 1.0).all()
+    short = {p: model.serve_short[vocab.player_index(p), 1].item()
+             for p in ("Serena Williams", "Maria Sharapova", "Roger Federer")}
+    assert short["Serena Williams"] == pytest.approx(-1.232, abs=1e-3)
+    assert short["Maria Sharapova"] > 0.3
+    assert short["Serena Williams"] < short["Roger Federer"] < 0
