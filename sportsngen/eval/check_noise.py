@@ -42,13 +42,14 @@ NOISE_COLUMNS = ("server", "statistic", "sim", "truth", "gap", "se", "z", "se_si
 POOLED_COLUMNS = ("server", "statistic", "runs", "gap", "se", "z")
 
 
-def _server_values(points: pd.DataFrame, server: str, statistic: str) -> np.ndarray:
-    per = per_point_frame(points)
+def _server_values(per: pd.DataFrame, server: str, statistic: str) -> np.ndarray:
+    """A server's finite per-point readings of `statistic` from `per` (`per_point_frame` with
+    the points' `server` column beside it)."""
     field = MEAN_COLUMNS.get(statistic) or MEDIAN_COLUMNS.get(statistic)
     if field is None:
         raise ValueError(f"no per-point reading of {statistic!r}: one of "
                          f"{sorted(MEAN_COLUMNS) + sorted(MEDIAN_COLUMNS)}")
-    v = per.loc[points["server"].astype("string") == server, field].to_numpy(float)
+    v = per.loc[per["server"] == server, field].to_numpy(float)
     return v[np.isfinite(v)]
 
 
@@ -79,15 +80,17 @@ def gap_noise(sim_points: pd.DataFrame, truth_points: pd.DataFrame, servers: lis
         if missing:
             raise ValueError(f"{name} is missing the points table's columns {missing}")
     rng = np.random.default_rng(seed)
+    per = {source: per_point_frame(pts).assign(server=pts["server"].astype("string"))
+           for source, pts in (("sim", sim_points), ("truth", truth_points))}
     rows = []
     for server in servers:
         for statistic in statistics:
             median = statistic in MEDIAN_COLUMNS
             got = {}
-            for source, pts in (("sim", sim_points), ("truth", truth_points)):
+            for source in ("sim", "truth"):
                 v = values.get((source, server, statistic))
                 got[source] = (np.asarray(v, dtype=float)[np.isfinite(v)] if v is not None
-                               else _server_values(pts, server, statistic))
+                               else _server_values(per[source], server, statistic))
             a, b = got["sim"], got["truth"]
             point = {k: (float(np.median(v)) if median else float(v.mean())) if len(v) else
                      float("nan") for k, v in got.items()}
