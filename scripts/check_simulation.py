@@ -14,7 +14,7 @@ synthetic ground truth of the same matchup (`generate_matches`, 3000 points). Pr
 of non-realistic rallies (and which checks failed), then per server first serve in %, aces %,
 double faults %, serve points won % (over the realistic points), median first-serve speed and
 mean rally length, simulated beside ground truth (serve speeds from the ball tracks for both:
-all first serves, faults included, `sportsngen.eval.physical.shot_quantities`), and which of
+all first serves, faults included, `sportsngen.eval.check_noise.first_serve_speeds`), and which of
 them miss the acceptance tolerances (5 points, 8 km/h, 0.5 shot; earlier parts of
 docs/evaluation.md counted the rally at 1 shot, and the count at 1 shot is printed beside),
 each gap with its standard error from resampling both sides' points and how many of the twelve
@@ -44,10 +44,10 @@ from sportsngen.eval.check_noise import (
     CHECK_SCALE,
     CHECK_TOLERANCE,
     expected_within,
+    first_serve_speeds,
     gap_noise,
 )
 from sportsngen.eval.long_rallies import points_after_window
-from sportsngen.eval.physical import shot_quantities
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.eval.sampling_options import add_sampling_options, sampling_kwargs
 from sportsngen.eval.shot_profile import (
@@ -65,8 +65,6 @@ from sportsngen.synth.generate import generate_matches
 
 PLAYERS = ("Roger Federer", "Rafael Nadal")
 SURFACES = ("hard", "clay", "grass")
-COLUMNS = CHECK_COLUMNS
-TOLERANCE = CHECK_TOLERANCE
 # Up to the thirty-first part of docs/evaluation.md the check counted the rally at 1 shot.
 RALLY_TOLERANCE_BEFORE = 1.0
 # Non-realistic rallies: the issue's limit with the physical limits on, and without them.
@@ -177,50 +175,50 @@ def main() -> None:
     # the generator's table holds launch speeds, the simulator's track speeds).
     speeds = {}
     for source, st, d in (("sim", s_sim, simd), ("truth", s_true, truth)):
-        q = shot_quantities(d, speed_from="tracks")
-        q = q[q["quantity"] == "first_serve_kmh"]
-        st["first_serve_kmh_median"] = q.groupby("hitter")["value"].median().reindex(
-            st.index).to_numpy()
-        speeds.update({(source, p, "first_serve_kmh_median"):
-                       q.loc[q["hitter"] == p, "value"].to_numpy() for p in players})
+        got = first_serve_speeds(d, source, list(players))
+        st["first_serve_kmh_median"] = [
+            float(np.median(v)) if len(v) else np.nan
+            for v in (got[(source, p, "first_serve_kmh_median")] for p in st.index)]
+        speeds.update(got)
     rows = []
-    print(f"\n{'server':<15} {'':>6} " + " ".join(f"{h:>10}" for _, h, _ in COLUMNS))
+    print(f"\n{'server':<15} {'':>6} " + " ".join(f"{h:>10}" for _, h, _ in CHECK_COLUMNS))
     for p in players:
         for name, st in (("sim", s_sim), ("truth", s_true)):
-            vals = [st.loc[p, c] * f for c, _, f in COLUMNS]
+            vals = [st.loc[p, c] * f for c, _, f in CHECK_COLUMNS]
             print(f"{p:<15} {name:>6} " + " ".join(f"{v:>10.1f}" for v in vals))
             n_pts = int(np.nan_to_num(st.loc[p, "n_points"]))
             rows.append({"server": p, "source": name, "n_points": n_pts,
-                         **{c: float(st.loc[p, c]) for c, _, _ in COLUMNS}})
+                         **{c: float(st.loc[p, c]) for c, _, _ in CHECK_COLUMNS}})
     misses, rally_gaps = [], []
     for p in players:
-        for c, h, f in COLUMNS:
+        for c, h, f in CHECK_COLUMNS:
             gap = abs(s_sim.loc[p, c] - s_true.loc[p, c]) * f
             if c == "rally_mean":
                 rally_gaps.append(gap)
-            if not gap <= TOLERANCE[c]:
-                misses.append(f"{p} {h} off by {gap:.2f} (tolerance {TOLERANCE[c]:g})")
-    within = int(2 * len(COLUMNS) - len(misses))
+            if not gap <= CHECK_TOLERANCE[c]:
+                misses.append(f"{p} {h} off by {gap:.2f} (tolerance {CHECK_TOLERANCE[c]:g})")
+    within = int(2 * len(CHECK_COLUMNS) - len(misses))
     # The rallies that miss 0.5 but not 1 shot, to compare with the earlier parts' counts.
-    lenient = int(sum(TOLERANCE["rally_mean"] < g <= RALLY_TOLERANCE_BEFORE for g in rally_gaps))
+    lenient = int(sum(CHECK_TOLERANCE["rally_mean"] < g <= RALLY_TOLERANCE_BEFORE
+                      for g in rally_gaps))
     limit = NON_REALISTIC_MAX[not args.no_physical_limits]
-    print(f"\nwithin tolerance: {within} of {2 * len(COLUMNS)} (rally 0.5 shot; "
+    print(f"\nwithin tolerance: {within} of {2 * len(CHECK_COLUMNS)} (rally 0.5 shot; "
           f"{within + lenient} with the rally at 1 shot); non-realistic "
           f"{'under' if unreal < limit else 'NOT under'} {100 * limit:.0f} %")
     for m in misses:
         print(f"  outside: {m}")
     # Both sides are samples: a right simulator misses some tolerances too (eval.check_noise).
     noise = gap_noise(points["sim"], points["truth"], list(players),
-                      [c for c, _, _ in COLUMNS], values=speeds, seed=args.seed)
-    expected = expected_within(noise, TOLERANCE, CHECK_SCALE)
+                      [c for c, _, _ in CHECK_COLUMNS], values=speeds, seed=args.seed)
+    expected = expected_within(noise, CHECK_TOLERANCE, CHECK_SCALE)
     print(f"\nthe gaps' noise (both sides resampled): a right simulator brings {expected:.1f} "
-          f"of {2 * len(COLUMNS)} within tolerance on average; |z| over 3 is a bias")
-    print(f"{'server':<15} " + " ".join(f"{h:>16}" for _, h, _ in COLUMNS))
+          f"of {2 * len(CHECK_COLUMNS)} within tolerance on average; |z| over 3 is a bias")
+    print(f"{'server':<15} " + " ".join(f"{h:>16}" for _, h, _ in CHECK_COLUMNS))
     for p in players:
         cells = noise[noise["server"] == p].set_index("statistic")
         print(f"{p:<15} " + " ".join(
             f"{cells.at[c, 'gap'] * f:>+7.2f}±{cells.at[c, 'se'] * f:<4.2f} "
-            f"z{cells.at[c, 'z']:>+4.1f}" for c, _, f in COLUMNS))
+            f"z{cells.at[c, 'z']:>+4.1f}" for c, _, f in CHECK_COLUMNS))
     # Shot by shot, where the points end: odd lengths are the server's wins, even ones the
     # receiver's (docs/evaluation.md, tenth part: where serve points are lost).
     hz = {name: rally_hazards(pts["rally"], 6)["hazard"] for name, pts in points.items()}

@@ -11,8 +11,8 @@ forty-sixth part). Here each statistic's gap gets its standard error by resampli
 of both sides, a z-score, and the chance a right simulator would fall outside the tolerance, so
 a reader can tell a bias from the draw of the truth.
 
-Pure numpy and pandas; the statistics are `eval.stats.serve_stats`'s, read per point from the
-same columns (`stats.per_point_frame`).
+No torch; the statistics are `eval.stats.serve_stats`'s, read per point from the same columns
+(`stats.per_point_frame`, `stats.PER_POINT_MEANS`).
 """
 
 from __future__ import annotations
@@ -22,7 +22,8 @@ import math
 import numpy as np
 import pandas as pd
 
-from sportsngen.eval.stats import per_point_frame
+from sportsngen.eval.physical import shot_quantities
+from sportsngen.eval.stats import PER_POINT_MEANS, PER_POINT_MEDIANS, per_point_frame
 
 # The simulation issue's checked statistics: (serve_stats' column, printed heading, the factor
 # to printed units), and its acceptance: |sim - truth| at most this, in the printed units.
@@ -32,11 +33,6 @@ CHECK_COLUMNS = (("first_serve_in", "1st in %", 100), ("ace", "ace %", 100),
 CHECK_TOLERANCE = {"first_serve_in": 5.0, "ace": 5.0, "double_fault": 5.0,
                    "serve_points_won": 5.0, "first_serve_kmh_median": 8.0, "rally_mean": 0.5}
 CHECK_SCALE = {c: f for c, _, f in CHECK_COLUMNS}
-# serve_stats' columns that are a server's mean (or median) of one per-point column.
-MEAN_COLUMNS = {"first_serve_in": "fsi", "ace": "ace", "double_fault": "df",
-                "serve_points_won": "won", "first_serve_won": "won_first",
-                "second_serve_won": "won_second", "rally_mean": "rally"}
-MEDIAN_COLUMNS = {"first_serve_kmh_median": "kmh_first", "second_serve_kmh_median": "kmh_second"}
 NOISE_COLUMNS = ("server", "statistic", "sim", "truth", "gap", "se", "z", "se_sim", "se_truth",
                  "n_sim", "n_truth")
 POOLED_COLUMNS = ("server", "statistic", "runs", "gap", "se", "z")
@@ -45,12 +41,22 @@ POOLED_COLUMNS = ("server", "statistic", "runs", "gap", "se", "z")
 def _server_values(per: pd.DataFrame, server: str, statistic: str) -> np.ndarray:
     """A server's finite per-point readings of `statistic` from `per` (`per_point_frame` with
     the points' `server` column beside it)."""
-    field = MEAN_COLUMNS.get(statistic) or MEDIAN_COLUMNS.get(statistic)
+    field = PER_POINT_MEANS.get(statistic) or PER_POINT_MEDIANS.get(statistic)
     if field is None:
         raise ValueError(f"no per-point reading of {statistic!r}: one of "
-                         f"{sorted(MEAN_COLUMNS) + sorted(MEDIAN_COLUMNS)}")
+                         f"{sorted(PER_POINT_MEANS) + sorted(PER_POINT_MEDIANS)}")
     v = per.loc[per["server"] == server, field].to_numpy(float)
     return v[np.isfinite(v)]
+
+
+def first_serve_speeds(data, source: str, servers: list[str]) -> dict:
+    """Each server's first-serve speeds (km/h) read from `data`'s ball tracks, as the checks
+    read them (`eval.physical.shot_quantities`), keyed for `gap_noise`'s `values`:
+    (source, server, "first_serve_kmh_median")."""
+    q = shot_quantities(data, speed_from="tracks")
+    q = q[q["quantity"] == "first_serve_kmh"]
+    return {(source, p, "first_serve_kmh_median"): q.loc[q["hitter"] == p, "value"].to_numpy()
+            for p in servers}
 
 
 def _resampled(values: np.ndarray, median: bool, n_boot: int,
@@ -85,7 +91,7 @@ def gap_noise(sim_points: pd.DataFrame, truth_points: pd.DataFrame, servers: lis
     rows = []
     for server in servers:
         for statistic in statistics:
-            median = statistic in MEDIAN_COLUMNS
+            median = statistic in PER_POINT_MEDIANS
             got = {}
             for source in ("sim", "truth"):
                 v = values.get((source, server, statistic))

@@ -50,6 +50,14 @@ def _require(points: pd.DataFrame, cols: tuple[str, ...], who: str) -> None:
         raise ValueError(f"{who}: points table is missing columns {missing}")
 
 
+# serve_stats' columns that are a server's mean (or median) of one `per_point_frame` column.
+PER_POINT_MEANS = {"first_serve_in": "fsi", "ace": "ace", "double_fault": "df",
+                   "first_serve_won": "won_first", "second_serve_won": "won_second",
+                   "serve_points_won": "won", "rally_mean": "rally"}
+PER_POINT_MEDIANS = {"first_serve_kmh_median": "kmh_first",
+                     "second_serve_kmh_median": "kmh_second"}
+
+
 def per_point_frame(points: pd.DataFrame) -> pd.DataFrame:
     """Per-point numeric columns (NaN where unknown) from which every statistic is a group mean.
 
@@ -86,17 +94,10 @@ def serve_stats(points: pd.DataFrame) -> pd.DataFrame:
     g = per.groupby("server", sort=True)
     out = pd.DataFrame({
         "n_points": g.size().astype("int64"),
-        "first_serve_in": g["fsi"].mean(),
-        "ace": g["ace"].mean(),
-        "double_fault": g["df"].mean(),
-        "first_serve_won": g["won_first"].mean(),
-        "second_serve_won": g["won_second"].mean(),
-        "serve_points_won": g["won"].mean(),
-        "first_serve_kmh_median": g["kmh_first"].median(),
-        "second_serve_kmh_median": g["kmh_second"].median(),
+        **{c: g[f].mean() for c, f in PER_POINT_MEANS.items()},
+        **{c: g[f].median() for c, f in PER_POINT_MEDIANS.items()},
         "first_serve_kmh_iqr": g["kmh_first"].quantile(0.75) - g["kmh_first"].quantile(0.25),
         "second_serve_kmh_iqr": g["kmh_second"].quantile(0.75) - g["kmh_second"].quantile(0.25),
-        "rally_mean": g["rally"].mean(),
     })
     out.index.name = "server"
     return out.loc[:, list(SERVE_STATS_COLUMNS)]
