@@ -53,8 +53,10 @@ from sportsngen.eval.sampling_options import add_sampling_options, sampling_kwar
 from sportsngen.eval.shot_profile import (
     SLOW_FLIGHT_S,
     format_profiles,
+    format_strike_endings,
     format_unanswered,
     shot_profile,
+    strike_endings,
     unanswered_by_flight,
 )
 from sportsngen.eval.stats import rally_hazards, serve_stats
@@ -245,6 +247,10 @@ def main() -> None:
     print("\nballs in play after the serve left unanswered, by flight (slow: first bounce "
           f"{SLOW_FLIGHT_S} s or more after the contact), sim / truth:\n"
           + format_unanswered(unanswered["sim"], unanswered["truth"]))
+    # Whose strikes end the points, by role and stage (docs/evaluation.md, forty-seventh part).
+    print("\nstrikes that ended the point as the hitter's error or winner, by hitter, role and "
+          "stage, sim / truth (z: the gap in standard errors of both):\n"
+          + format_strike_endings(strike_endings(simd), strike_endings(truth)))
     decided = r[(r["rules_winner"] >= 0)]
     agree_sim = float((decided["classifier_winner"] == decided["rules_winner"]).mean())
     sub = truth.subset(truth.rallies["rally_id"].iloc[:1000])

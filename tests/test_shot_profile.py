@@ -95,3 +95,42 @@ def test_the_unanswered_balls_split_by_flight(truth):
     assert len(text) == 4 and text[2].split()[:4] == ["slow", str(slow), "/", str(slow)]
     with pytest.raises(ValueError, match="slow_s"):
         unanswered_by_flight(data, rules, slow_s=0.0)
+
+
+def test_strike_endings_count_each_hitters_strikes_by_role_and_stage():
+    from types import SimpleNamespace
+
+    import pandas as pd
+
+    from sportsngen.eval.shot_profile import format_strike_endings, strike_endings
+
+    rallies = pd.DataFrame({"rally_id": [0, 1, 2], "server": ["A", "B", "A"],
+                            "realistic": [True, True, False]})
+    # Rally 0: A serves, B returns in, A's ball in, B's error at shot 3. Rally 1: B serves, A's
+    # return a winner. Rally 2 is non-realistic and left out.
+    shots = pd.DataFrame({
+        "rally_id": [0, 0, 0, 0, 1, 1, 2, 2],
+        "shot_index": [0, 1, 2, 3, 0, 1, 0, 1],
+        "hitter": ["A", "B", "A", "B", "B", "A", "A", "B"],
+        "outcome": ["in_play", "in_play", "in_play", "error", "in_play", "winner",
+                    "in_play", "error"]})
+    data = SimpleNamespace(rallies=rallies, shots=shots)
+    got = strike_endings(data)
+    assert list(got.index) == [("A", "receiver", "return"), ("A", "server", "shots 2-4"),
+                               ("B", "receiver", "return"), ("B", "receiver", "shots 2-4")]
+    assert got["n"].tolist() == [1, 1, 1, 1]
+    assert got["error"].tolist() == [0.0, 0.0, 0.0, 1.0]
+    assert got["winner"].tolist() == [1.0, 0.0, 0.0, 0.0]
+    # With the non-realistic rally: B's return is an error too.
+    every = strike_endings(data, realistic_only=False)
+    assert every.loc[("B", "receiver", "return"), "n"] == 2
+    assert every.loc[("B", "receiver", "return"), "error"] == 0.5
+    assert every.loc[("B", "receiver", "return"), "error_se"] == pytest.approx(0.5 / np.sqrt(2))
+    # Shot 5 and later fall in the last stage.
+    long = SimpleNamespace(rallies=rallies.iloc[:1], shots=pd.DataFrame({
+        "rally_id": [0] * 7, "shot_index": list(range(7)),
+        "hitter": ["A", "B"] * 3 + ["A"], "outcome": ["in_play"] * 6 + ["error"]}))
+    stages = strike_endings(long).reset_index()
+    assert stages[stages["stage"] == "shots 5+"]["n"].sum() == 2
+    text = format_strike_endings(got, every).splitlines()
+    assert len(text) == 5 and "0.000 / 0.500" in text[3]
