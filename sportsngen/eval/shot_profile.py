@@ -36,9 +36,10 @@ from sportsngen.tennis.court import BASELINE_X_M
 PROFILE_COLUMNS = ("n", "in_play", "answered", "depth_m", "side_m", "net_height_m",
                    "speed_mps", "hitter_behind_m")
 SLOW_FLIGHT_S = 1.32       # a first bounce this long after the contact: a slow ball
-# The stages of `strike_endings`: the return, the next three strikes, the rest (shot indices,
-# 1 = the return); a rally's early balls answer the serve's and the return's pace.
-STRIKE_STAGES = (("return", 1, 1), ("shots 2-4", 2, 4), ("shots 5+", 5, None))
+# The stages of `strike_endings` by their first shot index (1 = the return), each running to
+# the next's start: the return, the next three strikes, the rest; a rally's early balls answer
+# the serve's and the return's pace.
+STRIKE_STAGES = (("return", 1), ("shots 2-4", 2), ("shots 5+", 5))
 
 
 def first_strike(ball_m: np.ndarray, from_frame: int, fps: float,
@@ -200,22 +201,19 @@ def strike_endings(data: RallyData, realistic_only: bool = True) -> pd.DataFrame
     shots = data.shots.merge(rallies[["rally_id", "server"]], on="rally_id")
     shots = shots[shots["shot_index"] >= 1]
     role = np.where(shots["hitter"] == shots["server"], "server", "receiver")
-    idx = shots["shot_index"].to_numpy()
-    stage = np.full(len(shots), STRIKE_STAGES[-1][0], dtype=object)
-    for name, lo, hi in STRIKE_STAGES:
-        stage[(idx >= lo) & (idx <= (hi if hi is not None else np.inf))] = name
+    # Stages as an ordered categorical, so the groups come out in rally order.
+    names, starts = zip(*STRIKE_STAGES)
+    stage = pd.Categorical.from_codes(
+        np.searchsorted(starts, shots["shot_index"].to_numpy(), side="right") - 1,
+        categories=list(names), ordered=True)
     frame = pd.DataFrame({"hitter": shots["hitter"].to_numpy(), "role": role, "stage": stage,
                           "error": (shots["outcome"] == "error").to_numpy(),
                           "winner": (shots["outcome"] == "winner").to_numpy()})
-    order = {name: i for i, (name, _, _) in enumerate(STRIKE_STAGES)}
-    out = frame.groupby(["hitter", "role", "stage"]).agg(
+    out = frame.groupby(["hitter", "role", "stage"], observed=True).agg(
         n=("error", "size"), error=("error", "mean"), winner=("winner", "mean"))
     for c in ("error", "winner"):
         out[f"{c}_se"] = np.sqrt(out[c] * (1 - out[c]) / out["n"])
-    out = out.reset_index()
-    out["_o"] = out["stage"].map(order)
-    return (out.sort_values(["hitter", "role", "_o"]).drop(columns="_o")
-            .set_index(["hitter", "role", "stage"]))
+    return out
 
 
 def format_strike_endings(sim: pd.DataFrame, truth: pd.DataFrame) -> str:
