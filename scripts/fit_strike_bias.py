@@ -3,7 +3,7 @@ wide or into the net (`model.strike_bias`; `sportsngen.train.strike_bias`).
 
     .venv/bin/python scripts/fit_strike_bias.py --model FILE --out FILE [--more-data NAME]
         [--prior-strikes 200] [--width | --returns | --pressure | --shape | --shots |
-        --players] [--states FILE]
+        --players | --late] [--states FILE]
         [--threads 2]
 
 The recorded rally strikes are the file's own training split (`extra.split`) and with
@@ -26,7 +26,11 @@ input gets a learned shift by the strike's number in the rally (`model.strike_sh
 tables frozen; the held-out rallies' teacher-forced depth, height and NLL by shot printed before
 and after), then the error tables refitted with it as `--pressure` fits them. `--players` does
 the same with a shift per hitter and role and one per opponent and the hitter's role
-(`model.strike_players`). `--states FILE` keeps
+(`model.strike_players`). With `--late` (a file with the opponents' table) a per-hitter table
+of the error shifts on his strikes from the rally's fifth on is added (`model.strike_late`)
+and fitted in turn with the hitters' and opponents' tables, then the returns' table again on
+top (with `--late-only` the late table alone, on top of the file's tables as they are).
+`--states FILE` keeps
 the decoder's states read (most of the time; they do not depend on the tables). Everything
 else in the file is copied unchanged.
 """
@@ -46,6 +50,7 @@ from sportsngen.train.strike_bias import (
     fit_strike_shape,
     fit_strike_width,
     with_strike_bias,
+    with_strike_late,
     with_strike_pressure,
     with_strike_return,
     with_strike_shape,
@@ -89,6 +94,8 @@ FITS = (
                 "the net (model.strike_shape), the error tables refitted with them"),
     ("--shots", "add a shift of the strike head's input by the strike's number in the rally "
                 "(model.strike_shots), the error tables refitted with it"),
+    ("--late", "add a per-hitter table of the error shifts on his strikes from the rally's "
+               "fifth on (model.strike_late), fitted in turn with the hitters' and opponents'"),
     ("--players", "add shifts of the strike head's input per hitter and per opponent "
                   "(model.strike_players), the error tables refitted with them"),
 )
@@ -101,9 +108,14 @@ def main() -> None:
     how = ap.add_mutually_exclusive_group()
     for flag, what in FITS:
         how.add_argument(flag, action="store_true", help=what)
+    ap.add_argument("--late-only", action="store_true",
+                    help="with --late: fit the late table alone, on top of the file's other "
+                         "tables as they are")
     ap.add_argument("--states", default=None,
                     help="cache of the decoder's states: written on the first run, read after")
     args = ap.parse_args()
+    if args.late_only and not args.late:
+        ap.error("--late-only goes with --late")
     run = open_table_run(args, lambda m: None if m.strike_head is not None
                          else "no strike head (model.strike_head)")
     model, vocab = run.model, run.vocab
@@ -150,16 +162,19 @@ def main() -> None:
               .round(3).to_string(index=False))
         run.save(model, args.out)
         return
-    if args.shape or args.pressure:
-        # Two tables fitted in turn over the strikes that are not returns, on top of the one
-        # the file must already have.
+    if args.shape or args.pressure or args.late:
+        # Tables fitted in turn over the strikes that are not returns, on top of the one the
+        # file must already have.
         needs, fit_first, add, fit = (
             ("strike_pressure", "--pressure", with_strike_shape, fit_strike_shape) if args.shape
+            else ("strike_pressure", "--pressure", with_strike_late, fit_strike_pressure)
+            if args.late
             else ("strike_return", "--returns", with_strike_pressure, fit_strike_pressure))
         if getattr(model, needs) is None:
             raise SystemExit(f"{run.path}: no model.{needs}: fit it first ({fit_first})")
         model = add(model)
-        table = fit(model, states, states.returns(), prior_strikes=args.prior_strikes)
+        kw = {"late_only": True} if args.late and args.late_only else {}
+        table = fit(model, states, states.returns(), prior_strikes=args.prior_strikes, **kw)
         table.insert(0, "player", table.pop("id").map(names))
         cols = list(table.columns) if args.shape else \
             ["table", "player", "receiver", "n"] + [f"{k}_{w}" for k in KINDS

@@ -20,6 +20,7 @@ from sportsngen.train.strike_bias import (
     fit_strike_shape,
     fit_strike_width,
     with_strike_bias,
+    with_strike_late,
     with_strike_pressure,
     with_strike_return,
     with_strike_shape,
@@ -395,9 +396,10 @@ def test_a_player_added_for_fine_tuning_gets_a_zero_row_in_every_per_identity_ta
     from sportsngen.train.strike_inputs import with_strike_players
 
     vocab = Vocab(players=("A", "B", "C", "D"))
-    model = with_strike_players(with_strike_shape(with_strike_pressure(with_strike_return(
-        with_strike_width(with_strike_bias(with_receiver_start(with_serve_short(with_serve_aim(
-            with_serve_bias(small_model(n_ids=vocab.n_ids, strike_roles=True)))))))))))
+    model = with_strike_late(with_strike_players(with_strike_shape(with_strike_pressure(
+        with_strike_return(with_strike_width(with_strike_bias(with_receiver_start(
+            with_serve_short(with_serve_aim(with_serve_bias(
+                small_model(n_ids=vocab.n_ids, strike_roles=True))))))))))))
     # The tables are buffers, the players' input shifts parameters of the model itself (the
     # identity embedding's rows are copied, not zeroed: not a table).
     per_identity = sorted(name for name, b in [*model.named_buffers(), *model.named_parameters()]
@@ -509,6 +511,115 @@ def test_the_fit_finds_the_opponents_share_of_the_errors():
     assert (again.strike_return[[2, 3], 0] != 0).all()
     with pytest.raises(ValueError, match="with_strike_pressure"):
         fit_strike_pressure(with_strike_return(with_strike_bias(small_model())), st, returns)
+
+
+def _late_model() -> SportsNGEN:
+    return with_strike_late(with_strike_pressure(with_strike_return(with_strike_bias(
+        small_model()))))
+
+
+def test_the_late_table_adds_on_a_hitters_strikes_from_the_fifth_on():
+    model = _late_model()
+    assert model.strike_late.shape == (6, 2, 3) and (model.strike_late == 0).all()
+    model.strike_bias[3, 1] = torch.tensor([1.0, 0.0, 0.0])
+    model.strike_late[3, 1] = torch.tensor([0.5, -1.0, 0.0])
+    model.strike_late[3, 0] = torch.tensor([9.0, 9.0, 9.0])       # another role: not read
+    shots = torch.tensor([1, 3, 4, 5, 7, 12])
+    n = len(shots)
+    b = model.strike_head_bias(torch.full((n,), 3), torch.ones(n, dtype=torch.bool),
+                               shots == 1, torch.full((n,), 2), shots)
+    masks = torch.as_tensor(strike_bias.error_bins())
+    assert [b[k, 0][masks[0]].unique().tolist() for k in range(n)] == \
+        [[1.0], [1.0], [1.0], [1.5], [1.5], [1.5]]
+    assert [b[k, 1][masks[1]].unique().tolist() for k in range(n)] == \
+        [[0.0], [0.0], [0.0], [-1.0], [-1.0], [-1.0]]
+    assert strike_bias.LATE_SHOT == 5
+    # The strike's number not given: no strike is late.
+    torch.testing.assert_close(
+        model.strike_head_bias(torch.full((n,), 3), torch.ones(n, dtype=torch.bool),
+                               shots == 1, torch.full((n,), 2)), b[[0, 1, 1, 1, 1, 1]])
+    with pytest.raises(ValueError, match="strike_pressure"):
+        ModelConfig(strike_head=True, strike_bias=True, strike_return=True, strike_late=True)
+
+
+def test_a_rollouts_strike_reads_the_late_row_by_the_rallys_shot():
+    model = _late_model()
+    model.strike_late[3, 1, 0] = 2.0
+    model.strike_late[2, 0, 0] = 5.0
+    seen, pos = _two_strikes_seen(model)
+    long = torch.as_tensor(strike_bias.error_bins()[0])
+    for shot, want in (([3, 4], [0.0, 0.0]), ([5, 6], [2.0, 5.0])):
+        model.place_strikes(torch.zeros(2, 3, 32), pos, torch.zeros(2, 3, 3), pos.clone(),
+                            forced=torch.tensor([True, True]),
+                            server_ident=torch.tensor([2, 2]),
+                            receiver_ident=torch.tensor([3, 3]),
+                            returning=torch.tensor([False, False]), shot=torch.tensor(shot))
+        assert [seen["bias"][k, 0][long].unique().tolist() for k in (0, 1)] == \
+            [[want[0]], [want[1]]]
+
+
+def _late_states(model, n=800, seed=0):
+    """Receiver 2 against server 4 (long 5 % before his fifth strike, 30 % from it on) and
+    receiver 3 against server 5 (15 % throughout), `n` rally strikes each, half of them late."""
+    rng = np.random.default_rng(seed)
+    masks = strike_bias.error_bins()
+    long_b, deep_in = np.flatnonzero(masks[0])[:6], np.flatnonzero(~masks[0])[-20:]
+    shot = np.tile(np.repeat([3, 7], n // 2), 2)
+    share = np.concatenate([np.where(shot[:n] >= 5, 0.30, 0.05), np.full(n, 0.15)])
+    m = 2 * n
+    depth = np.where(rng.random(m) < share, rng.choice(long_b, m), rng.choice(deep_in, m))
+    bins = np.stack([depth, rng.choice(np.flatnonzero(~masks[1]), m), rng.integers(20, 40, m),
+                     rng.integers(96, size=m)], -1)
+    return HeadStates(torch.randn(m, model.cfg.d_model), torch.as_tensor(bins), np.arange(m),
+                      np.zeros(m, dtype=np.int64), np.zeros((m, 3)), np.ones(m, dtype=bool),
+                      np.repeat([4, 5], n).astype(np.int64), np.repeat([2, 3], n).astype(np.int64),
+                      shot=shot.astype(np.int64))
+
+
+def test_the_late_fit_splits_a_hitters_errors_by_the_strikes_number():
+    model = _late_model()
+    st = _late_states(model)
+    returns = np.zeros(len(st), dtype=bool)
+    table = fit_strike_pressure(model, st, returns, rounds=6, prior_strikes=0.0)
+    assert set(table["table"]) == {"opponent", "hitter", "late"}
+    late = table[table["table"] == "late"].set_index("id")
+    assert late.loc[2, "n"] == 400 and late.loc[3, "n"] == 400
+    long = torch.as_tensor(strike_bias.error_bins()[0])
+    record = long[st.bins[:, 0]].float()
+
+    def odds(m) -> torch.Tensor:
+        bias = m.strike_head_bias(torch.as_tensor(st.receiver_id),
+                                  torch.ones(len(st), dtype=torch.bool),
+                                  torch.as_tensor(returns), torch.as_tensor(st.server_id),
+                                  torch.as_tensor(st.shot))
+        with torch.no_grad():
+            return (m.strike_head.dim_logits(st.h, st.bins, 0, bias).softmax(-1) * long).sum(-1)
+
+    got = odds(model)
+    for rows in (slice(0, 400), slice(400, 800), slice(800, 1200), slice(1200, 1600)):
+        assert float(got[rows].mean()) == pytest.approx(float(record[rows].mean()), abs=0.01)
+    assert float(record[:400].mean()) == pytest.approx(0.05, abs=0.03)
+    assert float(record[400:800].mean()) == pytest.approx(0.30, abs=0.05)
+    assert float(model.strike_late[2, 1, 0]) > 1.0          # 5 % -> 30 %: about 2 logits
+    assert abs(float(model.strike_late[3, 1, 0])) < 0.5
+    # Without the late table a hitter's one row misses both: his early strikes drawn too long.
+    plain = with_strike_pressure(with_strike_return(with_strike_bias(small_model())))
+    plain.load_state_dict({k: v for k, v in model.state_dict().items() if k != "strike_late"})
+    fit_strike_pressure(plain, st, returns, rounds=6, prior_strikes=0.0)
+    assert float(odds(plain)[:400].mean()) - float(record[:400].mean()) > 0.08
+    # The late table alone on top of that fit: the other tables kept, the late strikes matched.
+    kept = with_strike_late(plain)
+    before = {k: getattr(kept, k).clone() for k in ("strike_bias", "strike_pressure",
+                                                    "strike_return")}
+    alone = fit_strike_pressure(kept, st, returns, prior_strikes=0.0, late_only=True)
+    assert set(alone["table"]) == {"late"}
+    for k, v in before.items():
+        assert torch.equal(getattr(kept, k), v), k
+    assert float(odds(kept)[400:800].mean()) == pytest.approx(float(record[400:800].mean()),
+                                                              abs=0.01)
+    assert float(odds(kept)[:400].mean()) == pytest.approx(float(odds(plain)[:400].mean()))
+    with pytest.raises(ValueError, match="with_strike_late"):
+        fit_strike_pressure(plain, st, returns, late_only=True)
 
 
 def _shape_model() -> SportsNGEN:

@@ -100,9 +100,11 @@ def teacher_forced_strikes(model, arrays: RallyArrays, truth: RallyData, draws: 
     picked = shots.iloc[rows]
     shot = picked["shot_index"].to_numpy(np.int64)
     # The file's per-hitter shifts, where it has them (`model.strike_bias`; the returns' own
-    # with `model.strike_return`, the opponents' with `model.strike_pressure`).
+    # with `model.strike_return`, the opponents' with `model.strike_pressure`, the late
+    # strikes' with `model.strike_late`).
     bias = model.strike_head_bias(torch.cat(hitters), torch.cat(receivers),
-                                  torch.as_tensor(shot == 1), torch.cat(opponents))
+                                  torch.as_tensor(shot == 1), torch.cat(opponents),
+                                  torch.as_tensor(shot))
     idx = torch.stack([model.strike_head.sample(h, 1.0, gen, dim_bias=bias)
                        for _ in range(draws)], 1).numpy()
     rec = strike_errors(strike.strike_bin_value(rec_bins, rng.random(rec_bins.shape)))

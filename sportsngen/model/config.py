@@ -158,6 +158,13 @@ class ModelConfig:
     # same whoever sent the ball, while the record's runs 6.78 m against Isner to 7.52 against
     # Djokovic (docs/evaluation.md, forty-third part).
     strike_shape: bool = False
+    # With the opponents' table, one more per hitter and role of the same three shifts, added on
+    # his strikes from the rally's fifth on (`model.strike_bias.LATE_SHOT`; fitted on the record
+    # with the hitters' and opponents' tables by `train.strike_bias.fit_strike_pressure`, or
+    # moved by the model's own rollouts, `train.rollout_tables`; zero until then): in rollouts
+    # some men's late balls err more than the truth's (docs/evaluation.md, forty-seventh and
+    # forty-eighth parts). An option, off in the bundled file.
+    strike_late: bool = False
     # A table of per-server shifts of the receiver's odds of starting his run while the serve
     # flies at him (`model.receiver_start`, fitted by `train.receiver_start`; zero until
     # then): the truth's receivers wait longer against a server who disguises his serve, the
@@ -245,6 +252,9 @@ class ModelConfig:
                              "shift's index: it needs model.strike_roles")
         if self.strike_shape and not self.strike_pressure:
             raise ValueError("model.strike_shape is read with the opponents' table: it needs "
+                             "strike_pressure=True")
+        if self.strike_late and not self.strike_pressure:
+            raise ValueError("model.strike_late is fitted with the opponents' table: it needs "
                              "strike_pressure=True")
         if self.strike_return and not self.strike_bias:
             raise ValueError("model.strike_return is read with the strike head's error table: "

@@ -189,7 +189,7 @@ class SportsNGEN(nn.Module):
                            "strike_bias",
                            "strike_width", "strike_return", "strike_pressure",
                            "strike_shape", "strike_shape_opponent", "strike_player",
-                           "strike_opponent")
+                           "strike_opponent", "strike_late")
 
     def __init__(self, cfg: ModelConfig):
         super().__init__()
@@ -245,6 +245,10 @@ class SportsNGEN(nn.Module):
                              torch.zeros(cfg.n_ids, strike_bias_table.N_ROLES,
                                          strike_bias_table.N_KINDS)
                              if cfg.strike_pressure else None)
+        self.register_buffer("strike_late",
+                             torch.zeros(cfg.n_ids, strike_bias_table.N_ROLES,
+                                         strike_bias_table.N_KINDS)
+                             if cfg.strike_late else None)
         shape = (cfg.n_ids, strike_bias_table.N_ROLES, strike_bias_table.N_SHAPES)
         self.register_buffer("strike_shape", torch.zeros(shape) if cfg.strike_shape else None)
         self.register_buffer("strike_shape_opponent",
@@ -503,13 +507,16 @@ class SportsNGEN(nn.Module):
     def strike_head_bias(self, hitter_ident: torch.Tensor | None,
                          receiver: torch.Tensor | None,
                          returning: torch.Tensor | None = None,
-                         opponent_ident: torch.Tensor | None = None) -> torch.Tensor | None:
+                         opponent_ident: torch.Tensor | None = None,
+                         shot: torch.Tensor | None = None) -> torch.Tensor | None:
         """The strike head's logit shifts (N, 4, bins) for strikes of `hitter_ident` (N,), the
         point's receiver where `receiver` (N,) bool (`model.strike_bias`, with the width's tilt
         where the model has `strike_width`, the returns' table on the rows `returning` (N,)
         bool where it has `strike_return`, and the row of `opponent_ident` (N,) on the others
         where it has `strike_pressure`, and the depth's and net height's tilts of both where it
-        has `strike_shape`); None where the model has no table or the hitter is not given."""
+        has `strike_shape`, and the late table on the strikes `shot` (N,) numbered
+        `strike_bias.LATE_SHOT` or more where it has `strike_late`); None where the model has no
+        table or the hitter is not given."""
         if self.strike_bias is None or hitter_ident is None or receiver is None:
             return None
         opponent = None if opponent_ident is None else self._ident(opponent_ident)
@@ -518,7 +525,8 @@ class SportsNGEN(nn.Module):
                                                  self.strike_return, returning,
                                                  self.strike_pressure, opponent,
                                                  self.strike_shape,
-                                                 self.strike_shape_opponent)
+                                                 self.strike_shape_opponent,
+                                                 self.strike_late, shot)
 
     def receiver_start_bias(self, server_ident: torch.Tensor | None,
                             serve: torch.Tensor | None,
@@ -576,7 +584,8 @@ class SportsNGEN(nn.Module):
         receivers', which `cfg.strike_bias` reads; `returning` (B,) bool: the rallies whose
         next contact is the return (only the serve struck so far), which `cfg.strike_return`
         reads on a strike from the receiver's end; `shot` (B,): the rallies' contacts so far,
-        the number of a strike drawn now (1 the return), which `cfg.strike_shots` reads). ->
+        the number of a strike drawn now (1 the return), which `cfg.strike_shots` and
+        `cfg.strike_late` read). ->
         (nxt, the launches' next two frames (B, 2, 3))."""
         # Whose strike a frame would be: the receiver's on his end, else the server's.
         recv = strike_heads.ball_on_receivers_end(pos_m)
@@ -599,7 +608,8 @@ class SportsNGEN(nn.Module):
         if self.strike_bias is not None and hitter is not None:
             def strike_shift(rows: torch.Tensor) -> torch.Tensor:
                 ret = None if returning is None else recv[rows] & returning[rows]
-                return self.strike_head_bias(hitter[rows], recv[rows], ret, opponent[rows])
+                return self.strike_head_bias(hitter[rows], recv[rows], ret, opponent[rows],
+                                             None if shot is None else shot[rows])
         return strike_heads.place_strikes(self.strike_head, self.serve_head, h, pos_m, vel_mps,
                                           nxt, self.cfg.fps, generator, top_p, allowed, forced,
                                           top_p_serve, strike_h, serve_shift, strike_shift)

@@ -38,6 +38,17 @@ teacher-forced on the training strikes the head's mean depth of the receivers' r
 7.27-7.46 m whoever of the men sent the ball, while the record's runs from 6.78 m (against
 Isner) to 7.52 (against Djokovic or Nadal). Measured on the bundled file, not bundled: the rallies
 came nearer the truth's, the serve points won further (docs/evaluation.md, forty-third part).
+
+`ModelConfig.strike_late` adds one more table, per hitter and role, of the same three shifts on
+his strikes from the rally's `LATE_SHOT`th on (the return is the first). The head's input knows
+the strike's number (`strike_shots`) and the hitter (`strike_players`), but not both at once:
+teacher-forced at the record's own late strikes Federer's fourth and sixth balls were in play
+0.795 and 0.866 of the time where his record's were 0.892 and 0.929, Nadal's fifth and seventh
+0.805 and 0.771 against 0.761 and 0.694, and in rollouts Murray's balls from the fifth on erred
+0.205 of the time where a 12,000-point truth's erred 0.161 (docs/evaluation.md, forty-seventh
+part). Fitted on the record it moved the wrong way (the head at the record's own late states
+errs less than the record; the rollouts' players arrive worse); `train.rollout_tables` moves it
+by the model's own rollouts instead (docs/evaluation.md, forty-eighth part).
 """
 
 from __future__ import annotations
@@ -53,6 +64,7 @@ N_KINDS = 3
 N_ROLES = 2                    # 0: the hitter serves this point; 1: he receives
 DEPTH, HEIGHT = 0, 1           # the shape tables' last axis: which dimension is tilted
 N_SHAPES = 2
+LATE_SHOT = 5                  # the late table's first strike (1 the return)
 
 
 def error_bins() -> np.ndarray:
@@ -133,7 +145,9 @@ def strike_dim_bias(table: torch.Tensor, hitter_id: torch.Tensor, receiver: torc
                     pressure: torch.Tensor | None = None,
                     opponent_id: torch.Tensor | None = None,
                     shape: torch.Tensor | None = None,
-                    shape_opponent: torch.Tensor | None = None) -> torch.Tensor:
+                    shape_opponent: torch.Tensor | None = None,
+                    late: torch.Tensor | None = None,
+                    shot: torch.Tensor | None = None) -> torch.Tensor:
     """The strike head's logit shifts for strikes of `hitter_id` (N,), who is the point's
     receiver where `receiver` (N,) bool, from `table` (n_ids, N_ROLES, N_KINDS) and the
     width's `width` (n_ids, N_ROLES) or None -> (N, 4, STRIKE_BINS): each kind's error bins
@@ -144,8 +158,13 @@ def strike_dim_bias(table: torch.Tensor, hitter_id: torch.Tensor, receiver: torc
     being answered), his row by the hitter's role is added on every strike but a return. With
     the shape tables `shape` and `shape_opponent` (n_ids, N_ROLES, N_SHAPES), the hitter's row
     and (with `opponent_id`) the opponent's tilt the depth and net-height bins
-    (`depth_tilt`, `height_tilt`) on every strike but a return."""
+    (`depth_tilt`, `height_tilt`) on every strike but a return. With the late table `late`
+    (n_ids, N_ROLES, N_KINDS) and `shot` (N,) (the strike's number, 1 the return), the hitter's
+    row by role is added on the strikes numbered `LATE_SHOT` or more."""
     shift = table[hitter_id.long(), receiver.long()]                      # (N, N_KINDS)
+    if late is not None and shot is not None:
+        shift = shift + late[hitter_id.long(), receiver.long()] * \
+            (shot >= LATE_SHOT).to(shift.dtype)[:, None]
     if returns is not None and returning is not None:
         shift = shift + returns[hitter_id.long()] * returning.to(shift.dtype)[:, None]
     if pressure is not None and opponent_id is not None:

@@ -178,7 +178,7 @@ def _follow_strikes(model: SportsNGEN, h: torch.Tensor, pos: torch.Tensor, vel: 
     per-server shift (`cfg.serve_bias`), with `receiver_ident` (B,) too the strike head's
     per-hitter shift (`cfg.strike_bias`), with `returning` (B,) bool (only the serve struck
     so far) the returns' (`cfg.strike_return`), with `shot` (B,) (the contacts so far) the
-    strike's number (`cfg.strike_shots`)."""
+    strike's number (`cfg.strike_shots`, `cfg.strike_late`)."""
     planned = ~torch.isnan(plan[:, 0, 0])
     if bool(planned.any()):
         nxt = nxt.clone()
@@ -370,7 +370,8 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                 shots = getattr(tracker, "n_shots", None)
                 returning = None if shots is None or model.strike_return is None else \
                     torch.as_tensor(awaiting_return(np.asarray(shots)[alive]), device=dev)
-                shot = None if shots is None or model.strike_shot is None else \
+                shot = None if shots is None or (model.strike_shot is None
+                                                 and model.strike_late is None) else \
                     torch.as_tensor(np.asarray(shots)[alive], device=dev)
                 nxt, plan = _follow_strikes(model, h, pos, vel, nxt, plan, generator, forced,
                                             top_p_serve, serve, ident[:, 0], ident[:, 1],

@@ -217,7 +217,7 @@ def _check_rounds(states: HeadStates, returns: np.ndarray, rounds: int, prior_st
 @torch.no_grad()
 def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarray,
                         rounds: int = 4, prior_strikes: float = 200.0,
-                        min_strikes: int = 50) -> pd.DataFrame:
+                        min_strikes: int = 50, late_only: bool = False) -> pd.DataFrame:
     """Fill the opponents' table (`model.strike_pressure`) and refit the hitters' rows
     (`model.strike_bias`), in place, on the recorded rally strikes `states` that are not
     returns (`returns` (N,) bool; `HeadStates.returns`), then the returns' table on top of the
@@ -226,8 +226,12 @@ def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarr
     role, with at least `min_strikes` strikes) by matching its strikes' mean odds to the
     record's, pulled toward the odds before by `prior_strikes` pseudo-strikes, as
     `fit_strike_bias` does. A constant moved from every hitter's row to every opponent's
-    reads the same; the prior keeps each table near where the head's own odds were. -> per
-    (table: "opponent" or "hitter", id, receiver) of the last round: n and per kind the
+    reads the same; the prior keeps each table near where the head's own odds were. A model
+    with the late table (`cfg.strike_late`) gets it fitted in the same turns, each hitter's
+    cell by role on his strikes numbered `strike_bias.LATE_SHOT` or more, on top of his row,
+    which is then matched on his other strikes; with `late_only` the late table alone, on top
+    of the others as they are (one round; the returns' table kept). -> per (table:
+    "opponent", "hitter" or "late", id, receiver) of the last round: n and per kind the
     record's share, the odds before and after, and the shift."""
     if model.strike_pressure is None:
         raise ValueError("the model has no opponents' table (cfg.strike_pressure): add it with "
@@ -254,12 +258,39 @@ def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarr
         for kind, dim in ((strike_bias.LONG, 0), (strike_bias.NET, 2)):
             logits[kind] = logits[kind] + tilted[:, dim]
     record = [masks[k][bins[:, k]].to(x.dtype) for k in range(strike_bias.N_KINDS)]
-    tables = {"opponent": (model.strike_pressure, opponent, model.strike_bias, hitter),
-              "hitter": (model.strike_bias, hitter, model.strike_pressure, opponent)}
+    every = torch.ones(len(rows), dtype=torch.bool)
+    # Each table: its tensor, the identity that picks a strike's row, the strikes it is added
+    # on, the strikes it is matched on.
+    tables = {"opponent": (model.strike_pressure, opponent, every, every),
+              "hitter": (model.strike_bias, hitter, every, every)}
+    if model.strike_late is not None:
+        # A hitter's row is matched on his early strikes and his late row on his late ones on
+        # top of it, so the two do not pull each other round by round (matched both on all,
+        # the early strikes' error closed by a fifth a round). Where a role has too few late
+        # strikes for a cell, they stay with the early ones.
+        late = states.shot_numbers()[rows] >= strike_bias.LATE_SHOT
+        cells = pd.DataFrame({"id": hitter.numpy(), "receiver": recv.numpy(), "late": late})
+        size = cells.groupby(["id", "receiver", "late"])["late"].transform("size").to_numpy()
+        apart = torch.as_tensor(late & (size >= min_strikes))
+        tables["hitter"] = (model.strike_bias, hitter, every, ~apart)
+        tables["late"] = (model.strike_late, hitter, torch.as_tensor(late), apart)
+        if late_only:
+            tables["hitter"] = (model.strike_bias, hitter, every, ~every)
+            tables["opponent"] = (model.strike_pressure, opponent, every, ~every)
+            rounds = 1
+    elif late_only:
+        raise ValueError("late_only fits the late table (cfg.strike_late): add it with "
+                         "with_strike_late")
+
+    def others(name: str, j: torch.Tensor, rcv: int, kind: int) -> torch.Tensor:
+        """The strikes `j`'s shifts of `kind` from every table but `name`."""
+        return sum(t[ids[j], rcv, kind] * on[j].to(x.dtype)
+                   for other, (t, ids, on, _) in tables.items() if other != name)
+
     out = []
     for r in range(rounds):
-        for name, (table, ids, other, other_ids) in tables.items():
-            keys = pd.DataFrame({"id": ids.numpy(), "receiver": recv.numpy()})
+        for name, (table, ids, _, matched) in tables.items():
+            keys = pd.DataFrame({"id": ids.numpy(), "receiver": recv.numpy()})[matched.numpy()]
             for (cid, rcv), g in keys.groupby(["id", "receiver"]):
                 if len(g) < min_strikes:
                     continue
@@ -268,8 +299,7 @@ def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarr
                 for kind, kname in enumerate(KINDS):
                     mask = masks[kind].expand(len(j), -1)
                     weight = mask.to(x.dtype)
-                    base = logits[kind][j] + \
-                        other[other_ids[j], int(rcv), kind][:, None] * weight
+                    base = logits[kind][j] + others(name, j, int(rcv), kind)[:, None] * weight
                     fit = matched_shift(base, mask, weight, float(record[kind][j].mean()),
                                         prior_strikes)
                     table[int(cid), int(rcv), kind] = fit["shift"]
@@ -277,8 +307,16 @@ def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarr
                                                                   "shift")})
                 if r == rounds - 1:
                     out.append(row)
-    fit_strike_return(model, states, returns, prior_strikes, min_strikes, rally=False)
+    if not late_only:
+        fit_strike_return(model, states, returns, prior_strikes, min_strikes, rally=False)
     return pd.DataFrame(out)
+
+
+def with_strike_late(model: SportsNGEN) -> SportsNGEN:
+    """`model` (with the opponents' table) with the late strikes' table added
+    (`cfg.strike_late`), at zero: it draws as before until `fit_strike_pressure` fills it.
+    -> a new model."""
+    return with_flag(model, "strike_late", ["strike_late"])
 
 
 def error_shares(table: pd.DataFrame) -> pd.DataFrame:

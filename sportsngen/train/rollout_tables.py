@@ -1,0 +1,94 @@
+"""The late strikes' error table fitted on the model's own rollouts (closed loop).
+
+`ModelConfig.strike_late` adds a shift per hitter and role on his strikes from the rally's fifth
+on. Matched to the record's strikes (`train.strike_bias.fit_strike_pressure`) it moved the
+wrong way: at the record's own late states the head errs less than the record for nearly every
+named hitter, while in rollouts the same hitters' late balls err more than a large truth's, the
+model's players arriving worse than the record's (docs/evaluation.md, forty-eighth part). Here
+the table is moved by what the rollouts drew instead: per hitter and role, the log-odds gap
+between a truth's share of his late strikes that ended the point as his error and his
+rollouts' share (`eval.shot_profile.strike_endings`), pooled over matchups, shrunk toward zero
+by `prior_strikes` pseudo-strikes and added to all three of his error kinds (for errors this
+rare a shift of every error bin by d multiplies his odds of an error by about e^d).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import torch
+
+from sportsngen.data.tokens import Vocab
+from sportsngen.model.decoder import SportsNGEN
+from sportsngen.train.serve_bias import MAX_SHIFT
+
+LATE_STAGE = "shots 5+"            # `eval.shot_profile.STRIKE_STAGES`' stage the table covers
+ROLES = ("server", "receiver")     # `strike_endings`' roles, in the table's order
+
+
+def _logit(p: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """Log-odds of shares `p` of `n` strikes, kept off 0 and 1 by half a strike."""
+    p = np.clip(p, 0.5 / n, 1.0 - 0.5 / n)
+    return np.log(p / (1.0 - p))
+
+
+def rollout_error_gaps(pairs: list[tuple[pd.DataFrame, pd.DataFrame]],
+                       stage: str = LATE_STAGE) -> pd.DataFrame:
+    """`pairs` of (a matchup's rollouts' `strike_endings`, the same matchup's truth's) -> per
+    hitter and role on `stage`: the rollouts' strikes `n`, their error share and the truth's
+    (each pooled over the matchups, weighted by the rollouts' strikes) and `gap`, the truth's
+    log-odds less the rollouts', averaged over the matchups with the same weights. A hitter
+    with strikes on one side only is left out."""
+    if not pairs:
+        raise ValueError("no (rollouts, truth) pair given")
+    rows = []
+    for k, (sim, truth) in enumerate(pairs):
+        for name, table in (("sim", sim), ("truth", truth)):
+            if not {"n", "error"} <= set(table.columns):
+                raise ValueError(f"pair {k}'s {name} is not a strike_endings table")
+        s = sim.xs(stage, level="stage") if stage in sim.index.get_level_values("stage") \
+            else sim.iloc[:0].droplevel("stage")
+        t = truth.xs(stage, level="stage") if stage in truth.index.get_level_values("stage") \
+            else truth.iloc[:0].droplevel("stage")
+        both = s[["n", "error"]].join(t[["n", "error"]], lsuffix="_sim", rsuffix="_truth",
+                                      how="inner")
+        both["gap"] = _logit(both["error_truth"].to_numpy(), both["n_truth"].to_numpy()) - \
+            _logit(both["error_sim"].to_numpy(), both["n_sim"].to_numpy())
+        rows.append(both.reset_index())
+    frame = pd.concat(rows, ignore_index=True)
+    w = frame["n_sim"]
+    frame = frame.assign(err_sim_w=frame["error_sim"] * w, err_truth_w=frame["error_truth"] * w,
+                         gap_w=frame["gap"] * w)
+    out = frame.groupby(["hitter", "role"]).agg(n=("n_sim", "sum"), es=("err_sim_w", "sum"),
+                                                et=("err_truth_w", "sum"), g=("gap_w", "sum"))
+    return pd.DataFrame({"n": out["n"], "error_sim": out["es"] / out["n"],
+                         "error_truth": out["et"] / out["n"], "gap": out["g"] / out["n"]})
+
+
+@torch.no_grad()
+def add_rollout_late_shift(model: SportsNGEN, vocab: Vocab, gaps: pd.DataFrame,
+                           prior_strikes: float = 200.0) -> pd.DataFrame:
+    """Add to `model.strike_late` (in place) each hitter's and role's `gap`
+    (`rollout_error_gaps`) shrunk by n / (n + `prior_strikes`), on all three error kinds,
+    the sum kept within the matching's `MAX_SHIFT`. -> `gaps` with the `step` added and the
+    cell's `shift` after."""
+    if model.strike_late is None:
+        raise ValueError("the model has no late table (cfg.strike_late): add it with "
+                         "train.strike_bias.with_strike_late")
+    if prior_strikes < 0:
+        raise ValueError(f"prior_strikes must be >= 0, got {prior_strikes}")
+    # Every row checked before any cell moves.
+    cells = []
+    for hitter, role in gaps.index:
+        if role not in ROLES:
+            raise ValueError(f"role must be one of {ROLES}, got {role!r}")
+        cells.append((vocab.player_index(hitter, unknown="error"), ROLES.index(role)))
+    out = gaps.copy()
+    steps, shifts = [], []
+    for (ident, r), (_, row) in zip(cells, gaps.iterrows()):
+        step = float(row["gap"]) * row["n"] / (row["n"] + prior_strikes)
+        cell = model.strike_late[ident, r]
+        cell.add_(step).clamp_(-MAX_SHIFT, MAX_SHIFT)
+        steps.append(step)
+        shifts.append(float(cell.mean()))
+    return out.assign(step=steps, shift=shifts)
