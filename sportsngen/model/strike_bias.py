@@ -42,9 +42,9 @@ came nearer the truth's, the serve points won further (docs/evaluation.md, forty
 `ModelConfig.strike_late` adds one more table, per hitter and role, of the same three shifts on
 his strikes from the rally's `LATE_SHOT`th on (the return is the first). The head's input knows
 the strike's number (`strike_shots`) and the hitter (`strike_players`), but not both at once:
-teacher-forced at the record's own late strikes Federer's fourth and sixth balls were in play
-0.795 and 0.866 of the time where his record's were 0.892 and 0.929, Nadal's fifth and seventh
-0.805 and 0.771 against 0.761 and 0.694, and in rollouts Murray's balls from the fifth on erred
+in short rollouts from the record's states Federer's fourth and sixth balls were in play 0.795
+and 0.866 of the time where his record's were 0.892 and 0.929, Nadal's fifth and seventh 0.805
+and 0.771 against 0.761 and 0.694, and in whole rollouts Murray's balls from the fifth on erred
 0.205 of the time where a 12,000-point truth's erred 0.161 (docs/evaluation.md, forty-seventh
 part). Fitted on the record it moved the wrong way (the head at the record's own late states
 errs less than the record; the rollouts' players arrive worse); `train.rollout_tables` moves it

@@ -32,6 +32,12 @@ def _logit(p: np.ndarray, n: np.ndarray) -> np.ndarray:
     return np.log(p / (1.0 - p))
 
 
+def _at_stage(endings: pd.DataFrame, stage: str) -> pd.DataFrame:
+    """A `strike_endings` table's `n` and `error` on `stage`, indexed by hitter and role."""
+    rows = endings[endings.index.get_level_values("stage") == stage]
+    return rows[["n", "error"]].droplevel("stage")
+
+
 def rollout_error_gaps(pairs: list[tuple[pd.DataFrame, pd.DataFrame]],
                        stage: str = LATE_STAGE) -> pd.DataFrame:
     """`pairs` of (a matchup's rollouts' `strike_endings`, the same matchup's truth's) -> per
@@ -46,12 +52,8 @@ def rollout_error_gaps(pairs: list[tuple[pd.DataFrame, pd.DataFrame]],
         for name, table in (("sim", sim), ("truth", truth)):
             if not {"n", "error"} <= set(table.columns):
                 raise ValueError(f"pair {k}'s {name} is not a strike_endings table")
-        s = sim.xs(stage, level="stage") if stage in sim.index.get_level_values("stage") \
-            else sim.iloc[:0].droplevel("stage")
-        t = truth.xs(stage, level="stage") if stage in truth.index.get_level_values("stage") \
-            else truth.iloc[:0].droplevel("stage")
-        both = s[["n", "error"]].join(t[["n", "error"]], lsuffix="_sim", rsuffix="_truth",
-                                      how="inner")
+        both = _at_stage(sim, stage).join(_at_stage(truth, stage), lsuffix="_sim",
+                                          rsuffix="_truth", how="inner")
         both["gap"] = _logit(both["error_truth"].to_numpy(), both["n_truth"].to_numpy()) - \
             _logit(both["error_sim"].to_numpy(), both["n_sim"].to_numpy())
         rows.append(both.reset_index())
