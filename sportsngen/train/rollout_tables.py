@@ -14,22 +14,15 @@ rare a shift of every error bin by d multiplies his odds of an error by about e^
 
 from __future__ import annotations
 
-import numpy as np
 import pandas as pd
 import torch
 
 from sportsngen.data.tokens import Vocab
 from sportsngen.model.decoder import SportsNGEN
-from sportsngen.train.serve_bias import MAX_SHIFT
+from sportsngen.train.serve_bias import MAX_SHIFT, share_logit
 
 LATE_STAGE = "shots 5+"            # `eval.shot_profile.STRIKE_STAGES`' stage the table covers
 ROLES = ("server", "receiver")     # `strike_endings`' roles, in the table's order
-
-
-def _logit(p: np.ndarray, n: np.ndarray) -> np.ndarray:
-    """Log-odds of shares `p` of `n` strikes, kept off 0 and 1 by half a strike."""
-    p = np.clip(p, 0.5 / n, 1.0 - 0.5 / n)
-    return np.log(p / (1.0 - p))
 
 
 def _at_stage(endings: pd.DataFrame, stage: str) -> pd.DataFrame:
@@ -54,8 +47,8 @@ def rollout_error_gaps(pairs: list[tuple[pd.DataFrame, pd.DataFrame]],
                 raise ValueError(f"pair {k}'s {name} is not a strike_endings table")
         both = _at_stage(sim, stage).join(_at_stage(truth, stage), lsuffix="_sim",
                                           rsuffix="_truth", how="inner")
-        both["gap"] = _logit(both["error_truth"].to_numpy(), both["n_truth"].to_numpy()) - \
-            _logit(both["error_sim"].to_numpy(), both["n_sim"].to_numpy())
+        both["gap"] = share_logit(both["error_truth"].to_numpy(), both["n_truth"].to_numpy()) \
+            - share_logit(both["error_sim"].to_numpy(), both["n_sim"].to_numpy())
         rows.append(both.reset_index())
     frame = pd.concat(rows, ignore_index=True)
     w = frame["n_sim"]

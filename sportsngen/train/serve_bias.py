@@ -15,6 +15,7 @@ it.
 
 from __future__ import annotations
 
+import numpy as np
 import pandas as pd
 import torch
 
@@ -63,6 +64,13 @@ def solve_shift(logits: torch.Tensor, mask: torch.Tensor, weight: torch.Tensor,
     mean speed with the tilt)."""
     return bisect_shift(lambda s: float(mean_odds(logits, mask, weight, torch.tensor([s]))[0]),
                         target, MAX_SHIFT)
+
+
+def share_logit(share, n):
+    """Log-odds of a share of `n` counts (scalars or arrays), kept off 0 and 1 by half a count:
+    the gap a table moves by when a share is read from rollouts or a record."""
+    p = np.clip(share, 0.5 / np.asarray(n, dtype=float), 1.0 - 0.5 / np.asarray(n, dtype=float))
+    return np.log(p / (1.0 - p))
 
 
 def pulled_toward(record: float, head: float, n: int, prior: float) -> float:

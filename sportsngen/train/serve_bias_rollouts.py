@@ -29,7 +29,7 @@ from sportsngen.data.tokens import N_SPECIAL_IDS, RallyArrays
 from sportsngen.data.tracking import ERROR_KINDS, SURFACES
 from sportsngen.model import serve_bias
 from sportsngen.sim.simulator import points_plan
-from sportsngen.train.serve_bias import MAX_SHIFT
+from sportsngen.train.serve_bias import MAX_SHIFT, share_logit
 
 # A serve's fate is decided before 3 s of the rally (toss, flight, bounce): on 200 of the
 # bundled file's serves, cut at 3 s and played out, the same 65 faults and 7 aces.
@@ -79,11 +79,6 @@ def rollout_fault_share(sim, server: str, receivers: Sequence[str], serve_number
     return faults, decided
 
 
-def _logit(p: float, n: int) -> float:
-    p = min(max(p, 0.5 / n), 1.0 - 0.5 / n)
-    return float(np.log(p / (1.0 - p)))
-
-
 def refine_serve_bias(sim, arrays: Sequence[RallyArrays], players: Sequence[str],
                       n_serves: int = 400, rounds: int = 3, seed: int = 0,
                       log=print) -> pd.DataFrame:
@@ -116,7 +111,7 @@ def refine_serve_bias(sim, arrays: Sequence[RallyArrays], players: Sequence[str]
                 if rnd < rounds:
                     # A gain falling as 1 / (round + 1) averages the rounds' sampling noise
                     # away instead of chasing it (stochastic approximation).
-                    step = (_logit(target, n_rec) - _logit(share, n)) / (rnd + 1)
+                    step = float(share_logit(target, n_rec) - share_logit(share, n)) / (rnd + 1)
                     for kind in (serve_bias.LONG, serve_bias.WIDE):
                         v = float(model.serve_bias[sid, serve, kind]) + step
                         model.serve_bias[sid, serve, kind] = float(np.clip(v, -MAX_SHIFT,

@@ -258,6 +258,9 @@ def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarr
         for kind, dim in ((strike_bias.LONG, 0), (strike_bias.NET, 2)):
             logits[kind] = logits[kind] + tilted[:, dim]
     record = [masks[k][bins[:, k]].to(x.dtype) for k in range(strike_bias.N_KINDS)]
+    if late_only and model.strike_late is None:
+        raise ValueError("late_only fits the late table (cfg.strike_late): add it with "
+                         "with_strike_late")
     every = torch.ones(len(rows), dtype=torch.bool)
     # Each table: its tensor, the identity that picks a strike's row, the strikes it is added
     # on, the strikes it is matched on.
@@ -274,13 +277,11 @@ def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarr
         apart = torch.as_tensor(late & (size >= min_strikes))
         tables["hitter"] = (model.strike_bias, hitter, every, ~apart)
         tables["late"] = (model.strike_late, hitter, torch.as_tensor(late), apart)
-        if late_only:
-            tables["hitter"] = (model.strike_bias, hitter, every, ~every)
-            tables["opponent"] = (model.strike_pressure, opponent, every, ~every)
-            rounds = 1
-    elif late_only:
-        raise ValueError("late_only fits the late table (cfg.strike_late): add it with "
-                         "with_strike_late")
+    if late_only:
+        # The other tables still add on their strikes, but none is matched; nothing else moves.
+        tables = {k: (t, ids, on, matched if k == "late" else ~every)
+                  for k, (t, ids, on, matched) in tables.items()}
+        rounds = 1
 
     def others(name: str, j: torch.Tensor, rcv: int, kind: int) -> torch.Tensor:
         """The strikes `j`'s shifts of `kind` from every table but `name`."""
