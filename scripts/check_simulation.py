@@ -60,6 +60,13 @@ from sportsngen.eval.shot_profile import (
     unanswered_by_flight,
 )
 from sportsngen.eval.stats import rally_hazards, serve_stats
+from sportsngen.eval.strike_states import (
+    HIGH_CONTACT_Z_M,
+    format_state_bands,
+    high_contact_share,
+    state_bands,
+    strike_states,
+)
 from sportsngen.sim import Simulator
 from sportsngen.sim.assemble import realistic_points
 from sportsngen.sim.events import classifier_winner, frame_labels, shot_labels
@@ -251,6 +258,12 @@ def main() -> None:
     print("\nstrikes that ended the point as the hitter's error or winner, by hitter, role and "
           "stage, sim / truth (z: the gap in standard errors of both):\n"
           + format_strike_endings(strike_endings(simd), strike_endings(truth)))
+    # From which states: where the rally balls are met (docs/evaluation.md, forty-ninth part).
+    states = {"sim": strike_states(simd), "truth": strike_states(truth)}
+    print(f"\nrally strikes from the server's first rally ball by where they are met, sim / "
+          f"truth (met above {HIGH_CONTACT_Z_M} m: {high_contact_share(states['sim']):.3f} / "
+          f"{high_contact_share(states['truth']):.3f}); share of strikes, error share, z:\n"
+          + format_state_bands(state_bands(states["sim"]), state_bands(states["truth"])))
     decided = r[(r["rules_winner"] >= 0)]
     agree_sim = float((decided["classifier_winner"] == decided["rules_winner"]).mean())
     sub = truth.subset(truth.rallies["rally_id"].iloc[:1000])

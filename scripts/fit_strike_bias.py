@@ -3,7 +3,7 @@ wide or into the net (`model.strike_bias`; `sportsngen.train.strike_bias`).
 
     .venv/bin/python scripts/fit_strike_bias.py --model FILE --out FILE [--more-data NAME]
         [--prior-strikes 200] [--width | --returns | --pressure | --shape | --shots |
-        --players | --late] [--states FILE]
+        --players | --late | --depth] [--states FILE]
         [--threads 2]
 
 The recorded rally strikes are the file's own training split (`extra.split`) and with
@@ -29,7 +29,10 @@ the same with a shift per hitter and role and one per opponent and the hitter's 
 (`model.strike_players`). With `--late` (a file with the opponents' table) a per-hitter table
 of the error shifts on his strikes from the rally's fifth on is added (`model.strike_late`)
 and fitted in turn with the hitters' and opponents' tables, then the returns' table again on
-top (with `--late-only` the late table alone, on top of the file's tables as they are).
+top (with `--late-only` the late table alone, on top of the file's tables as they are). With
+`--depth` (a file with the opponents' table) a table by the contact's depth behind the
+baseline and the hitter's role (`model.strike_depth`) is added and fitted alone on top of the
+file's tables as they are, then centred (it tilts the errors by depth, the level stays).
 `--states FILE` keeps
 the decoder's states read (most of the time; they do not depend on the tables). Everything
 else in the file is copied unchanged.
@@ -50,6 +53,7 @@ from sportsngen.train.strike_bias import (
     fit_strike_shape,
     fit_strike_width,
     with_strike_bias,
+    with_strike_depth,
     with_strike_late,
     with_strike_pressure,
     with_strike_return,
@@ -96,6 +100,8 @@ FITS = (
                 "(model.strike_shots), the error tables refitted with it"),
     ("--late", "add a per-hitter table of the error shifts on his strikes from the rally's "
                "fifth on (model.strike_late), fitted in turn with the hitters' and opponents'"),
+    ("--depth", "add a table by the contact's depth behind the baseline (model.strike_depth), "
+                "fitted alone on top of the file's tables and centred"),
     ("--players", "add shifts of the strike head's input per hitter and per opponent "
                   "(model.strike_players), the error tables refitted with them"),
 )
@@ -162,24 +168,32 @@ def main() -> None:
               .round(3).to_string(index=False))
         run.save(model, args.out)
         return
-    if args.shape or args.pressure or args.late:
+    if args.shape or args.pressure or args.late or args.depth:
         # Tables fitted in turn over the strikes that are not returns, on top of the one the
         # file must already have.
         needs, fit_first, add, fit = (
             ("strike_pressure", "--pressure", with_strike_shape, fit_strike_shape) if args.shape
             else ("strike_pressure", "--pressure", with_strike_late, fit_strike_pressure)
             if args.late
+            else ("strike_pressure", "--pressure", with_strike_depth, fit_strike_pressure)
+            if args.depth
             else ("strike_return", "--returns", with_strike_pressure, fit_strike_pressure))
         if getattr(model, needs) is None:
             raise SystemExit(f"{run.path}: no model.{needs}: fit it first ({fit_first})")
         model = add(model)
-        kw = {"late_only": True} if args.late and args.late_only else {}
+        kw = {"late_only": True} if args.late and args.late_only else \
+            {"depth_only": True} if args.depth else {}
         table = fit(model, states, states.returns(), prior_strikes=args.prior_strikes, **kw)
-        table.insert(0, "player", table.pop("id").map(names))
+        ids = table.pop("id")
+        table.insert(0, "player", ids.map(names) if not args.depth else
+                     ids.map(lambda b: f"depth band {b}"))
         cols = list(table.columns) if args.shape else \
             ["table", "player", "receiver", "n"] + [f"{k}_{w}" for k in KINDS
                                                     for w in ("record", "after", "shift")]
         print(table[cols].round(3).to_string(index=False))
+        if args.depth:
+            print("centred table (band x role x long/wide/net):\n"
+                  + str(model.strike_depth.numpy().round(3)))
         run.save(model, args.out)
         return
     if args.returns:

@@ -72,7 +72,7 @@ def teacher_forced_strikes(model, arrays: RallyArrays, truth: RallyData, draws: 
     rng = np.random.default_rng(seed)
     was_training = model.training
     model.eval()
-    found, h_rows, bin_rows, hitters, opponents, receivers = [], [], [], [], [], []
+    found, h_rows, bin_rows, hitters, opponents, receivers, ball_x = ([] for _ in range(7))
     for b0, batch in enumerate(loader):
         mask, bins = model.strike_targets(batch["pos_m"], batch["vel_mps"], batch["next_pos_m"],
                                           batch["has_next"])
@@ -91,6 +91,7 @@ def teacher_forced_strikes(model, arrays: RallyArrays, truth: RallyData, draws: 
                                          number[b0 * batch_size + torch.as_tensor(ok)],
                                          hitters[-1], opponents[-1]))
         bin_rows.append(bins[ok, t[ok]])
+        ball_x.append(batch["pos_m"][ok, t[ok], BALL, 0])
         receivers.append(recv)
         found.append(b0 * batch_size + ok)
     model.train(was_training)
@@ -104,7 +105,7 @@ def teacher_forced_strikes(model, arrays: RallyArrays, truth: RallyData, draws: 
     # strikes' with `model.strike_late`).
     bias = model.strike_head_bias(torch.cat(hitters), torch.cat(receivers),
                                   torch.as_tensor(shot == 1), torch.cat(opponents),
-                                  torch.as_tensor(shot))
+                                  torch.as_tensor(shot), torch.cat(ball_x))
     idx = torch.stack([model.strike_head.sample(h, 1.0, gen, dim_bias=bias)
                        for _ in range(draws)], 1).numpy()
     rec = strike_errors(strike.strike_bin_value(rec_bins, rng.random(rec_bins.shape)))

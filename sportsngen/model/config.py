@@ -165,6 +165,14 @@ class ModelConfig:
     # some men's late balls err more than the truth's (docs/evaluation.md, forty-seventh and
     # forty-eighth parts). An option, off in the bundled file.
     strike_late: bool = False
+    # With the opponents' table, one more by where the ball is struck: per band of the
+    # contact's distance behind the baseline (`model.strike_bias.DEPTH_EDGES_M`) and the
+    # hitter's role, the same three shifts on every strike but the return (fitted on the
+    # record, centred, on top of the other tables by `train.strike_bias.fit_strike_pressure`
+    # with `depth_only`; zero until then): the head's errors vary less with the hitter's depth
+    # than the record's (docs/evaluation.md, forty-ninth part). An option, off in the bundled
+    # file.
+    strike_depth: bool = False
     # A table of per-server shifts of the receiver's odds of starting his run while the serve
     # flies at him (`model.receiver_start`, fitted by `train.receiver_start`; zero until
     # then): the truth's receivers wait longer against a server who disguises his serve, the
@@ -252,6 +260,9 @@ class ModelConfig:
                              "shift's index: it needs model.strike_roles")
         if self.strike_shape and not self.strike_pressure:
             raise ValueError("model.strike_shape is read with the opponents' table: it needs "
+                             "strike_pressure=True")
+        if self.strike_depth and not self.strike_pressure:
+            raise ValueError("model.strike_depth is fitted with the opponents' table: it needs "
                              "strike_pressure=True")
         if self.strike_late and not self.strike_pressure:
             raise ValueError("model.strike_late is fitted with the opponents' table: it needs "

@@ -249,6 +249,11 @@ class SportsNGEN(nn.Module):
                              torch.zeros(cfg.n_ids, strike_bias_table.N_ROLES,
                                          strike_bias_table.N_KINDS)
                              if cfg.strike_late else None)
+        # By band of the contact's depth, not by identity: not among PER_IDENTITY_TABLES.
+        self.register_buffer("strike_depth",
+                             torch.zeros(strike_bias_table.N_DEPTH_BANDS,
+                                         strike_bias_table.N_ROLES, strike_bias_table.N_KINDS)
+                             if cfg.strike_depth else None)
         shape = (cfg.n_ids, strike_bias_table.N_ROLES, strike_bias_table.N_SHAPES)
         self.register_buffer("strike_shape", torch.zeros(shape) if cfg.strike_shape else None)
         self.register_buffer("strike_shape_opponent",
@@ -508,15 +513,17 @@ class SportsNGEN(nn.Module):
                          receiver: torch.Tensor | None,
                          returning: torch.Tensor | None = None,
                          opponent_ident: torch.Tensor | None = None,
-                         shot: torch.Tensor | None = None) -> torch.Tensor | None:
+                         shot: torch.Tensor | None = None,
+                         ball_x_m: torch.Tensor | None = None) -> torch.Tensor | None:
         """The strike head's logit shifts (N, 4, bins) for strikes of `hitter_ident` (N,), the
         point's receiver where `receiver` (N,) bool (`model.strike_bias`, with the width's tilt
         where the model has `strike_width`, the returns' table on the rows `returning` (N,)
         bool where it has `strike_return`, and the row of `opponent_ident` (N,) on the others
         where it has `strike_pressure`, and the depth's and net height's tilts of both where it
         has `strike_shape`, and the late table on the strikes `shot` (N,) numbered
-        `strike_bias.LATE_SHOT` or more where it has `strike_late`); None where the model has no
-        table or the hitter is not given."""
+        `strike_bias.LATE_SHOT` or more where it has `strike_late`, and the depth table's row by
+        where the ball is struck, `ball_x_m` (N,), on the rally strikes where it has
+        `strike_depth`); None where the model has no table or the hitter is not given."""
         if self.strike_bias is None or hitter_ident is None or receiver is None:
             return None
         opponent = None if opponent_ident is None else self._ident(opponent_ident)
@@ -526,7 +533,8 @@ class SportsNGEN(nn.Module):
                                                  self.strike_pressure, opponent,
                                                  self.strike_shape,
                                                  self.strike_shape_opponent,
-                                                 self.strike_late, shot)
+                                                 self.strike_late, shot,
+                                                 self.strike_depth, ball_x_m)
 
     def receiver_start_bias(self, server_ident: torch.Tensor | None,
                             serve: torch.Tensor | None,
@@ -609,7 +617,8 @@ class SportsNGEN(nn.Module):
             def strike_shift(rows: torch.Tensor) -> torch.Tensor:
                 ret = None if returning is None else recv[rows] & returning[rows]
                 return self.strike_head_bias(hitter[rows], recv[rows], ret, opponent[rows],
-                                             None if shot is None else shot[rows])
+                                             None if shot is None else shot[rows],
+                                             pos_m[rows, BALL, 0])
         return strike_heads.place_strikes(self.strike_head, self.serve_head, h, pos_m, vel_mps,
                                           nxt, self.cfg.fps, generator, top_p, allowed, forced,
                                           top_p_serve, strike_h, serve_shift, strike_shift)

@@ -22,7 +22,14 @@ from sportsngen.model import strike, strike_bias
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.train.finetune import with_flag
 from sportsngen.train.head_fit import HeadStates, head_inputs
-from sportsngen.train.serve_bias import MAX_SHIFT, bisect_shift, matched_shift, pulled_toward
+from sportsngen.train.serve_bias import (
+    MAX_SHIFT,
+    bisect_shift,
+    matched_shift,
+    mean_odds,
+    pulled_toward,
+    solve_shift,
+)
 
 KINDS = ("long", "wide", "net")
 SHAPES = ("depth", "height")
@@ -217,7 +224,8 @@ def _check_rounds(states: HeadStates, returns: np.ndarray, rounds: int, prior_st
 @torch.no_grad()
 def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarray,
                         rounds: int = 4, prior_strikes: float = 200.0,
-                        min_strikes: int = 50, late_only: bool = False) -> pd.DataFrame:
+                        min_strikes: int = 50, late_only: bool = False,
+                        depth_only: bool = False) -> pd.DataFrame:
     """Fill the opponents' table (`model.strike_pressure`) and refit the hitters' rows
     (`model.strike_bias`), in place, on the recorded rally strikes `states` that are not
     returns (`returns` (N,) bool; `HeadStates.returns`), then the returns' table on top of the
@@ -230,9 +238,15 @@ def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarr
     with the late table (`cfg.strike_late`) gets it fitted in the same turns, each hitter's
     cell by role on his strikes numbered `strike_bias.LATE_SHOT` or more, on top of his row,
     which is then matched on his other strikes; with `late_only` the late table alone, on top
-    of the others as they are (one round; the returns' table kept). -> per (table:
-    "opponent", "hitter" or "late", id, receiver) of the last round: n and per kind the
-    record's share, the odds before and after, and the shift."""
+    of the others as they are (one round; the returns' table kept). A model with the depth
+    table (`cfg.strike_depth`) gets it fitted in the same turns, a cell per band of the
+    contact's depth (`strike_bias.depth_band` of `HeadStates.contact_m`) and role; with
+    `depth_only` the depth table alone on top of the others as they are (one round), then
+    centred: per role and kind one constant taken from its fitted cells keeps the role's mean
+    odds of that error what they were without it, so it tilts the errors by depth and leaves
+    their level to the other tables. -> per (table: "opponent",
+    "hitter", "late" or "depth", id (the band for "depth"), receiver) of the last round: n and
+    per kind the record's share, the odds before and after, and the shift (before centring)."""
     if model.strike_pressure is None:
         raise ValueError("the model has no opponents' table (cfg.strike_pressure): add it with "
                          "with_strike_pressure")
@@ -258,9 +272,14 @@ def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarr
         for kind, dim in ((strike_bias.LONG, 0), (strike_bias.NET, 2)):
             logits[kind] = logits[kind] + tilted[:, dim]
     record = [masks[k][bins[:, k]].to(x.dtype) for k in range(strike_bias.N_KINDS)]
+    if late_only and depth_only:
+        raise ValueError("late_only and depth_only each fit one table alone: give one")
     if late_only and model.strike_late is None:
         raise ValueError("late_only fits the late table (cfg.strike_late): add it with "
                          "with_strike_late")
+    if depth_only and model.strike_depth is None:
+        raise ValueError("depth_only fits the depth table (cfg.strike_depth): add it with "
+                         "with_strike_depth")
     every = torch.ones(len(rows), dtype=torch.bool)
     # Each table: its tensor, the identity that picks a strike's row, the strikes it is added
     # on, the strikes it is matched on.
@@ -277,9 +296,14 @@ def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarr
         apart = torch.as_tensor(late & (size >= min_strikes))
         tables["hitter"] = (model.strike_bias, hitter, every, ~apart)
         tables["late"] = (model.strike_late, hitter, torch.as_tensor(late), apart)
-    if late_only:
+    band = None
+    if model.strike_depth is not None:
+        band = strike_bias.depth_band(torch.as_tensor(states.contact_m[rows, 0]))
+        tables["depth"] = (model.strike_depth, band, every, every)
+    alone = "late" if late_only else "depth" if depth_only else None
+    if alone is not None:
         # The other tables still add on their strikes, but none is matched; nothing else moves.
-        tables = {k: (t, ids, on, matched if k == "late" else ~every)
+        tables = {k: (t, ids, on, matched if k == alone else ~every)
                   for k, (t, ids, on, matched) in tables.items()}
         rounds = 1
 
@@ -308,9 +332,33 @@ def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarr
                                                                   "shift")})
                 if r == rounds - 1:
                     out.append(row)
-    if not late_only:
+    if depth_only:
+        # Centred where the errors are drawn: per role and kind one constant taken from the
+        # fitted cells makes the role's mean odds those without the table (a mean of zero in
+        # logits raised them: the odds are convex in the shift).
+        for rcv in (0, 1):
+            j = torch.as_tensor(np.flatnonzero(recv.numpy() == rcv))
+            count = torch.bincount(band[j], minlength=strike_bias.N_DEPTH_BANDS)
+            fitted = count >= min_strikes
+            if not bool(fitted.any()):
+                continue
+            for kind in range(strike_bias.N_KINDS):
+                weight = masks[kind].expand(len(j), -1).to(x.dtype)
+                base = logits[kind][j] + others("depth", j, rcv, kind)[:, None] * weight
+                level = float(mean_odds(base, weight, weight, torch.zeros(1))[0])
+                tilted = base + model.strike_depth[band[j], rcv, kind][:, None] * weight
+                movable = weight * fitted[band[j]].to(x.dtype)[:, None]
+                model.strike_depth[fitted, rcv, kind] += solve_shift(tilted, movable, weight,
+                                                                     level)
+    if alone is None:
         fit_strike_return(model, states, returns, prior_strikes, min_strikes, rally=False)
     return pd.DataFrame(out)
+
+
+def with_strike_depth(model: SportsNGEN) -> SportsNGEN:
+    """`model` (with the opponents' table) with the depth table added (`cfg.strike_depth`), at
+    zero: it draws as before until `fit_strike_pressure` fills it. -> a new model."""
+    return with_flag(model, "strike_depth", ["strike_depth"])
 
 
 def with_strike_late(model: SportsNGEN) -> SportsNGEN:

@@ -85,7 +85,8 @@ def table_bias(model: SportsNGEN, states: HeadStates) -> torch.Tensor | None:
                                   torch.as_tensor(states.receiver),
                                   torch.as_tensor(states.returns()),
                                   torch.as_tensor(states.opponent_id()),
-                                  torch.as_tensor(states.shot_numbers()))
+                                  torch.as_tensor(states.shot_numbers()),
+                                  torch.as_tensor(states.contact_m[:, 0]))
 
 
 def held_out(states: HeadStates, every: int = HELD_OUT_EVERY) -> np.ndarray:
