@@ -25,7 +25,6 @@ BANDS_M = {
     "hitter_behind_m": (0.5, 1.5, 2.3),
     "incoming_depth_m": (2.5, 4.5),
 }
-STATE_COLUMNS = tuple(BANDS_M)
 MIN_Z_STRIKES = 20           # a band's gap gets a z where both sides have this many strikes
 
 

@@ -193,13 +193,12 @@ def strike_dim_bias(table: torch.Tensor, hitter_id: torch.Tensor, receiver: torc
             (shot >= LATE_SHOT).to(shift.dtype)[:, None]
     if returns is not None and returning is not None:
         shift = shift + returns[hitter_id.long()] * returning.to(shift.dtype)[:, None]
+    # The opponents' and depth tables add on every strike but a return.
+    rally = torch.ones_like(shift[:, 0]) if returning is None else \
+        (~returning.bool()).to(shift.dtype)
     if pressure is not None and opponent_id is not None:
-        rally = torch.ones_like(shift[:, 0]) if returning is None else \
-            (~returning.bool()).to(shift.dtype)
         shift = shift + pressure[opponent_id.long(), receiver.long()] * rally[:, None]
     if depth is not None and ball_x_m is not None:
-        rally = torch.ones_like(shift[:, 0]) if returning is None else \
-            (~returning.bool()).to(shift.dtype)
         shift = shift + depth[depth_band(ball_x_m), receiver.long()] * rally[:, None]
     out = torch.zeros(len(hitter_id), 4, strike.STRIKE_BINS, dtype=table.dtype,
                       device=table.device)
