@@ -4,11 +4,12 @@ baseline, how deep the ball he answers landed; the share of each band and its er
 `shot_profile.strike_endings` says which strikes end points; this says from which states. A
 model's head can strike right from the record's states and still err more in its rollouts when
 its own players arrive where the record's never are. The generator's players meet a rally ball
-at their comfortable height (a median 0.92-0.98 m at the contact frame, 9-11 % of strikes
-above 1.05 m), while the bundled file's rollouts met 29 % (hard) and 41 % (clay) above it
+at their comfortable height (a median 0.92-0.97 m at the contact frame, 10-12 % of strikes
+above 1.05 m), while the bundled file's rollouts met 29 % (hard) and 40 % (clay) above it
 (docs/evaluation.md, forty-ninth part): states its strike head saw a few dozen times in
 training. Heights are read from the frames table at the shot's frame for both sides, so a
-truth's exact contact height and a rollout's frame carry the same discretisation.
+truth's exact contact height and a rollout's frame carry the same discretisation. The
+hitter's depth is `shot_profile`'s `hitter_behind_m`, read for every strike at once by name.
 """
 
 from __future__ import annotations

@@ -333,26 +333,33 @@ def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarr
                 if r == rounds - 1:
                     out.append(row)
     if depth_only:
-        # Centred where the errors are drawn: per role and kind one constant taken from the
-        # fitted cells makes the role's mean odds those without the table (a mean of zero in
-        # logits raised them: the odds are convex in the shift).
-        for rcv in (0, 1):
-            j = torch.as_tensor(np.flatnonzero(recv.numpy() == rcv))
-            count = torch.bincount(band[j], minlength=strike_bias.N_DEPTH_BANDS)
-            fitted = count >= min_strikes
-            if not bool(fitted.any()):
-                continue
-            for kind in range(strike_bias.N_KINDS):
-                weight = masks[kind].expand(len(j), -1).to(x.dtype)
-                base = logits[kind][j] + others("depth", j, rcv, kind)[:, None] * weight
-                level = float(mean_odds(base, weight, weight, torch.zeros(1))[0])
-                tilted = base + model.strike_depth[band[j], rcv, kind][:, None] * weight
-                movable = weight * fitted[band[j]].to(x.dtype)[:, None]
-                model.strike_depth[fitted, rcv, kind] += solve_shift(tilted, movable, weight,
-                                                                     level)
+        _centre_depth(model.strike_depth, band, recv, logits,
+                      lambda j, rcv, kind: others("depth", j, rcv, kind), min_strikes)
     if alone is None:
         fit_strike_return(model, states, returns, prior_strikes, min_strikes, rally=False)
     return pd.DataFrame(out)
+
+
+def _centre_depth(table: torch.Tensor, band: torch.Tensor, receiver: torch.Tensor,
+                  logits: list[torch.Tensor], others, min_strikes: int) -> None:
+    """Centre the fitted depth `table` (in place) where the errors are drawn: per role and kind
+    one constant taken from its cells with at least `min_strikes` strikes makes the role's mean
+    odds of that error (over its strikes `band` (N,), `receiver` (N,) bool, head `logits` per
+    kind plus `others(j, role, kind)`, the other tables' shifts) those without the table. A
+    zero mean in logits raised them: the odds are convex in the shift."""
+    masks = torch.as_tensor(strike_bias.error_bins())
+    for rcv in (0, 1):
+        j = torch.as_tensor(np.flatnonzero(receiver.numpy() == rcv))
+        fitted = torch.bincount(band[j], minlength=table.shape[0]) >= min_strikes
+        if not bool(fitted.any()):
+            continue
+        for kind in range(strike_bias.N_KINDS):
+            weight = masks[kind].expand(len(j), -1).to(logits[kind].dtype)
+            base = logits[kind][j] + others(j, rcv, kind)[:, None] * weight
+            level = float(mean_odds(base, weight, weight, torch.zeros(1))[0])
+            tilted = base + table[band[j], rcv, kind][:, None] * weight
+            movable = weight * fitted[band[j]].to(weight.dtype)[:, None]
+            table[fitted, rcv, kind] += solve_shift(tilted, movable, weight, level)
 
 
 def with_strike_depth(model: SportsNGEN) -> SportsNGEN:
