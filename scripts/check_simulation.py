@@ -39,6 +39,7 @@ import torch
 
 from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.errors import ArgumentError
+from sportsngen.eval.bounce_fall import format_bounce_fall, post_bounce_fall
 from sportsngen.eval.check_noise import (
     CHECK_COLUMNS,
     CHECK_SCALE,
@@ -264,6 +265,10 @@ def main() -> None:
           f"truth (met above {HIGH_CONTACT_Z_M} m: {high_contact_share(states['sim']):.3f} / "
           f"{high_contact_share(states['truth']):.3f}); share of strikes, error share, z:\n"
           + format_state_bands(state_bands(states["sim"]), state_bands(states["truth"])))
+    # The spin a bounce gives, which the free-flight residual cannot see (fiftieth part).
+    print("\nthe ball's fall after its bounces (median vertical acceleration; gravity and drag "
+          "alone about -10.3 m/s²), sim / truth:\n"
+          + format_bounce_fall(post_bounce_fall(simd), post_bounce_fall(truth)))
     decided = r[(r["rules_winner"] >= 0)]
     agree_sim = float((decided["classifier_winner"] == decided["rules_winner"]).mean())
     sub = truth.subset(truth.rallies["rally_id"].iloc[:1000])

@@ -67,3 +67,15 @@ def test_the_bands_count_share_and_error_by_state():
     text = format_state_bands(bands, bands).splitlines()
     assert len(text) == 1 + len(bands) and "0.500 / 0.500" in text[5]
     assert text[5].endswith("nan")                          # two strikes: no z
+
+
+def test_a_shot_frame_after_the_contact_reads_the_ball_of_the_frame_before():
+    """A's shot 2 (he stands at +x) at frame 50: the ball at frame 49 at x 11.0 and 0.95 m; at
+    frame 50 it is at x 0, already going away from him, so the frame before is his ball. Coming
+    toward him into frame 50 (from x -1.0) it is read at frame 50 itself."""
+    away, toward = _points(), _points()
+    for pts, x_before in ((away, 11.0), (toward, -1.0)):
+        pts.frames = pd.concat([pts.frames, pd.DataFrame(
+            [(0, 49, "ball", x_before, 0.95)], columns=pts.frames.columns)])
+    assert strike_states(away)["contact_z_m"].tolist() == [0.95, 0.7]
+    assert strike_states(toward)["contact_z_m"].tolist() == [1.3, 0.7]

@@ -4,12 +4,13 @@ baseline, how deep the ball he answers landed; the share of each band and its er
 `shot_profile.strike_endings` says which strikes end points; this says from which states. A
 model's head can strike right from the record's states and still err more in its rollouts when
 its own players arrive where the record's never are. The generator's players meet a rally ball
-at their comfortable height (a median 0.92-0.97 m at the contact frame, 10-12 % of strikes
-above 1.05 m), while the bundled file's rollouts met 29 % (hard) and 40 % (clay) above it
-(docs/evaluation.md, forty-ninth part): states its strike head saw a few dozen times in
-training. Heights are read from the frames table at the shot's frame for both sides, so a
-truth's exact contact height and a rollout's frame carry the same discretisation. The
-hitter's depth is `shot_profile`'s `hitter_behind_m`, read for every strike at once by name.
+at their comfortable height (a median 0.79-0.95 m, 1.3-4.5 % of strikes above 1.05 m), while the
+bundled file's rollouts met 16-41 % above it (docs/evaluation.md, forty-ninth and fiftieth
+parts): states its strike head saw a few dozen times in training. Heights are read from the
+frames table for both sides, so a truth's exact contact and a rollout's frame carry the same
+discretisation, at the last frame before the contact (a recorded shot's frame may follow it).
+The hitter's depth is `shot_profile`'s `hitter_behind_m`, read for every strike at once by
+name.
 """
 
 from __future__ import annotations
@@ -33,7 +34,8 @@ def strike_states(data, realistic_only: bool = True, first_shot: int = 2) -> pd.
     """Rally strikes (`shot_index` >= `first_shot`; 2: the server's first rally ball) of
     `data` (a `RallyData` or anything with its `rallies`, `shots` and `frames` tables) ->
     one row each: rally_id, shot_index, hitter, contact_z_m (the ball's height at the shot's
-    frame), hitter_behind_m (his |x| at that frame less the baseline's; negative inside the
+    frame, or at the frame before where the ball is already going away from him in it),
+    hitter_behind_m (his |x| at that frame less the baseline's; negative inside the
     court), incoming_depth_m (the baseline's |x| less that of the bounce of the ball he
     answers; NaN where it has none) and error (the strike ended the point as its hitter's
     error). Non-realistic rallies are left out unless `realistic_only` is False."""
@@ -45,17 +47,27 @@ def strike_states(data, realistic_only: bool = True, first_shot: int = 2) -> pd.
     shots = shots.assign(incoming_depth_m=incoming)
     shots = shots[shots["shot_index"] >= first_shot]
     frames = data.frames[["rally_id", "frame", "object", "x", "z"]]
-    ball = frames[frames["object"] == "ball"][["rally_id", "frame", "z"]]
-    players = frames[frames["object"] != "ball"].rename(columns={"object": "hitter"})
+    ball = frames[frames["object"] == "ball"][["rally_id", "frame", "x", "z"]]
+    before = ball.assign(frame=ball["frame"] + 1).rename(columns={"x": "x_before",
+                                                                  "z": "z_before"})
+    players = frames[frames["object"] != "ball"].rename(columns={"object": "hitter",
+                                                                 "x": "hitter_x"})
     out = shots[["rally_id", "shot_index", "hitter", "frame", "outcome",
                  "incoming_depth_m"]].merge(ball, on=["rally_id", "frame"], how="left")
-    out = out.merge(players[["rally_id", "frame", "hitter", "x"]],
+    out = out.merge(before, on=["rally_id", "frame"], how="left")
+    out = out.merge(players[["rally_id", "frame", "hitter", "hitter_x"]],
                     on=["rally_id", "frame", "hitter"], how="left")
+    # A recorded shot's frame is the one nearest its contact and may come after it, the ball
+    # already on its way back (14 % of the generator's rally strikes, and 68 % of those it
+    # reads above 1.05 m); a rollout's is the frame before its contact. Read where the step
+    # into the shot's frame goes away from the hitter, the frame before it is the ball he met.
+    away = (out["x"] - out["x_before"]) * np.sign(out["hitter_x"]) < 0
+    z = np.where(away.to_numpy() & out["z_before"].notna().to_numpy(), out["z_before"], out["z"])
     return pd.DataFrame({
         "rally_id": out["rally_id"].to_numpy(), "shot_index": out["shot_index"].to_numpy(),
         "hitter": out["hitter"].astype(str).to_numpy(),
-        "contact_z_m": out["z"].to_numpy(float),
-        "hitter_behind_m": out["x"].abs().to_numpy(float) - BASELINE_X_M,
+        "contact_z_m": z.astype(float),
+        "hitter_behind_m": out["hitter_x"].abs().to_numpy(float) - BASELINE_X_M,
         "incoming_depth_m": out["incoming_depth_m"].to_numpy(float),
         "error": (out["outcome"].astype(str) == "error").to_numpy()})
 

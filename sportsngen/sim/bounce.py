@@ -7,11 +7,12 @@ than 28 m/s, interquartile 0.59-0.61), the bundled model's rollouts 0.664 (0.61-
 simulated receivers meet a faster ball later (docs/evaluation.md, thirty-sixth part). The
 bounce is physics the game fixes, so here it is taken from the generator's own bounce
 (`synth.physics`: restitution, ploughing, Coulomb friction on the contact point's slip): where
-the ball's flight reaches the ground inside the next frame, that frame and the one after are
+the ball's flight reaches the ground inside the next frame, that frame and the two after are
 the flight flown on through the surface's bounce from the current state, with the spin read
 from the lift of the track's last three frames (`model.centre.read_lift_mps2`, inverted
 through the generator's Magnus). The model then draws the flight on from a clean post-bounce
-track, as it does after a strike's launch frames.
+track, as it does after a strike's launch frames, and the physics centre reads the spin the
+bounce gave from three post-bounce frames (`FRAMES`).
 """
 
 from __future__ import annotations
@@ -32,7 +33,14 @@ from sportsngen.model.centre import (
 from sportsngen.synth.physics import fly
 from sportsngen.tennis.court import BALL_RADIUS_M
 
-FRAMES = 2    # the bounce's frame and the one after it (whose backward velocity mixes the two)
+# The bounce's frame and the two after it. The second after is given too because the physics
+# centre reads the ball's spin from its last three frames: with two given, the first free step
+# after a bounce read the bounce itself (no flight: gravity and drag alone) and the next read a
+# lift half made of the model's own draw, so the topspin the bounce gives a ball (the
+# generator's friction on the contact point) was mostly lost: on the bundled file's clay
+# rollouts the rising ball fell at a median 10.8 m/s^2 where the generator's falls at 12.5, and
+# its rally balls were met above 1.05 m four times as often (docs/evaluation.md, fiftieth part).
+FRAMES = 3
 
 
 def spin_from_lift_mps(lift_mps2: torch.Tensor, vel_mps: torch.Tensor) -> torch.Tensor:
@@ -88,11 +96,13 @@ def place_bounces(nxt: torch.Tensor, plan: torch.Tensor, pos_m: torch.Tensor,
                   placed: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
     """Where the ball bounces inside the next frame and no launch is being followed (`plan`,
     (B, 2, 3), NaN where none, as the rollout keeps it, and not `placed` (B,) bool: the frame
-    just put down was planned), the sampled frame `nxt` (B, 3, 3) and the next planned one
-    replaced by the surface's bounce (`bounce_frames`); `surfaces`: each batch row's surface
-    name as first given, `live` the live rows' indices into it. The frame after a bounce is
-    planned because its backward velocity mixes the fall and the rise: read as a state, it
-    bounced the ball again (rollouts' serves read 1 m long by the rules, 10 % of them)."""
+    just put down was planned), the sampled frame `nxt` (B, 3, 3) replaced by the surface's
+    bounce (`bounce_frames`) and its next `FRAMES` - 1 frames planned;
+    `surfaces`: each batch row's surface name as first given, `live` the live rows' indices
+    into it. The frame after a bounce is planned because its backward velocity mixes the fall
+    and the rise: read as a state, it bounced the ball again (rollouts' serves read 1 m long by
+    the rules, 10 % of them); the one after that so the spin is read from the bounce's own
+    frames (`FRAMES`)."""
     rows = bouncing_rows(pos_m, vel_mps, prev_vel_mps, fps) & torch.isnan(plan[:, 0, 0])
     if placed is not None:
         rows &= ~placed
@@ -103,5 +113,5 @@ def place_bounces(nxt: torch.Tensor, plan: torch.Tensor, pos_m: torch.Tensor,
                            [str(s) for s in surfaces[live[idx.cpu().numpy()]]])
     nxt, plan = nxt.clone(), plan.clone()
     nxt[idx, BALL] = frames[:, 0]
-    plan[idx, 0] = frames[:, 1]
+    plan[idx, :FRAMES - 1] = frames[:, 1:]
     return nxt, plan
