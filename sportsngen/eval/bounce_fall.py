@@ -6,7 +6,7 @@ gravity and drag alone take it: the generator's clay and hard rally balls fall a
 free-flight residual (`eval.flight`) cannot see a ball that has lost that spin, because the
 physics centre reads the spin from the track itself: a spinless track is a consistent one.
 Read here from the positions alone (the second difference of the height, frames after the
-bounce), data and rollouts alike, it found the bundled file's rollouts falling at 10.8-11.6
+bounce), data and rollouts alike, it found the bundled file's rollouts falling at 10.8-12.0
 m/s^2, their rally balls met high (docs/evaluation.md, fiftieth part).
 
 A bounce is a frame where the ball is below `BOUNCE_Z_M`, lower than the frames either side,
