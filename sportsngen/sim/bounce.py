@@ -103,6 +103,9 @@ def place_bounces(nxt: torch.Tensor, plan: torch.Tensor, pos_m: torch.Tensor,
     and the rise: read as a state, it bounced the ball again (rollouts' serves read 1 m long by
     the rules, 10 % of them); the one after that so the spin is read from the bounce's own
     frames (`FRAMES`)."""
+    if plan.shape[1] < FRAMES - 1:
+        raise ValueError(f"the plan holds {plan.shape[1]} frames; a bounce gives {FRAMES - 1} "
+                         "after the sampled one")
     rows = bouncing_rows(pos_m, vel_mps, prev_vel_mps, fps) & torch.isnan(plan[:, 0, 0])
     if placed is not None:
         rows &= ~placed
