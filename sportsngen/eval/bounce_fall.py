@@ -9,9 +9,8 @@ Read here from the positions alone (the second difference of the height, frames 
 bounce), data and rollouts alike, it found the bundled file's rollouts falling at 10.8-12.0
 m/s^2, their rally balls met high (docs/evaluation.md, fiftieth part).
 
-A bounce is a frame where the ball is below `BOUNCE_Z_M`, lower than the frames either side,
-and rises by at least `MIN_RISE_M` into the next (a rolling or a dead ball is none); a frame
-counts up to the frame before the next racket contact (the shots table's frames).
+Bounces and racket contacts are the rally rules' (`eval.physical.rally_events`, as
+`bounce_ratios` reads them); a frame counts up to the frame before the next contact.
 """
 
 from __future__ import annotations
@@ -21,47 +20,54 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
-BOUNCE_Z_M = 0.12
-MIN_RISE_M = 0.04          # 1 m/s upward at 25 frames a second
+from sportsngen.eval.physical import iter_tracks, rally_events
+from sportsngen.tennis.rally import BALL
+
 AFTER_FRAMES = (2, 4, 6, 8)
 
 
-def post_bounce_fall(data, after_frames: Sequence[int] = AFTER_FRAMES,
-                     fps: float = 25.0) -> pd.DataFrame:
-    """`data` (a `RallyData`, or anything with its `frames` and `shots` tables) -> one row per
-    j in `after_frames` (each >= 2, so the second difference holds no bounce frame): n (ball
-    frames j after a bounce, before the next contact) and the median and quartiles of the
-    ball's vertical acceleration there (m/s^2, the second difference of its height centred on
-    that frame; negative is down)."""
-    if any(int(j) < 2 for j in after_frames):
-        raise ValueError(f"after_frames must all be 2 or more, got {list(after_frames)}")
-    ball = data.frames[data.frames["object"] == "ball"].sort_values(["rally_id", "frame"])
-    contacts = {rid: np.sort(g.to_numpy()) for rid, g in
-                data.shots.groupby("rally_id")["frame"]}
+def fall_after_bounces(z_m: np.ndarray, bounce_frames, contact_frames,
+                       after_frames: Sequence[int] = AFTER_FRAMES,
+                       fps: float = 25.0) -> np.ndarray:
+    """One ball track's heights `z_m` (T,), its bounce and contact frames (indices into it) ->
+    (n, 2) rows (j, vertical acceleration m/s^2): the second difference of the height centred
+    j frames after each bounce, for each j in `after_frames` (each >= 2, so it holds no bounce
+    frame) whose three frames all come before the next contact and inside the track."""
     want = np.asarray(after_frames, dtype=int)
+    if (want < 2).any():
+        raise ValueError(f"after_frames must all be 2 or more, got {list(after_frames)}")
+    z = np.asarray(z_m, dtype=float)
+    k = np.asarray(bounce_frames, dtype=int).reshape(-1)
+    hits = np.sort(np.asarray(contact_frames, dtype=int).reshape(-1))
+    if len(k) == 0 or len(z) < 3:
+        return np.zeros((0, 2))
+    after = np.searchsorted(hits, k, side="right")
+    stop = np.where(after < len(hits), hits[np.minimum(after, len(hits) - 1)], len(z))
+    stop = np.minimum(stop, len(z))
+    c = k[:, None] + want[None, :]                                       # (bounces, j)
+    ok = c + 1 < stop[:, None]
+    cc = np.where(ok, c, 1)
+    acc = (z[np.minimum(cc + 1, len(z) - 1)] - 2 * z[cc] + z[cc - 1]) * fps * fps
+    return np.stack([np.broadcast_to(want, c.shape)[ok], acc[ok]], axis=1)
+
+
+def post_bounce_fall(data, after_frames: Sequence[int] = AFTER_FRAMES) -> pd.DataFrame:
+    """`data` (a `RallyData`) -> one row per j in `after_frames`: n (ball frames j after a
+    bounce, before the next contact) and the median and quartiles of the ball's vertical
+    acceleration there (m/s^2, `fall_after_bounces`; negative is down), over every rally."""
     found: list[np.ndarray] = [np.zeros((0, 2))]
-    for rid, g in ball.groupby("rally_id", sort=False):
-        z = g["z"].to_numpy(float)
-        frame = g["frame"].to_numpy(int)
-        if len(z) < 4:
-            continue
-        mid = z[1:-1]
-        k = np.flatnonzero((mid < BOUNCE_Z_M) & (mid <= z[:-2]) & (z[2:] - mid >= MIN_RISE_M)) + 1
-        if len(k) == 0:
-            continue
-        hits = contacts.get(rid, np.zeros(0, dtype=int))
-        # The first contact after each bounce, as an index into this rally's frames.
-        nxt = np.searchsorted(frame, hits)
-        after = np.searchsorted(nxt, k, side="right")
-        stop = np.where(after < len(nxt), nxt[np.minimum(after, len(nxt) - 1)], len(z))
-        c = k[:, None] + want[None, :]                                   # (bounces, j)
-        ok = (c + 1 < stop[:, None]) & (c + 1 < len(z))
-        cc = np.where(ok, c, 1)
-        acc = (z[np.minimum(cc + 1, len(z) - 1)] - 2 * z[cc] + z[cc - 1]) * fps * fps
-        found.append(np.stack([np.broadcast_to(want, c.shape)[ok], acc[ok]], axis=1))
+    for tr in iter_tracks(data):
+        events = rally_events(tr, data.fps)
+        for i, rid in enumerate(tr.rallies["rally_id"].to_numpy()):
+            if rid not in events.index:
+                continue
+            e = events.loc[rid]
+            found.append(fall_after_bounces(tr.pos_m[i, :tr.length[i], BALL, 2],
+                                            e["bounce_frames"], e["contact_frames"],
+                                            after_frames, data.fps))
     rows = np.concatenate(found)
     out = []
-    for j in want:
+    for j in np.asarray(after_frames, dtype=int):
         a = rows[rows[:, 0] == j, 1]
         q = np.quantile(a, [0.25, 0.5, 0.75]) if len(a) else [np.nan] * 3
         out.append({"frames_after": int(j), "n": int(len(a)), "q25_mps2": float(q[0]),
