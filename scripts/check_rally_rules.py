@@ -22,7 +22,7 @@ import pandas as pd
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.synth import generate_matches
 from sportsngen.tennis.court import FENCE_X_M, FENCE_Y_M
-from sportsngen.tennis.rally import CHECKS, CONTACT_REACH_M, end_class
+from sportsngen.tennis.rally import CHECKS, CONTACT_REACH_M, MAX_RALLY_S, end_class
 
 PLAYERS = ["Roger Federer", "Rafael Nadal", "Novak Djokovic", "Andy Murray", "John Isner"]
 
@@ -117,7 +117,9 @@ def main() -> None:
     print(f"  contact out of reach, serve only: {serve_far.mean():.2%} of rallies; any later "
           f"shot: {rally_far.mean():.2%}")
     frames = data.frames[data.frames["object"] == "ball"].groupby("rally_id").size()
-    print(f"  tracks longer than 30 s: {(frames > 30 * data.fps).mean():.2%} of rallies")
+    print(f"  tracks longer than the {MAX_RALLY_S:g} s cap: "
+          f"{(frames > MAX_RALLY_S * data.fps).mean():.2%} of rallies; longer than 30 s: "
+          f"{(frames > 30 * data.fps).mean():.2%}")
 
 
 if __name__ == "__main__":

@@ -6,10 +6,10 @@ import numpy as np
 import pandas as pd
 
 from sportsngen.data.tokens import Vocab, rally_arrays
-from sportsngen.tennis.rally import analyse_rallies
+from sportsngen.tennis.rally import MAX_RALLY_S, analyse_rallies
 
 
-def analyse_rally_data(data, max_duration_s: float = 30.0) -> pd.DataFrame:
+def analyse_rally_data(data, max_duration_s: float = MAX_RALLY_S) -> pd.DataFrame:
     """`analyse_rallies` over a `RallyData`, indexed by rally_id, with the rally's server_end,
     side and serve_number alongside."""
     arr = rally_arrays(data, Vocab.from_data(data, generic=True))

@@ -51,7 +51,7 @@ from sportsngen.sim.events import frame_labels
 from sportsngen.sim.initial import InitialConditions
 from sportsngen.sim.match import MatchResult, simulate_matches
 from sportsngen.sim.rollout import Constraint, RolloutInputs, rollout
-from sportsngen.tennis.rally import CONTACT_REACH_M, RallyTracker
+from sportsngen.tennis.rally import CONTACT_REACH_M, MAX_RALLY_S, RallyTracker
 
 BUNDLED_DIR = Path(__file__).resolve().parents[1] / "model" / "bundled"
 BUNDLED_NAMES = {"sportsngen-small": BUNDLED_DIR / "sportsngen-small.pt"}
@@ -110,7 +110,7 @@ class Simulator:
 
     def __init__(self, model: SportsNGEN, event_model: EventClassifier | None, vocab: Vocab,
                  initial: InitialConditions, top_p_player: float = 1.0,
-                 top_p_ball: float = 1.0, max_duration_s: float = 30.0,
+                 top_p_ball: float = 1.0, max_duration_s: float = MAX_RALLY_S,
                  batch_size: int = 256, max_retries: int = 10, unknown: str | None = None,
                  physical_limits: bool = True, device: str | torch.device = "cpu",
                  contact_odds: bool = False, top_p_contact: float | None = None,
