@@ -393,7 +393,7 @@ def test_agreement_with_the_generator():
 
 def test_a_long_clay_rally_of_the_generator_is_judged_to_its_end_not_capped():
     # Djokovic v Murray on clay, seed 2: rally 28 lasts 40 s (28 shots; the generator's clay
-    # rallies last over 30 s 1.05 % of the time). At the former default cap of 30 s it was
+    # rallies last over 30 s 1.06 % of the time). At the former default cap of 30 s it was
     # stopped undecided after 22 shots and flagged, and statistics that drop flagged points lost
     # it; the default cap (`MAX_RALLY_S`) judges it as the generator recorded it.
     data = generate_matches(["Novak Djokovic", "Andy Murray"], "clay", 40, seed=2, workers=1)
