@@ -46,8 +46,8 @@ def fall_after_bounces(z_m: np.ndarray, bounce_frames, contact_frames,
     stop = np.minimum(stop, len(z))
     c = k[:, None] + want[None, :]                                       # (bounces, j)
     ok = c + 1 < stop[:, None]
-    cc = np.where(ok, c, 1)
-    acc = (z[np.minimum(cc + 1, len(z) - 1)] - 2 * z[cc] + z[cc - 1]) * fps * fps
+    cc = np.where(ok, c, 1)                  # a masked row reads frames 0-2 (len(z) >= 3)
+    acc = (z[cc + 1] - 2 * z[cc] + z[cc - 1]) * fps * fps
     return np.stack([np.broadcast_to(want, c.shape)[ok], acc[ok]], axis=1)
 
 
