@@ -3,7 +3,8 @@ wide or into the net (`model.strike_bias`; `sportsngen.train.strike_bias`).
 
     .venv/bin/python scripts/fit_strike_bias.py --model FILE --out FILE [--more-data NAME]
         [--prior-strikes 200] [--width | --returns | --pressure | --shape | --shots |
-        --players | --late | --depth] [--states FILE]
+        --players | --late | --depth] [--states FILE] [--view 8]
+        [--draws K] [--more-data-only]
         [--threads 2]
 
 The recorded rally strikes are the file's own training split (`extra.split`) and with
@@ -33,6 +34,9 @@ top (with `--late-only` the late table alone, on top of the file's tables as the
 `--depth` (a file with the opponents' table) a table by the contact's depth behind the
 baseline and the hitter's role (`model.strike_depth`) is added and fitted alone on top of the
 file's tables as they are, then centred (it tilts the errors by depth, the level stays).
+`--view 8` reads each strike's state from its own window ending 8 frames after it (the
+history a rollout gives it) and `--draws K` matches the odds at K of the head's own draws of
+the earlier dimensions (as a rollout draws) with `--pressure`, `--late` or `--depth`.
 `--states FILE` keeps
 the decoder's states read (most of the time; they do not depend on the tables). Everything
 else in the file is copied unchanged.
@@ -75,10 +79,13 @@ def _read_states(model, run, args) -> HeadStates:
     them for this file and data, else read (and kept there: `head_fit.cached_states`)."""
     t0 = time.time()
     try:
+        view = f"|view{args.view}" if args.view else ""
+        arrays = run.arrays[1:] if args.more_data_only else run.arrays
         got, cached = cached_states(
-            args.states, f"{run.path.resolve()}|{args.more_data}",
-            lambda: {"states": HeadStates.concat([collect_head_states(model, a, "strike")
-                                                  for a in run.arrays])})
+            args.states, f"{run.path.resolve()}|{args.more_data}"
+            f"{'|only' if args.more_data_only else ''}{view}",
+            lambda: {"states": HeadStates.concat([collect_head_states(
+                model, a, "strike", lead_frames=args.view) for a in arrays])})
     except ValueError as exc:
         raise SystemExit(str(exc)) from None
     states = got["states"]
@@ -119,9 +126,25 @@ def main() -> None:
                          "tables as they are")
     ap.add_argument("--states", default=None,
                     help="cache of the decoder's states: written on the first run, read after")
+    ap.add_argument("--view", type=int, default=None, metavar="LEAD",
+                    help="read each strike's state from its own window ending LEAD frames "
+                         "after it, as a rollout reads it (8), not from windows tiling the "
+                         "rally (about twice the time; run with MALLOC_MMAP_THRESHOLD_=65536)")
+    ap.add_argument("--more-data-only", action="store_true",
+                    help="read the --more-data rallies alone, not the file's training split "
+                         "(the named players' round robins: the rows of players only in the "
+                         "split are left as they are)")
+    ap.add_argument("--draws", type=int, default=0,
+                    help="with --pressure, --late or --depth: match each strike's odds at "
+                         "that many of the head's own draws of the earlier dimensions (as a "
+                         "rollout draws), not at the record's")
     args = ap.parse_args()
     if args.late_only and not args.late:
         ap.error("--late-only goes with --late")
+    if args.more_data_only and not args.more_data:
+        ap.error("--more-data-only goes with --more-data")
+    if args.draws and not (args.pressure or args.late or args.depth):
+        ap.error("--draws goes with --pressure, --late or --depth")
     run = open_table_run(args, lambda m: None if m.strike_head is not None
                          else "no strike head (model.strike_head)")
     model, vocab = run.model, run.vocab
@@ -183,6 +206,8 @@ def main() -> None:
         model = add(model)
         kw = {"late_only": True} if args.late and args.late_only else \
             {"depth_only": True} if args.depth else {}
+        if args.draws and not args.shape:
+            kw["draws"] = args.draws
         table = fit(model, states, states.returns(), prior_strikes=args.prior_strikes, **kw)
         ids = table.pop("id")
         table.insert(0, "player", ids.map(names) if not args.depth else

@@ -207,3 +207,43 @@ def test_states_are_read_once_and_kept_under_the_key_they_were_read_with(tmp_pat
         cached_states(path, {"model": "b"}, read)
     none, cached = cached_states(None, "k", read)          # no path: read every time
     assert not cached and len(calls) == 2 and set(none) == {"train", "val"}
+
+
+def test_strike_states_read_as_a_rollout_reads_them(rallies):
+    """With lead_frames each rally strike is read from its own window ending that many frames
+    after it: the same strikes and bins as the tiling windows give, in the same order, and
+    the decoder's state exactly that window's at the strike; a strike in a rally's first
+    window (the window starts at the rally's first frame either way) reads the same state."""
+    model = small_model()
+    tiled = collect_head_states(model, rallies, "strike", progress=False)
+    view = collect_head_states(model, rallies, "strike", progress=False, lead_frames=8)
+    assert len(view) == len(tiled)
+    assert np.array_equal(view.rally_id, tiled.rally_id)
+    assert torch.equal(view.bins, tiled.bins)
+    np.testing.assert_allclose(view.contact_m, tiled.contact_m)
+    window = model.cfg.window_frames
+    same = torch.isclose(view.h, tiled.h, atol=1e-5).all(-1).numpy()
+    assert same.any() and not same.all()     # first-window strikes alike, later ones not
+    ds = WindowDataset(rallies, window, None)
+    row = int(np.flatnonzero(~same)[0])
+    ri = int(np.flatnonzero(rallies.rally_id == view.rally_id[row])[0])
+    # Find the strike's frame in its rally from the tiling windows, then read it as a rollout.
+    at = None
+    for k, (i, s) in enumerate(ds.items):
+        if i != ri:
+            continue
+        b = default_collate([ds[k]])
+        mask, bins = model.strike_targets(b["pos_m"], b["vel_mps"], b["next_pos_m"],
+                                          b["has_next"])
+        for t in mask[0].nonzero()[:, 0].tolist():
+            if np.allclose(b["pos_m"][0, t, BALL].numpy(), view.contact_m[row]):
+                at = s + t
+    assert at is not None and at >= window - 8
+    own = WindowDataset(rallies, window, None, items=[(ri, at - (window - 8))])
+    with torch.no_grad():
+        h = window_states(model, default_collate([own[0]]))
+    torch.testing.assert_close(view.h[row], h[0, window - 8, BALL])
+    with pytest.raises(ValueError, match="lead_frames"):
+        collect_head_states(model, rallies, "strike", progress=False, lead_frames=2)
+    with pytest.raises(ValueError, match="lead_frames"):
+        collect_head_states(model, rallies, "serve", progress=False, lead_frames=8)

@@ -738,3 +738,63 @@ def test_the_shape_fit_finds_the_opponents_depth_and_height_and_keeps_the_errors
     fit_strike_shape(again, st, marked, rounds=8, prior_strikes=0.0)
     assert again.strike_shape_opponent[5, 1, 0] < again.strike_shape_opponent[4, 1, 0]
     assert again.strike_shape[2, 1, 0] != pytest.approx(float(model.strike_shape[2, 1, 0]))
+
+
+def _net_odds(model, st, prev):
+    """Mean odds of a net ball over `st` with the kinds read at `prev`'s earlier bins."""
+    net = torch.as_tensor(strike_bias.error_bins()[strike_bias.NET])
+    bias = model.strike_head_bias(torch.as_tensor(st.hitter_id()), torch.as_tensor(st.receiver),
+                                  torch.zeros(len(st), dtype=torch.bool),
+                                  torch.as_tensor(st.opponent_id()))
+    with torch.no_grad():
+        lg = model.strike_head.dim_logits(st.h, prev, strike_bias.NET, bias)
+    return float((lg.softmax(-1) * net).sum(-1).mean())
+
+
+def test_matched_at_the_heads_own_draws_a_rollout_draws_the_records_errors():
+    """Fitted at the record's earlier bins the head's net odds there equal the record's, but a
+    rollout draws its net height after its own depth and lateral; with `draws` the fit reads
+    them there, and fresh draws of the fitted head give the record's net share."""
+    base = with_strike_pressure(with_strike_return(with_strike_bias(small_model())))
+    st, _ = _opponent_states(base)
+    rng = np.random.default_rng(3)
+    net_b = np.flatnonzero(strike_bias.error_bins()[strike_bias.NET])
+    bins = st.bins.clone()
+    bins[:, 2] = torch.as_tensor(np.where(rng.random(len(st)) < 0.15, rng.choice(net_b, len(st)),
+                                          rng.integers(60, 80, len(st))))
+    st = HeadStates(st.h, bins, st.rally_id, st.serve, st.contact_m, st.receiver, st.server_id,
+                    st.receiver_id)
+    record = float(torch.as_tensor(strike_bias.error_bins()[2])[bins[:, 2]].float().mean())
+    returns = np.zeros(len(st), dtype=bool)
+    plain, drawn = (with_strike_pressure(with_strike_return(with_strike_bias(small_model())))
+                    for _ in range(2))
+    for m in (plain, drawn):
+        # A head whose net height hangs on the depth and lateral drawn before it.
+        with torch.no_grad():
+            for emb in m.strike_head.bin_emb:
+                emb.weight.mul_(30.0)
+    fit_strike_pressure(plain, st, returns, rounds=3, prior_strikes=0.0)
+    fit_strike_pressure(drawn, st, returns, rounds=3, prior_strikes=0.0, draws=8)
+
+    def fresh(model, seed):
+        gen = torch.Generator().manual_seed(seed)
+        bias = model.strike_head_bias(torch.as_tensor(st.hitter_id()),
+                                      torch.as_tensor(st.receiver),
+                                      torch.zeros(len(st), dtype=torch.bool),
+                                      torch.as_tensor(st.opponent_id()))
+        with torch.no_grad():
+            return model.strike_head.sample(st.h.repeat(8, 1), 1.0, gen,
+                                            dim_bias=bias.repeat(8, 1, 1))
+
+    big = HeadStates(st.h.repeat(8, 1), bins.repeat(8, 1), *(np.tile(a, 8) if a.ndim == 1
+                     else np.tile(a, (8, 1)) for a in (st.rally_id, st.serve, st.contact_m,
+                                                       st.receiver, st.server_id)),
+                     receiver_id=np.tile(st.receiver_id, 8))
+    assert _net_odds(plain, st, bins) == pytest.approx(record, abs=0.005)
+    # The plain fit's head draws another net share from its own depth and lateral; the
+    # draws' fit gives the record's at fresh draws (another seed).
+    assert abs(_net_odds(plain, big, fresh(plain, 11)) - record) > 0.02
+    assert _net_odds(drawn, big, fresh(drawn, 11)) == pytest.approx(record, abs=0.01)
+    with pytest.raises(ValueError, match="draws"):
+        from sportsngen.train.strike_bias import head_draws
+        head_draws(plain, st, np.arange(3), st.h[:3], 0)

@@ -180,23 +180,70 @@ def cached_states(path: str | Path | None, key, read: Callable[[], dict]) -> tup
     return states, False
 
 
+def strike_view_batches(model: SportsNGEN, arrays: RallyArrays, lead_frames: int,
+                        batch_size: int = 32):
+    """Collated windows, one a rally strike of `arrays`, each ending `lead_frames` after its
+    strike (from the rally's first frame where the strike comes earlier): the history a
+    rollout's band and `eval.strike_draws` give a strike, where windows tiling a rally give
+    the strikes late in a rally anything from none to a window of it. The strikes are found
+    on the tiling windows by `model.strike_targets` alone (no decoder). -> (an iterator of
+    batches, their number)."""
+    window = model.cfg.window_frames
+    if not 3 <= lead_frames < window:
+        raise ValueError(f"lead_frames must be in [3, {window}) (the strike's three next frames "
+                         f"are its target), got {lead_frames}")
+    tiles = WindowDataset(arrays, window, None)
+    items = []
+    for b0 in range(0, len(tiles), 256):
+        part = [tiles[k] for k in range(b0, min(b0 + 256, len(tiles)))]
+        batch = default_collate(part)
+        mask, _ = model.strike_targets(batch["pos_m"], batch["vel_mps"], batch["next_pos_m"],
+                                       batch["has_next"])
+        for row, t in mask.nonzero().tolist():
+            ri, start = tiles.items[b0 + row]
+            at = start + t
+            items.append((ri, max(at - (window - lead_frames), 0), at))
+    ds = WindowDataset(arrays, window, None, items=[(ri, s) for ri, s, _ in items])
+    loader = DataLoader(ds, batch_size=batch_size, shuffle=False, collate_fn=default_collate)
+    # Each window's own strike: its frame in the window.
+    own = torch.as_tensor([at - s for _, s, at in items], dtype=torch.int64)
+
+    def batches():
+        for b0, batch in enumerate(loader):
+            batch["own_frame"] = own[b0 * batch_size:b0 * batch_size + len(batch["pos_m"])]
+            yield batch
+    return batches(), len(loader)
+
+
 @torch.no_grad()
 def collect_head_states(model: SportsNGEN, arrays: RallyArrays, which: str = "serve",
                         flip: bool = False, batch_size: int = 32,
-                        progress: bool = True) -> HeadStates:
+                        progress: bool = True, lead_frames: int | None = None) -> HeadStates:
     """The decoder's states at every target of the `which` head ("serve": the serves, read
     from each rally's first window; "strike": the rally strikes, from windows tiling each
-    rally) in `arrays`; with `flip`, also from every window turned as training's augmentation
-    turns half of them (in the world frame only: the server's frame undoes the turn)."""
+    rally, or with `lead_frames` each from its own window ending that many frames after it,
+    as a rollout reads it: `strike_view_batches`) in `arrays`; with `flip`, also from every
+    window turned as training's augmentation turns half of them (in the world frame only:
+    the server's frame undoes the turn)."""
     _head(model, which)
+    if lead_frames is not None and (which != "strike" or flip):
+        raise ValueError("lead_frames reads the rally strikes (which='strike'), unturned")
     was_training = model.training
     model.eval()
     # A rally's serve lies in its first window.
-    batches, total = window_batches(model, arrays, which == "serve", flip, batch_size)
+    if lead_frames is None:
+        batches, total = window_batches(model, arrays, which == "serve", flip, batch_size)
+    else:
+        batches, total = strike_view_batches(model, arrays, lead_frames, batch_size)
     hs, bins, rid, srv, contact, receiver, server_id, receiver_id = ([] for _ in range(8))
     for batch in tqdm(batches, desc=f"{which} states", total=total, disable=not progress):
         mask, b = model.strike_targets(batch["pos_m"], batch["vel_mps"], batch["next_pos_m"],
                                        batch["has_next"], serves=which == "serve")
+        if lead_frames is not None:
+            # Each window's own strike alone, at its frame (another strike within the lead is
+            # read from its own window).
+            frames = torch.arange(mask.shape[1])
+            mask = mask & (frames[None] == batch.pop("own_frame")[:, None])
         if not bool(mask.any()):
             continue
         # A frame's states see only the frames up to it: the decoder runs up to the last

@@ -76,6 +76,29 @@ def fit_strike_bias(model: SportsNGEN, states: HeadStates, prior_strikes: float 
     return pd.DataFrame(rows)
 
 
+def head_draws(model: SportsNGEN, states: HeadStates, rows: np.ndarray, x: torch.Tensor,
+               draws: int, seed: int = 0) -> tuple[np.ndarray, torch.Tensor, torch.Tensor]:
+    """The strikes `rows` of `states` (head inputs `x`) each repeated `draws` times, with the
+    head's own draw of every dimension's bin under the file's tables (what a rollout draws):
+    a kind's odds read at the drawn earlier dimensions, not the record's. Matched at the
+    record's depth and lateral, the head's errors equal the record's there; a rollout draws
+    its net height after its own depth and lateral, and where the head's joint puts those
+    where a net ball follows it errs more than matched (at clay truth strikes 0.129 matched,
+    0.154 drawn: the fifty-second part). -> (rows repeated, x repeated, the drawn bins)."""
+    if draws < 1:
+        raise ValueError(f"draws must be >= 1, got {draws}")
+    rep = np.repeat(np.arange(len(rows)), draws)
+    rows = np.asarray(rows)[rep]
+    x = x[torch.as_tensor(rep)]
+    receiver = torch.as_tensor(states.receiver[rows].astype(bool))
+    shot = torch.as_tensor(states.shot_numbers()[rows])
+    bias = model.strike_head_bias(torch.as_tensor(states.hitter_id()[rows]), receiver,
+                                  shot == 1, torch.as_tensor(states.opponent_id()[rows]), shot,
+                                  torch.as_tensor(states.contact_m[rows, 0], dtype=x.dtype))
+    gen = torch.Generator().manual_seed(seed)
+    return rows, x, model.strike_head.sample(x, 1.0, gen, dim_bias=bias)
+
+
 def with_strike_width(model: SportsNGEN) -> SportsNGEN:
     """`model` (with the error table) with the per-hitter width added (`cfg.strike_width`), at
     zero: it draws as before until `fit_strike_width` fills it. -> a new model."""
@@ -153,13 +176,14 @@ def with_strike_return(model: SportsNGEN) -> SportsNGEN:
 @torch.no_grad()
 def fit_strike_return(model: SportsNGEN, states: HeadStates, returns: np.ndarray,
                       prior_strikes: float = 200.0, min_strikes: int = 50,
-                      rally: bool = True) -> pd.DataFrame:
+                      rally: bool = True, draws: int = 0) -> pd.DataFrame:
     """Split each receiver's error shifts (in place): his receiving role's shifts refitted on
     his recorded strikes that are not returns (with `rally`; without, they stay as they are),
     then the returns' table (`model.strike_return`) fitted on his returns (`returns` (N,) bool
     over `states`; `HeadStates.returns`) on top of them, each by matching as
     `fit_strike_bias` (the lateral odds with his width's tilt where the model has one). The
-    servers' shifts are left alone. -> per (hitter_id, return): n, and per kind the record's
+    servers' shifts are left alone. With `draws`, each strike's odds are read at that many of
+    the head's own draws (`head_draws`). -> per (hitter_id, return): n, and per kind the record's
     share, the head's before, the target, after and the shift."""
     if model.strike_bias is None or model.strike_return is None:
         raise ValueError("the model has no returns' table (cfg.strike_return): add it with "
@@ -183,18 +207,22 @@ def fit_strike_return(model: SportsNGEN, states: HeadStates, returns: np.ndarray
         hid, ret = int(hid), bool(ret)
         i = torch.as_tensor(g.index.to_numpy(copy=True))
         x, bins = head_inputs(model, "strike", states, i), states.bins[i]
+        prev, prior = bins, prior_strikes
+        if draws:
+            idx, x, prev = head_draws(model, states, i.numpy(), x, draws)
+            bins, prior = states.bins[torch.as_tensor(idx)], prior_strikes * draws
         n = len(i)
         row = {"hitter_id": hid, "is_return": ret, "n": n}
         for kind, name in enumerate(KINDS):
-            logits = head.dim_logits(x, bins, kind)
+            logits = head.dim_logits(x, prev, kind)
             if kind == strike_bias.WIDE and model.strike_width is not None:
                 logits = logits + model.strike_width[hid, 1] * tilt
-            mask = masks[kind].expand(n, -1)
+            mask = masks[kind].expand(len(x), -1)
             weight = mask.to(logits.dtype)
             if ret:
                 logits = logits + model.strike_bias[hid, 1, kind] * weight
             record = float(masks[kind][bins[:, kind]].float().mean())
-            fit = matched_shift(logits, mask, weight, record, prior_strikes)
+            fit = matched_shift(logits, mask, weight, record, prior)
             if ret:
                 model.strike_return[hid, kind] = fit["shift"]
             else:
@@ -225,7 +253,7 @@ def _check_rounds(states: HeadStates, returns: np.ndarray, rounds: int, prior_st
 def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarray,
                         rounds: int = 4, prior_strikes: float = 200.0,
                         min_strikes: int = 50, late_only: bool = False,
-                        depth_only: bool = False) -> pd.DataFrame:
+                        depth_only: bool = False, draws: int = 0) -> pd.DataFrame:
     """Fill the opponents' table (`model.strike_pressure`) and refit the hitters' rows
     (`model.strike_bias`), in place, on the recorded rally strikes `states` that are not
     returns (`returns` (N,) bool; `HeadStates.returns`), then the returns' table on top of the
@@ -244,7 +272,9 @@ def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarr
     `depth_only` the depth table alone on top of the others as they are (one round), then
     centred: per role and kind one constant taken from its fitted cells keeps the role's mean
     odds of that error what they were without it, so it tilts the errors by depth and leaves
-    their level to the other tables. -> per (table: "opponent",
+    their level to the other tables. With `draws`, each strike's odds are read at that many
+    of the head's own draws of the earlier dimensions (`head_draws`: as a rollout draws),
+    not at the record's, and the returns' table likewise. -> per (table: "opponent",
     "hitter", "late" or "depth", id (the band for "depth"), receiver) of the last round: n and
     per kind the record's share, the odds before and after, and the shift (before centring)."""
     if model.strike_pressure is None:
@@ -256,10 +286,16 @@ def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarr
     rows = np.flatnonzero(~np.asarray(returns, dtype=bool))
     i = torch.as_tensor(rows)
     x, bins = head_inputs(model, "strike", states, i), states.bins[i]
+    prev = bins
+    if draws:
+        rows, x, prev = head_draws(model, states, rows, x, draws)
+        bins = states.bins[torch.as_tensor(rows)]
+        # A strike's draws together weigh as the strike did.
+        prior_strikes, min_strikes = prior_strikes * draws, min_strikes * draws
     recv = torch.as_tensor(states.receiver[rows].astype(bool))
     hitter = torch.as_tensor(states.hitter_id()[rows])
     opponent = torch.as_tensor(states.opponent_id()[rows])
-    logits = [head.dim_logits(x, bins, kind) for kind in range(strike_bias.N_KINDS)]
+    logits = [head.dim_logits(x, prev, kind) for kind in range(strike_bias.N_KINDS)]
     if model.strike_width is not None:
         tilt = torch.as_tensor(strike_bias.width_tilt(), dtype=x.dtype)
         w = model.strike_width[hitter, recv.long()]
@@ -320,7 +356,8 @@ def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarr
                 if len(g) < min_strikes:
                     continue
                 j = torch.as_tensor(g.index.to_numpy(copy=True))
-                row = {"table": name, "id": int(cid), "receiver": bool(rcv), "n": len(j)}
+                row = {"table": name, "id": int(cid), "receiver": bool(rcv),
+                       "n": len(j) // max(draws, 1)}
                 for kind, kname in enumerate(KINDS):
                     mask = masks[kind].expand(len(j), -1)
                     weight = mask.to(x.dtype)
@@ -336,7 +373,8 @@ def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarr
         _centre_depth(model.strike_depth, band, recv, logits,
                       lambda j, rcv, kind: others("depth", j, rcv, kind), min_strikes)
     if alone is None:
-        fit_strike_return(model, states, returns, prior_strikes, min_strikes, rally=False)
+        fit_strike_return(model, states, returns, prior_strikes / max(draws, 1),
+                          min_strikes // max(draws, 1), rally=False, draws=draws)
     return pd.DataFrame(out)
 
 
