@@ -93,7 +93,8 @@ def head_draws(model: SportsNGEN, states: HeadStates, rows: np.ndarray, x: torch
     receiver = torch.as_tensor(states.receiver[rows].astype(bool))
     shot = torch.as_tensor(states.shot_numbers()[rows])
     bias = model.strike_head_bias(torch.as_tensor(states.hitter_id()[rows]), receiver,
-                                  shot == 1, torch.as_tensor(states.opponent_id()[rows]), shot,
+                                  torch.as_tensor(states.returns()[rows]),
+                                  torch.as_tensor(states.opponent_id()[rows]), shot,
                                   torch.as_tensor(states.contact_m[rows, 0], dtype=x.dtype))
     gen = torch.Generator().manual_seed(seed)
     return rows, x, model.strike_head.sample(x, 1.0, gen, dim_bias=bias)
@@ -286,11 +287,11 @@ def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarr
     rows = np.flatnonzero(~np.asarray(returns, dtype=bool))
     i = torch.as_tensor(rows)
     x, bins = head_inputs(model, "strike", states, i), states.bins[i]
-    prev = bins
+    prev, given = bins, (prior_strikes, min_strikes)
     if draws:
         rows, x, prev = head_draws(model, states, rows, x, draws)
         bins = states.bins[torch.as_tensor(rows)]
-        # A strike's draws together weigh as the strike did.
+        # A strike's draws together weigh as the strike did (the returns' fit repeats its own).
         prior_strikes, min_strikes = prior_strikes * draws, min_strikes * draws
     recv = torch.as_tensor(states.receiver[rows].astype(bool))
     hitter = torch.as_tensor(states.hitter_id()[rows])
@@ -373,8 +374,7 @@ def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarr
         _centre_depth(model.strike_depth, band, recv, logits,
                       lambda j, rcv, kind: others("depth", j, rcv, kind), min_strikes)
     if alone is None:
-        fit_strike_return(model, states, returns, prior_strikes / max(draws, 1),
-                          min_strikes // max(draws, 1), rally=False, draws=draws)
+        fit_strike_return(model, states, returns, *given, rally=False, draws=draws)
     return pd.DataFrame(out)
 
 
