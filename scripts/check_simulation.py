@@ -156,6 +156,8 @@ def main() -> None:
           + (f", contact reach {sim.contact_reach_m} m" if sim.physical_limits else "")
           + (f", the return's {sim.return_reach_m} m"
              if sim.physical_limits and sim.return_reach_m is not None else "")
+          + (", the return's reach drawn per receiver"
+             if sim.return_reach_draw and sim.return_reach is not None else "")
           + (", the net in the ball's step" if sim.model.cfg.ball_net else "")
           + (", the surface's bounce" if sim.physical_bounce else "")
           + (f", players within {sim.player_accel_mps2:g} m/s²" if sim.player_accel_mps2

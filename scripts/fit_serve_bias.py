@@ -6,7 +6,8 @@ serve and of its speed (`model.serve_bias`; `sportsngen.train.serve_bias`).
 
 With `--short`, on a file that has the table: the short serves' shift added and fitted
 (`model.serve_short`, `fit_serve_short`) and each long shift refitted beside it; the other
-shifts are left as they are.
+shifts are left as they are. With `--lateral`, likewise: the lateral bands' shifts added and
+fitted (`model.serve_lateral`, `fit_serve_lateral`), each wide shift refitted beside them.
 
 The recorded serves are the file's own training split (`extra.split`, windows also turned as
 training turns them) and with `--more-data NAME` every serve of the data config
@@ -22,8 +23,10 @@ from sportsngen.data.tokens import N_SPECIAL_IDS
 from sportsngen.train.head_fit import HeadStates, collect_head_states
 from sportsngen.train.serve_bias import (
     fit_serve_bias,
+    fit_serve_lateral,
     fit_serve_short,
     with_serve_bias,
+    with_serve_lateral,
     with_serve_short,
 )
 from sportsngen.train.table_cli import open_table_run, table_parser
@@ -35,6 +38,8 @@ def main() -> None:
                       "also read every serve of this data config (conf/data/NAME.yaml)")
     ap.add_argument("--short", action="store_true",
                     help="fit the short serves' shift on a file that has the table")
+    ap.add_argument("--lateral", action="store_true",
+                    help="fit the lateral bands' shifts on a file that has the table")
     args = ap.parse_args()
     run = open_table_run(args, lambda m: None if m.serve_head is not None
                          else "no serve head (model.serve_head)")
@@ -44,6 +49,19 @@ def main() -> None:
     states = HeadStates.concat(parts)
     print(f"{len(states)} recorded serves read ({time.time() - t0:.0f} s)")
     names = {N_SPECIAL_IDS + i: p for i, p in enumerate(vocab.players)}
+    if args.lateral:
+        if model.serve_bias is None:
+            raise SystemExit(f"{run.path}: --lateral needs the serve table: fit it first")
+        model = with_serve_lateral(model)
+        table = fit_serve_lateral(model, states, prior_serves=args.prior_serves)
+        table.insert(0, "server", table["server_id"].map(names))
+        wide = table.groupby(["server", "serve"]).first()[["n", "wide_odds", "wide_after"]]
+        for kind in ("record", "head", "after", "shift"):
+            wide[kind] = table.groupby(["server", "serve"])[kind].apply(
+                lambda v: " ".join(f"{x:5.2f}" for x in v))
+        print(wide.to_string())
+        run.save(model, args.out)
+        return
     if args.short:
         if model.serve_bias is None:
             raise SystemExit(f"{run.path}: --short needs the serve table: fit it first")

@@ -149,3 +149,26 @@ def test_bundled_model_reads_the_shot_and_the_players_and_holds_short_second_ser
     assert short["Serena Williams"] == pytest.approx(-1.232, abs=1e-3)
     assert short["Maria Sharapova"] > 0.3
     assert short["Serena Williams"] < short["Roger Federer"] < 0
+
+
+def test_bundled_model_draws_each_receivers_reach_and_each_servers_lateral_bands():
+    """The fifty-third part's file: each serve's return reach drawn from its receiver's row
+    (`sim.return_reach`, fitted on the training split and the named players' round robins:
+    half of Nadal's good serves passing 1.48 m from him returned, Isner's 1.62 m), and the serve
+    head's lateral bands per server (`model.serve_lateral`): Federer's first serves moved off the
+    body (bands 2-3 cut) to the T and out wide, his wide odds held."""
+    from sportsngen.sim import Simulator
+
+    sim = Simulator.from_pretrained()
+    assert sim.return_reach_draw and sim.return_reach is not None
+    assert Simulator.from_pretrained(return_reach_draw=False).return_reach_draw is False
+    reach = sim.return_reach
+    assert reach.pooled[0] == pytest.approx(1.500, abs=1e-3)
+    assert reach.players["Rafael Nadal"][0] == pytest.approx(1.480, abs=1e-3)
+    assert reach.players["John Isner"][0] == pytest.approx(1.616, abs=1e-3)
+    assert reach.players["Rafael Nadal"][1] == pytest.approx(0.0327, abs=1e-4)
+    model, vocab = sim.model, sim.vocab
+    assert model.cfg.serve_lateral and model.serve_lateral.shape[1:] == (2, 7)
+    torch.testing.assert_close(model.serve_lateral[vocab.player_index("Roger Federer"), 0],
+                               torch.tensor([0.467, 0.317, -0.607, -0.930, -0.094, 0.338, 0.509]),
+                               atol=1e-3, rtol=0)

@@ -14,8 +14,10 @@ from sportsngen.tennis.court import SERVICE_LINE_X_M
 from sportsngen.train.head_fit import HeadStates
 from sportsngen.train.serve_bias import (
     fit_serve_bias,
+    fit_serve_lateral,
     fit_serve_short,
     with_serve_bias,
+    with_serve_lateral,
     with_serve_short,
 )
 
@@ -327,3 +329,79 @@ def test_the_short_shift_matches_each_servers_short_share_and_keeps_his_long_sha
         ModelConfig(serve_head=True, serve_short=True)
     with pytest.raises(ValueError, match="fit it first"):
         with_serve_short(small_model())
+
+
+CONTACT = [11.9, -0.8, 2.9]      # the deuce court's serve: its box lies at lateral -4.115..0
+
+
+def test_the_lateral_bands_split_the_box_toward_its_sideline():
+    band = serve_bias.lateral_bands(torch.tensor([CONTACT, [11.9, 0.8, 2.9]]))
+    lateral = torch.as_tensor(serve_bias._LATERAL_CENTRES_M)
+    for row, sign in ((0, -1.0), (1, 1.0)):
+        b = band[row]
+        inside = (lateral * sign > 0) & (lateral.abs() < 4.115)
+        assert ((b >= 0) == inside).all() and int(inside.sum()) == 28
+        toward = (lateral * sign)[inside]
+        assert (b[inside] == (toward / (4.115 / 7)).floor().long()).all()
+        assert torch.bincount(b[inside]).tolist() == [4] * 7
+    shifts = torch.arange(7.0)[None].expand(2, -1)
+    got = serve_bias.lateral_shift(shifts, torch.tensor([CONTACT, [11.9, 0.8, 2.9]]))
+    assert (got[band < 0] == 0).all() and (got[band >= 0] == band[band >= 0].float()).all()
+
+
+def _lateral_states(model, n_per=(600, 600), seed=0):
+    """First serves in the box: server 2 to the T (band 0) or out wide (band 6) half and half,
+    server 3 anywhere in the box; every depth in the box."""
+    rng = np.random.default_rng(seed)
+    n = sum(n_per)
+    sid = np.repeat([2, 3], n_per)
+    band = serve_bias.lateral_bands(torch.tensor([CONTACT]))[0].numpy()
+    inside = np.flatnonzero(band >= 0)
+    ends = np.flatnonzero((band == 0) | (band == 6))
+    lateral = np.where(sid == 2, rng.choice(ends, n), rng.choice(inside, n))
+    depth = rng.choice(np.flatnonzero(serve_bias.long_fraction() == 0)[-24:], n)
+    bins = np.stack([depth, lateral, rng.integers(30, 60, n), rng.integers(96, size=n)], -1)
+    return HeadStates(torch.randn(n, model.cfg.d_model), torch.as_tensor(bins), np.arange(n),
+                      np.zeros(n, dtype=np.int64), np.tile(CONTACT, (n, 1)),
+                      np.zeros(n, dtype=bool), sid.astype(np.int64))
+
+
+def test_the_lateral_shifts_match_each_servers_bands_and_keep_his_wide_odds():
+    model = with_serve_bias(small_model())
+    st = _lateral_states(model)
+    fit_serve_bias(model, st, prior_serves=0.0)
+    with pytest.raises(ValueError, match="with_serve_lateral"):
+        fit_serve_lateral(model, st)
+    model = with_serve_lateral(model)
+    assert model.serve_lateral.shape == (6, 2, 7) and (model.serve_lateral == 0).all()
+    table = fit_serve_lateral(model, st, prior_serves=0.0)
+    assert set(table["server_id"]) == {2, 3} and (table["n"] == 600).all()
+    for _, g in table.groupby("server_id"):
+        assert g["after"].to_numpy() == pytest.approx(g["record"].to_numpy(), abs=0.01)
+        assert g["wide_after"].iloc[0] == pytest.approx(g["wide_odds"].iloc[0], abs=1e-3)
+        assert g["shift"].sum() == pytest.approx(0.0, abs=1e-4)
+    two = table[table["server_id"] == 2].set_index("band")
+    assert two.loc[[0, 6], "record"].sum() == pytest.approx(1.0) and two.loc[3, "head"] > 0.05
+    # Drawn with the tables: server 2's serves in the box go to the T or wide, server 3's do not.
+    bias = model.serve_head_bias(torch.as_tensor(st.server_id), torch.as_tensor(st.serve),
+                                 torch.as_tensor(st.contact_m, dtype=torch.float32))
+    draws = torch.stack([model.serve_head.sample(st.h, 1.0, torch.Generator().manual_seed(k),
+                                                 dim_bias=bias) for k in range(8)])
+    band = serve_bias.lateral_bands(torch.tensor([CONTACT]))[0].numpy()[draws[..., 1].numpy()]
+    for sid, lo, hi in ((2, 0.9, 1.0), (3, 0.15, 0.4)):
+        got = band[:, st.server_id == sid]
+        ends = ((got == 0) | (got == 6))[got >= 0].mean()
+        assert lo <= ends <= hi, (sid, ends)
+    # The shift is read on the box's lateral bins of that server's serve only.
+    model.serve_lateral.zero_()
+    model.serve_bias.zero_()
+    model.serve_lateral[3, 1] = torch.arange(7.0)
+    b = model.serve_head_bias(torch.tensor([3, 3]), torch.tensor([1, 0]),
+                              torch.tensor([CONTACT, CONTACT]))
+    box = serve_bias.lateral_bands(torch.tensor([CONTACT]))[0]
+    assert (b[0, 1][box >= 0] == box[box >= 0].float()).all() and (b[0, 1][box < 0] == 0).all()
+    assert (b[1] == 0).all() and (b[0, [0, 2, 3]] == 0).all()
+    with pytest.raises(ValueError, match="serve_bias"):
+        ModelConfig(serve_head=True, serve_lateral=True)
+    with pytest.raises(ValueError, match="fit it first"):
+        with_serve_lateral(small_model())

@@ -12,7 +12,7 @@ _NUCLEI = ("top_p_ball", "top_p_contact", "top_p_serve")
 _FLAGS = ("contact_odds", "strike_in_reach", "strike_in_reach_from", "strike_in_reach_force",
           "strike_in_reach_m", "ball_net", "keep_chasing", "contact_reach_m",
           "return_reach_m", "strike_in_reach_return_m", "physical_bounce",
-          "player_accel_mps2", "chase_high_balls")
+          "player_accel_mps2", "chase_high_balls", "return_reach_draw")
 
 
 def add_sampling_options(parser: argparse.ArgumentParser) -> None:
@@ -60,6 +60,11 @@ def add_sampling_options(parser: argparse.ArgumentParser) -> None:
                         help="with physical limits, the return (the contact after the serve) "
                              "needs the receiver within this distance of the ball (m, "
                              "horizontally; default: the model file's, else the contact's)")
+    parser.add_argument("--return-reach-draw", action=argparse.BooleanOptionalAction,
+                        default=None,
+                        help="each serve's return reach drawn from its receiver's row of the "
+                             "file's table (scripts/fit_return_reach.py; default: the model "
+                             "file's, else off)")
     parser.add_argument("--physical-bounce", action=argparse.BooleanOptionalAction,
                         default=None,
                         help="the ball's bounces are the surface's physics, not the model's "

@@ -128,6 +128,13 @@ class ModelConfig:
     # Williams' second serves short three times as often as her record (docs/evaluation.md,
     # forty-second part).
     serve_short: bool = False
+    # With it, a per-server shift of the serve head's lateral bins inside the box, by band of
+    # their distance toward its sideline (`model.serve_bias.lateral_bands`, fitted by
+    # `train.serve_bias.fit_serve_lateral`; zero until then): the head, fitted on everyone's
+    # serves, spreads a server's first serves over the box where the big servers' go to the T
+    # or wide (Federer's 1.0-3.0 m from the centre line 0.20 of his first serves in the
+    # bundled file's checks against his truth's 0.08; docs/evaluation.md, fifty-third part).
+    serve_lateral: bool = False
     # A table of per-hitter shifts of the strike head's odds of a rally ball long, wide or into
     # the net, by his role in the point (`model.strike_bias`, fitted by `train.strike_bias`
     # after the head; zero until then): the head draws every named player's errors near the
@@ -243,6 +250,9 @@ class ModelConfig:
         if self.serve_short and not self.serve_bias:
             raise ValueError("model.serve_short is read with the serve head's table: it needs "
                              "serve_bias=True")
+        if self.serve_lateral and not self.serve_bias:
+            raise ValueError("model.serve_lateral is read with the serve head's table: it "
+                             "needs serve_bias=True")
         if self.serve_aim and not self.serve_bias:
             raise ValueError("model.serve_aim is read with the serve head's table: it needs "
                              "serve_bias=True")

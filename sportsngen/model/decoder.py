@@ -185,7 +185,8 @@ class SportsNGEN(nn.Module):
 
     # The buffers with a row per identity, (n_ids, ...) where the config has them: a player
     # added for fine-tuning gets a row at zero in each (`train.finetune.add_player`).
-    PER_IDENTITY_TABLES = ("serve_bias", "serve_aim", "serve_short", "receiver_start",
+    PER_IDENTITY_TABLES = ("serve_bias", "serve_aim", "serve_short", "serve_lateral",
+                           "receiver_start",
                            "strike_bias",
                            "strike_width", "strike_return", "strike_pressure",
                            "strike_shape", "strike_shape_opponent", "strike_player",
@@ -234,6 +235,9 @@ class SportsNGEN(nn.Module):
                              if cfg.serve_aim else None)
         self.register_buffer("serve_short", torch.zeros(cfg.n_ids, serve_bias.N_SERVES)
                              if cfg.serve_short else None)
+        self.register_buffer("serve_lateral", torch.zeros(cfg.n_ids, serve_bias.N_SERVES,
+                                                          serve_bias.N_LATERAL_BANDS)
+                             if cfg.serve_lateral else None)
         self.register_buffer("strike_bias", torch.zeros(cfg.n_ids, strike_bias_table.N_ROLES,
                                                         strike_bias_table.N_KINDS)
                              if cfg.strike_bias else None)
@@ -501,13 +505,14 @@ class SportsNGEN(nn.Module):
                         contact_m: torch.Tensor) -> torch.Tensor | None:
         """The serve head's logit shifts (N, 4, bins) for serves of `server_ident` (N,) on
         serve `serve` (N,) struck at `contact_m` (N, 3) (`model.serve_bias`, with the aim's
-        tilt where the model has `serve_aim` and the short serves' shift where it has
-        `serve_short`); None where the model has no table or the server or the serve is not
-        given."""
+        tilt where the model has `serve_aim`, the short serves' shift where it has
+        `serve_short` and the lateral bands' where it has `serve_lateral`); None where the model
+        has no table or the server or the serve is not given."""
         if self.serve_bias is None or server_ident is None or serve is None:
             return None
         return serve_bias.serve_dim_bias(self.serve_bias, self._ident(server_ident), serve,
-                                         contact_m, self.serve_aim, self.serve_short)
+                                         contact_m, self.serve_aim, self.serve_short,
+                                         self.serve_lateral)
 
     def strike_head_bias(self, hitter_ident: torch.Tensor | None,
                          receiver: torch.Tensor | None,

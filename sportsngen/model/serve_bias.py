@@ -16,6 +16,14 @@ lateral bins inside the box the serve is aimed at by their distance toward its o
 model's own serves. Measured on the bundled file (11,997 serves from its own tosses), the head
 already aims as the record there (2.06-2.11 m toward the sideline against 1.99-2.08; every
 fitted tilt within 0.06 a metre; docs/evaluation.md, thirty-seventh part): an option, off.
+
+`ModelConfig.serve_lateral` adds a third, per player identity and serve, of shifts of the
+lateral bins inside the box by band (`lateral_bands`: seven bands of four bins from the centre
+line to the sideline), which `sportsngen.train.serve_bias.fit_serve_lateral` fits on recorded
+serves. A mean does not say where the serves go: the head, fitted on everyone's serves, drew
+the big servers' first serves to the body (Federer's bands 2-4, 1.2-2.9 m from the centre line,
+0.12 of his serves in the box against his record's 0.05) and too few out wide, where the aces
+are (docs/evaluation.md, fifty-third part).
 """
 
 from __future__ import annotations
@@ -122,15 +130,41 @@ def aim_tilt(contact_m: torch.Tensor) -> torch.Tensor:
     return torch.where(wide_bins(contact_m), torch.zeros_like(toward), toward - AIM_MID_M)
 
 
+# The lateral bands' table (`lateral_bands`): the box's width toward its sideline in equal
+# bands of four lateral bins (28 bins span a box), so no bin's centre falls on a band's edge.
+N_LATERAL_BANDS = 7
+
+
+def lateral_bands(contact_m: torch.Tensor) -> torch.Tensor:
+    """Serves struck at `contact_m` (N, 3) -> (N, STRIKE_BINS) int64: each lateral bin's band
+    inside the box aimed at (0 at the centre line to N_LATERAL_BANDS - 1 at the sideline, by
+    its centre's `toward_sideline`), -1 outside it (the wide bins)."""
+    toward = toward_sideline_m(contact_m)
+    band = (toward / (SINGLES_HALF_WIDTH_M / N_LATERAL_BANDS)).floor().long()
+    band = band.clamp(0, N_LATERAL_BANDS - 1)
+    return torch.where(wide_bins(contact_m), torch.full_like(band, -1), band)
+
+
+def lateral_shift(shifts: torch.Tensor, contact_m: torch.Tensor) -> torch.Tensor:
+    """Per-serve band shifts `shifts` (N, N_LATERAL_BANDS) of serves struck at `contact_m`
+    (N, 3) -> (N, STRIKE_BINS): each lateral bin's shift, zero on the wide bins."""
+    band = lateral_bands(contact_m.to(shifts.dtype))
+    got = shifts.gather(1, band.clamp(min=0))
+    return torch.where(band >= 0, got, torch.zeros_like(got))
+
+
 def serve_dim_bias(table: torch.Tensor, server_id: torch.Tensor, serve: torch.Tensor,
                    contact_m: torch.Tensor, aim: torch.Tensor | None = None,
-                   short: torch.Tensor | None = None) -> torch.Tensor:
+                   short: torch.Tensor | None = None,
+                   lateral: torch.Tensor | None = None) -> torch.Tensor:
     """The serve head's logit shifts for serves of `server_id` (N,) on serve `serve` (N,; 0
     first, 1 second) struck at `contact_m` (N, 3), from `table` (n_ids, N_SERVES, N_KINDS) ->
     (N, 4, STRIKE_BINS): the long depth bins and the wide lateral bins shifted, the speed bins
     tilted (`speed_tilt`), the spin's left alone; with the aim's table `aim` (n_ids,
     N_SERVES), the lateral bins in the box tilted too (`aim_tilt`); with the short serves'
-    table `short` (n_ids, N_SERVES), the depth bins short of `SHORT_DEPTH_M` shifted too."""
+    table `short` (n_ids, N_SERVES), the depth bins short of `SHORT_DEPTH_M` shifted too; with
+    the lateral bands' table `lateral` (n_ids, N_SERVES, N_LATERAL_BANDS), each lateral bin
+    in the box by its band's shift (`lateral_shift`)."""
     n = len(server_id)
     shift = table[server_id.long(), serve.long().clamp(0, N_SERVES - 1)]      # (N, N_KINDS)
     out = torch.zeros(n, 4, strike.STRIKE_BINS, dtype=table.dtype, device=table.device)
@@ -145,4 +179,7 @@ def serve_dim_bias(table: torch.Tensor, server_id: torch.Tensor, serve: torch.Te
     if short is not None:
         s = short[server_id.long(), serve.long().clamp(0, N_SERVES - 1)]
         out[:, 0] += s[:, None] * torch.as_tensor(_SHORT_BINS, device=table.device)
+    if lateral is not None:
+        rows = lateral[server_id.long(), serve.long().clamp(0, N_SERVES - 1)]
+        out[:, 1] += lateral_shift(rows, contact_m)
     return out

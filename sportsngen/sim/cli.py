@@ -153,6 +153,8 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
         kw["keep_chasing"] = bool(cfg.keep_chasing)
     if cfg.get("chase_high_balls") is not None:
         kw["chase_high_balls"] = bool(cfg.chase_high_balls)
+    if cfg.get("return_reach_draw") is not None:
+        kw["return_reach_draw"] = bool(cfg.return_reach_draw)
     if cfg.get("top_p_contact") is not None:
         kw["top_p_contact"] = float(cfg.top_p_contact)
     if cfg.get("top_p_serve") is not None:

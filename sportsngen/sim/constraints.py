@@ -112,6 +112,15 @@ def ball_jolted(pos_m: torch.Tensor, next_pos_m: torch.Tensor, vel_mps: torch.Te
     return (in_air | braked) & inside
 
 
+def return_reaches(tracker, rows, return_reach_m: float, rows_m: np.ndarray | None,
+                   reach_m: float) -> np.ndarray:
+    """(rows,) the reach of each row's next contact: the return's where it is the return (each
+    row's own in `rows_m`, indexed like the tracker, else `return_reach_m`), `reach_m` else."""
+    rows = np.asarray(rows)
+    ret = rows_m[rows] if rows_m is not None else return_reach_m
+    return np.where(awaiting_return(tracker.n_shots[rows]), ret, reach_m)
+
+
 class PhysicalLimits:
     """Reject a sampled frame whose ball is below the ground, or crossed the net's plane
     below the cord since the previous frame, or (`reach_m` not None) reverses along x, as a
@@ -146,6 +155,9 @@ class PhysicalLimits:
         self.reach_m = reach_m
         self.tracker = tracker
         self.return_reach_m = None if return_reach_m is None else float(return_reach_m)
+        # (B,) per rollout row, where each serve draws its receiver's own (`return_reach`):
+        # replaces `return_reach_m`.
+        self.return_reach_rows_m: np.ndarray | None = None
         self.max_tries = max_tries
         self.offset = 0
         self.given_up = 0
@@ -169,9 +181,9 @@ class PhysicalLimits:
         """The reach of each row's next contact: `return_reach_m` where it is the return."""
         if self.return_reach_m is None:
             return self.reach_m
-        is_return = torch.as_tensor(awaiting_return(self.tracker.n_shots[np.asarray(rows)]),
-                                    device=ball.device)
-        return torch.where(is_return, self.return_reach_m, self.reach_m).to(ball.dtype)
+        return torch.as_tensor(return_reaches(self.tracker, rows, self.return_reach_m,
+                                              self.return_reach_rows_m, self.reach_m),
+                               device=ball.device, dtype=ball.dtype)
 
     def struck_out_of_reach(self, pos_m: torch.Tensor, next_pos_m: torch.Tensor,
                             vel_mps: torch.Tensor,
@@ -281,6 +293,8 @@ class StrikeInReach:
         if return_reach_m is not None and not return_reach_m > 0:
             raise ValueError(f"return_reach_m must be positive, got {return_reach_m}")
         self.return_reach_m = None if return_reach_m is None else float(return_reach_m)
+        # (B,) per rollout row, as `PhysicalLimits.return_reach_rows_m`.
+        self.return_reach_rows_m: np.ndarray | None = None
         self.max_z_m = float(max_z_m)
         self.max_tries = max_tries
         self.fps = float(fps)
@@ -306,8 +320,8 @@ class StrikeInReach:
         dev = pos_m.device
         reach = None
         if self.return_reach_m is not None:
-            reach = torch.as_tensor(np.where(awaiting_return(self.tracker.n_shots[rows]),
-                                             self.return_reach_m, self.reach_m),
+            reach = torch.as_tensor(return_reaches(self.tracker, rows, self.return_reach_m,
+                                                   self.return_reach_rows_m, self.reach_m),
                                     device=dev, dtype=pos_m.dtype)
         return ~(torch.as_tensor(due, device=dev) & self.passes(
             pos_m, next_pos_m, torch.as_tensor(role, device=dev),

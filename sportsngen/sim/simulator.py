@@ -50,9 +50,11 @@ from sportsngen.sim.constraints import (
 from sportsngen.sim.events import frame_labels
 from sportsngen.sim.initial import InitialConditions
 from sportsngen.sim.match import MatchResult, simulate_matches
+from sportsngen.sim.return_reach import ReturnReach
 from sportsngen.sim.rollout import Constraint, RolloutInputs, rollout
 from sportsngen.tennis.rally import CONTACT_REACH_M, MAX_RALLY_S, RallyTracker
 
+RETURN_REACH_STREAM = 0x5E7E        # the return reaches' own random stream (`_return_reaches`)
 BUNDLED_DIR = Path(__file__).resolve().parents[1] / "model" / "bundled"
 BUNDLED_NAMES = {"sportsngen-small": BUNDLED_DIR / "sportsngen-small.pt"}
 DEFAULT_MODEL = "sportsngen-small"
@@ -122,7 +124,7 @@ class Simulator:
                  return_reach_m: float | None = None,
                  strike_in_reach_return_m: float | None = None,
                  physical_bounce: bool = False, player_accel_mps2: float | None = None,
-                 chase_high_balls: bool = False):
+                 chase_high_balls: bool = False, return_reach_draw: bool = False):
         if abs(initial.fps - model.cfg.fps) > 1e-6:
             raise ValueError(f"initial conditions at {initial.fps} Hz, model at {model.cfg.fps}")
         for name, p in (("top_p_player", top_p_player), ("top_p_ball", top_p_ball),
@@ -212,6 +214,11 @@ class Simulator:
         if player_accel_mps2 is not None and not float(player_accel_mps2) > 0:
             raise ArgumentError(f"player_accel_mps2 must be positive, got {player_accel_mps2!r}")
         self.player_accel_mps2 = None if player_accel_mps2 is None else float(player_accel_mps2)
+        # Each serve's return reach (the contact limit's and the strike rule's) drawn from its
+        # receiver's row of `return_reach` (`sim.return_reach`), where the file has the table
+        # (`from_pretrained`); without one the fixed reaches stand.
+        self.return_reach_draw = bool(return_reach_draw)
+        self.return_reach: ReturnReach | None = None
         self._warned: set[str] = set()    # unknown players already warned about
         # Raw rollout win probabilities -> observed frequencies, when the model file has one
         # (`scripts/rally_outcome_study.py --save-calibrator`).
@@ -235,6 +242,8 @@ class Simulator:
                   **kwargs)
         if extra.get("outcome_calibrator") is not None:
             sim.outcome_calibrator = calibrator_from_dict(extra["outcome_calibrator"])
+        if extra.get("return_reach") is not None:
+            sim.return_reach = ReturnReach.from_dict(extra["return_reach"])
         return sim
 
     @staticmethod
@@ -286,6 +295,15 @@ class Simulator:
                       f"player; known players: {list(self.vocab.players)}", stacklevel=4)
         return self.vocab.player_index(name, "generic")
 
+    def _return_reaches(self, part: pd.DataFrame, seed: int, lo: int) -> np.ndarray | None:
+        """(len(part),) each serve's return reach drawn from its receiver's row (`return_reach_draw`
+        with a table), from a stream of its own (seed, batch start): the rollout's other draws
+        stay those without it. None: the fixed reaches."""
+        if not self.return_reach_draw or self.return_reach is None:
+            return None
+        rng = np.random.default_rng((int(seed), int(lo), RETURN_REACH_STREAM))
+        return self.return_reach.draw(part["receiver"].to_numpy(), rng)
+
     def simulate_rallies(self, plan: pd.DataFrame, seed: int = 0, progress: bool = False,
                          init_pos_m: np.ndarray | None = None,
                          constraint: Constraint | None = None,
@@ -311,14 +329,20 @@ class Simulator:
                                   init_pos_m[lo:lo + self.batch_size])
             tracker = RallyTracker(part["server_end"].to_numpy(), part["side"].to_numpy(),
                                    part["serve_number"].to_numpy(), self.fps, duration_s)
+            drawn = self._return_reaches(part, seed, lo)
             limits = PhysicalLimits(fps=self.fps, reach_m=self.contact_reach_m,
-                                    tracker=tracker, return_reach_m=self.return_reach_m) \
+                                    tracker=tracker, return_reach_m=self.return_reach_m
+                                    if drawn is None else self.return_reach.pooled[0]) \
                 if self.physical_limits else None
             strike = StrikeInReach(tracker, reach_m=self.strike_in_reach_m, fps=self.fps,
                                    from_shot=self.strike_in_reach_from,
                                    force=self.strike_in_reach_force,
-                                   return_reach_m=self.strike_in_reach_return_m) \
+                                   return_reach_m=self.strike_in_reach_return_m
+                                   if drawn is None else self.return_reach.pooled[0]) \
                 if self.strike_in_reach else None
+            for con in (limits, strike):
+                if con is not None:
+                    con.return_reach_rows_m = drawn
             chase = KeepChasing(tracker, fps=self.fps,
                                 band_m=HIGH_BALL_BAND_M if self.chase_high_balls else None) \
                 if self.keep_chasing else None

@@ -16,7 +16,12 @@ from torch.utils.data import DataLoader
 
 from sportsngen.data.tokens import WindowDataset, rally_arrays
 from sportsngen.model.export import load_model, read_extra
-from sportsngen.train.datamodule import data_fingerprint, load_rally_data, split_rallies
+from sportsngen.train.datamodule import (
+    data_fingerprint,
+    load_rally_data,
+    split_positions,
+    split_rallies,
+)
 from sportsngen.train.finetune import check_data_matches, player_rallies
 from sportsngen.train.metrics import evaluate_windows
 
@@ -114,6 +119,20 @@ def split_arrays(model_path: str | Path, vocab) -> tuple:
         raise ValueError(f"{model_path} records no training data split (extra.split)")
     return split_rallies(rally_arrays(load_rally_data(split["data"]), vocab),
                          float(split["val_fraction"]), int(split["seed"]))
+
+
+def training_rally_data(model_path: str | Path, more_data: str | None = None) -> list:
+    """`training_arrays`' rallies as tables: the file's training split (`extra.split`, the
+    same rallies `split_arrays` keeps) and, with `more_data`, every rally of that data config
+    -> [RallyData, ...]."""
+    split = read_extra(model_path).get("split")
+    if not split or "data" not in split:
+        raise ValueError(f"{model_path} records no training data split (extra.split)")
+    data = load_rally_data(split["data"])
+    train, _ = split_positions(len(data.rallies), float(split["val_fraction"]),
+                               int(split["seed"]))
+    parts = [data.subset(data.rallies["rally_id"].to_numpy()[train])]
+    return parts + ([load_rally_data(data_config(more_data))] if more_data else [])
 
 
 def training_arrays(model_path: str | Path, vocab, more_data: str | None = None) -> list:

@@ -2,7 +2,8 @@
 
 A named player of the bundled file plays through his identity row and his rows of the tables
 that correct what the heads draw for him (`SportsNGEN.PER_IDENTITY_TABLES`): the serve's faults
-and speed (`model.serve_bias`; his short serves, `model.serve_short`, where the file has it), his
+and speed (`model.serve_bias`; his short serves, `model.serve_short`, and where in the box his
+serves go, `model.serve_lateral`, where the file has them), his
 rally errors by role (`model.strike_bias`) and on his returns
 (`model.strike_return`). The heads read a player only through the decoder's state, and fitted
 on everyone they draw about the average player's serves and errors (docs/evaluation.md,
@@ -28,7 +29,7 @@ from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.data.tracking import RallyData
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.train.head_fit import collect_head_states
-from sportsngen.train.serve_bias import fit_serve_bias, fit_serve_short
+from sportsngen.train.serve_bias import fit_serve_bias, fit_serve_lateral, fit_serve_short
 from sportsngen.train.strike_bias import fit_strike_bias, fit_strike_return
 
 
@@ -63,6 +64,10 @@ def fit_player_tables(model: SportsNGEN, vocab: Vocab, data: RallyData, player: 
             if model.serve_short is not None:
                 t = fit_serve_short(model, own, prior_serves=prior_serves)
                 parts.append(_labelled(t, "serve_short", "serve", {0: "first", 1: "second"},
+                                       "server_id"))
+            if model.serve_lateral is not None:
+                t = fit_serve_lateral(model, own, prior_serves=prior_serves)
+                parts.append(_labelled(t, "serve_lateral", "serve", {0: "first", 1: "second"},
                                        "server_id"))
     if model.strike_bias is not None and model.strike_head is not None:
         states = collect_head_states(model, arrays, "strike", flip=True, progress=progress)

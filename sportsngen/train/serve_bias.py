@@ -283,3 +283,94 @@ def fit_serve_short(model: SportsNGEN, states: HeadStates, prior_serves: float =
                                                    torch.zeros(1))[0]),
                      "long_shift": long_shift})
     return pd.DataFrame(rows)
+
+
+LATERAL_ROUNDS = 200     # `fit_serve_lateral`'s rounds of matching the bands' shares
+LATERAL_MIN_SHARE = 1e-4  # the least share a band is matched to
+
+
+def with_serve_lateral(model: SportsNGEN) -> SportsNGEN:
+    """`model` (with the serve table) with the lateral bands' table added
+    (`cfg.serve_lateral`), at zero: it draws as before until `fit_serve_lateral` fills it.
+    -> a new model."""
+    if model.serve_bias is None:
+        raise ValueError("the lateral bands' shift is read with the serve head's table "
+                         "(cfg.serve_bias): fit it first (scripts/fit_serve_bias.py)")
+    return with_flag(model, "serve_lateral", ["serve_lateral"])
+
+
+def _band_shares(logits: torch.Tensor, band: torch.Tensor, shift: torch.Tensor) -> torch.Tensor:
+    """Mean over rows of the odds of each band given a serve in the box: `logits` (N, bins)
+    with each bin in band b (`band` (N, bins), -1 wide) shifted by `shift[b]` -> (bands,)."""
+    inside = band >= 0
+    lg = logits + torch.where(inside, shift[band.clamp(min=0)], torch.zeros_like(logits))
+    p = lg.softmax(-1) * inside
+    mass = torch.zeros(len(p), len(shift), dtype=p.dtype).scatter_add_(1, band.clamp(min=0), p)
+    return (mass / mass.sum(1, keepdim=True).clamp(min=1e-12)).mean(0)
+
+
+@torch.no_grad()
+def fit_serve_lateral(model: SportsNGEN, states: HeadStates, prior_serves: float = 100.0,
+                      min_serves: int = 50) -> pd.DataFrame:
+    """Fill `model.serve_lateral` (in place) from the recorded serves `states`, per server and
+    serve with at least `min_serves` serves the record put in the box: the band shifts whose
+    head's odds of each band, given a serve in the box (read at the record's depth bin, on the
+    serves the record put in the box), equal his record's shares, pulled toward the head's own
+    by `prior_serves` pseudo-serves and none below `LATERAL_MIN_SHARE` (matched in
+    `LATERAL_ROUNDS` rounds of log-ratio steps, the shifts centred); then his wide shift
+    refitted so the head's odds of a wide serve over all his serves stay what they were. -> per
+    (server_id, serve, band): n, the record's share, the head's before and after, and the
+    band's shift."""
+    _check_fit(model.serve_lateral, "lateral bands' table (cfg.serve_lateral)",
+               "with_serve_lateral", prior_serves, min_serves)
+    head = model.serve_head
+    dtype = states.h.dtype
+    contact = torch.as_tensor(states.contact_m, dtype=dtype)
+    long_bins = torch.as_tensor(serve_bias.long_fraction() > 0.5)
+    keys = pd.DataFrame({"server_id": states.server_id, "serve": states.serve})
+    rows = []
+    for (sid, srv), g in keys.groupby(["server_id", "serve"]):
+        if not 0 <= srv < serve_bias.N_SERVES:
+            continue
+        sid, srv = int(sid), int(srv)
+        i = torch.as_tensor(g.index.to_numpy(copy=True))
+        h, bins, c = states.h[i], states.bins[i], contact[i]
+        band = serve_bias.lateral_bands(c)
+        rec_band = band[torch.arange(len(i)), bins[:, 1]]
+        in_box = (rec_band >= 0) & ~long_bins[bins[:, 0]]
+        n = int(in_box.sum())
+        if n < min_serves:
+            continue
+        model.serve_lateral[sid, srv] = 0.0
+        ids = torch.full((len(i),), sid)
+        serve = torch.full((len(i),), srv)
+        base = head.dim_logits(h, bins, 1) + serve_bias.serve_dim_bias(
+            model.serve_bias, ids, serve, c, model.serve_aim, model.serve_short)[:, 1]
+        wide = serve_bias.wide_bins(c)
+        wide_before = float(mean_odds(base, wide, wide.to(dtype), torch.zeros(1))[0])
+        lg, bd = base[in_box], band[in_box]
+        k = serve_bias.N_LATERAL_BANDS
+        record = torch.bincount(rec_band[in_box], minlength=k).to(dtype) / n
+        shift = torch.zeros(k, dtype=dtype)
+        before = _band_shares(lg, bd, shift)
+        target = (n * record + prior_serves * before) / (n + prior_serves)
+        # A band the record never served to is held at `LATERAL_MIN_SHARE`, not driven to
+        # minus infinity; the steps are not bounded on the way (a bound on some bands stops
+        # the others' ratios from being matched), the shifts centred at the end.
+        target = target.clamp(min=LATERAL_MIN_SHARE)
+        target = target / target.sum()
+        for _ in range(LATERAL_ROUNDS):
+            shift = shift + torch.log(target / _band_shares(lg, bd, shift).clamp(min=1e-12))
+        shift = shift - shift.mean()
+        after = _band_shares(lg, bd, shift)
+        model.serve_lateral[sid, srv] = shift
+        w0 = float(model.serve_bias[sid, srv, serve_bias.WIDE])
+        moved = base - w0 * wide + serve_bias.lateral_shift(shift.expand(len(i), -1), c)
+        fit = matched_shift(moved, wide, wide.to(dtype), wide_before, 0.0)
+        model.serve_bias[sid, srv, serve_bias.WIDE] = fit["shift"]
+        for b in range(k):
+            rows.append({"server_id": sid, "serve": srv, "band": b, "n": n,
+                         "record": float(record[b]), "head": float(before[b]),
+                         "after": float(after[b]), "shift": float(shift[b]),
+                         "wide_odds": wide_before, "wide_after": fit["after"]})
+    return pd.DataFrame(rows)
