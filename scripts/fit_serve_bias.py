@@ -32,6 +32,17 @@ from sportsngen.train.serve_bias import (
 from sportsngen.train.table_cli import open_table_run, table_parser
 
 
+def _on_top(run, flag: str, add, fit, states, prior_serves: float, names: dict):
+    """A table fitted on top of the file's serve table (`--short`, `--lateral`) -> the model
+    with it and the fit's cells named by server."""
+    if run.model.serve_bias is None:
+        raise SystemExit(f"{run.path}: {flag} needs the serve table: fit it first")
+    model = add(run.model)
+    table = fit(model, states, prior_serves=prior_serves)
+    table.insert(0, "server", table["server_id"].map(names))
+    return model, table
+
+
 def main() -> None:
     ap = table_parser(__doc__, "--prior-serves", 100.0,
                       "pseudo-serves at the head's own odds added to each server's record",
@@ -50,11 +61,8 @@ def main() -> None:
     print(f"{len(states)} recorded serves read ({time.time() - t0:.0f} s)")
     names = {N_SPECIAL_IDS + i: p for i, p in enumerate(vocab.players)}
     if args.lateral:
-        if model.serve_bias is None:
-            raise SystemExit(f"{run.path}: --lateral needs the serve table: fit it first")
-        model = with_serve_lateral(model)
-        table = fit_serve_lateral(model, states, prior_serves=args.prior_serves)
-        table.insert(0, "server", table["server_id"].map(names))
+        model, table = _on_top(run, "--lateral", with_serve_lateral, fit_serve_lateral, states,
+                               args.prior_serves, names)
         wide = table.groupby(["server", "serve"]).first()[["n", "wide_odds", "wide_after"]]
         for kind in ("record", "head", "after", "shift"):
             wide[kind] = table.groupby(["server", "serve"])[kind].apply(
@@ -63,11 +71,8 @@ def main() -> None:
         run.save(model, args.out)
         return
     if args.short:
-        if model.serve_bias is None:
-            raise SystemExit(f"{run.path}: --short needs the serve table: fit it first")
-        model = with_serve_short(model)
-        table = fit_serve_short(model, states, prior_serves=args.prior_serves)
-        table.insert(0, "server", table["server_id"].map(names))
+        model, table = _on_top(run, "--short", with_serve_short, fit_serve_short, states,
+                               args.prior_serves, names)
         print(table.drop(columns=["server_id"]).round(3).to_string(index=False))
         run.save(model, args.out)
         return

@@ -258,6 +258,17 @@ def test_a_player_added_for_fine_tuning_gets_a_row_at_zero():
     assert idx == vocab.n_ids and (new.serve_bias[idx] == 0).all()
 
 
+def _served_without(states_of, fit, adder: str):
+    """A small model with its serve table fitted on `states_of(model)`, and those states; the
+    table `fit` fills is refused until `adder` adds it."""
+    model = with_serve_bias(small_model())
+    st = states_of(model)
+    fit_serve_bias(model, st, prior_serves=0.0)
+    with pytest.raises(ValueError, match=adder):
+        fit(model, st)
+    return model, st
+
+
 def _short_states(model, n_per=(400, 400), seed=0):
     """First serves of servers 2 and 3: server 2 lands 30 % of his short of 3.9 m, server 3
     5 %, both 30 % long (the untrained head puts about half its mass beyond the line)."""
@@ -289,11 +300,7 @@ def test_the_short_bins_are_the_depths_wholly_short_of_the_line():
 
 
 def test_the_short_shift_matches_each_servers_short_share_and_keeps_his_long_share():
-    model = with_serve_bias(small_model())
-    st = _short_states(model)
-    fit_serve_bias(model, st, prior_serves=0.0)
-    with pytest.raises(ValueError, match="with_serve_short"):
-        fit_serve_short(model, st)
+    model, st = _served_without(_short_states, fit_serve_short, "with_serve_short")
     model = with_serve_short(model)
     assert model.serve_short.shape == (6, 2) and (model.serve_short == 0).all()
     table = fit_serve_short(model, st, prior_serves=0.0).set_index("server_id")
@@ -367,11 +374,7 @@ def _lateral_states(model, n_per=(600, 600), seed=0):
 
 
 def test_the_lateral_shifts_match_each_servers_bands_and_keep_his_wide_odds():
-    model = with_serve_bias(small_model())
-    st = _lateral_states(model)
-    fit_serve_bias(model, st, prior_serves=0.0)
-    with pytest.raises(ValueError, match="with_serve_lateral"):
-        fit_serve_lateral(model, st)
+    model, st = _served_without(_lateral_states, fit_serve_lateral, "with_serve_lateral")
     model = with_serve_lateral(model)
     assert model.serve_lateral.shape == (6, 2, 7) and (model.serve_lateral == 0).all()
     table = fit_serve_lateral(model, st, prior_serves=0.0)
