@@ -152,3 +152,32 @@ def test_a_simulator_draws_each_serves_reach_from_the_files_table(tiny_model_fil
     a = sim.simulate_points("Toy Alpha", "Toy Gamma", "hard", 6, seed=3)
     b = sim.simulate_points("Toy Alpha", "Toy Gamma", "hard", 6, seed=3)
     pd.testing.assert_frame_equal(a.frames, b.frames)
+
+
+def test_the_script_writes_the_table_and_the_default_into_a_copy(
+        tiny_model_file, federer_points_and_head_model, tmp_path, monkeypatch, capsys):
+    """`scripts/fit_return_reach.py` on a file, its training rallies stood in for by 80
+    generated points: the copy carries the fitted table and draws from it; the source is left
+    as it was."""
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    from sportsngen.model.export import read_extra
+    from sportsngen.sim.simulator import Simulator
+
+    path = Path(__file__).resolve().parents[1] / "scripts/fit_return_reach.py"
+    spec = importlib.util.spec_from_file_location("fit_return_reach_script", path)
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    data = federer_points_and_head_model[0]
+    monkeypatch.setattr(script, "training_rally_data", lambda src, more: [data])
+    out = tmp_path / "with_reach.pt"
+    monkeypatch.setattr(sys, "argv", ["fit_return_reach.py", "--model", str(tiny_model_file),
+                                      "--out", str(out)])
+    script.main()
+    assert "good serves" in capsys.readouterr().out
+    table = ReturnReach.from_dict(read_extra(out)["return_reach"])
+    assert table.players == {} and 1.2 < table.pooled[0] < 1.8     # 80 points: the pooled row
+    assert Simulator.from_pretrained(out).return_reach_draw is True
+    assert "return_reach" not in read_extra(tiny_model_file)

@@ -340,9 +340,9 @@ class Simulator:
                                    return_reach_m=self.strike_in_reach_return_m
                                    if drawn is None else self.return_reach.pooled[0]) \
                 if self.strike_in_reach else None
-            for con in (limits, strike):
-                if con is not None:
-                    con.return_reach_rows_m = drawn
+            for rule in (limits, strike):
+                if rule is not None:
+                    rule.return_reach_rows_m = drawn
             chase = KeepChasing(tracker, fps=self.fps,
                                 band_m=HIGH_BALL_BAND_M if self.chase_high_balls else None) \
                 if self.keep_chasing else None
