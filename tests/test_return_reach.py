@@ -110,7 +110,7 @@ def test_the_rules_take_each_rows_own_return_reach():
     vel[:, 2] = torch.tensor([-20.0, 0.0, -2.0])
     nxt = pos.clone()
     nxt[:, 2, 0] += 0.8
-    lim = PhysicalLimits(fps=25.0, reach_m=1.8, tracker=tr, return_reach_m=1.5)
+    lim = PhysicalLimits(fps=25.0, reach_m=1.8, tracker=tr)       # no fixed return reach
     assert lim.accept(np.arange(4), 10, pos, nxt, vel).all()
     lim.return_reach_rows_m = rows_m
     assert lim.accept(np.arange(4), 10, pos, nxt, vel).tolist() == [False, True, True, True]
@@ -124,7 +124,8 @@ def test_the_rules_take_each_rows_own_return_reach():
     nxt = pos.clone()
     nxt[:, 2, 0] -= 0.8
     nxt[:, 2, 1] += 0.7
-    con = StrikeInReach(tr, reach_m=1.5, max_z_m=2.3, fps=25.0, return_reach_m=1.5)
+    con = StrikeInReach(tr, reach_m=1.5, max_z_m=2.3, fps=25.0)
+    assert con.accept(np.arange(4), 10, pos, nxt).tolist() == [False] * 4
     con.return_reach_rows_m = rows_m
     assert con.accept(np.arange(4), 10, pos, nxt).tolist() == [True, False, False, False]
 

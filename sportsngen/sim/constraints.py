@@ -112,7 +112,7 @@ def ball_jolted(pos_m: torch.Tensor, next_pos_m: torch.Tensor, vel_mps: torch.Te
     return (in_air | braked) & inside
 
 
-def return_reaches(tracker, rows, return_reach_m: float, rows_m: np.ndarray | None,
+def return_reaches(tracker, rows, return_reach_m: float | None, rows_m: np.ndarray | None,
                    reach_m: float) -> np.ndarray:
     """(rows,) the reach of each row's next contact: the return's where it is the return (each
     row's own in `rows_m`, indexed like the tracker, else `return_reach_m`), `reach_m` else."""
@@ -155,8 +155,8 @@ class PhysicalLimits:
         self.reach_m = reach_m
         self.tracker = tracker
         self.return_reach_m = None if return_reach_m is None else float(return_reach_m)
-        # (B,) per rollout row, where each serve draws its receiver's own (`return_reach`):
-        # replaces `return_reach_m`.
+        # (B,) per rollout row, where each serve draws its receiver's own (`return_reach`; set
+        # with a tracker): replaces `return_reach_m`.
         self.return_reach_rows_m: np.ndarray | None = None
         self.max_tries = max_tries
         self.offset = 0
@@ -179,7 +179,7 @@ class PhysicalLimits:
 
     def _reach(self, rows: np.ndarray, ball: torch.Tensor) -> torch.Tensor | float:
         """The reach of each row's next contact: `return_reach_m` where it is the return."""
-        if self.return_reach_m is None:
+        if self.return_reach_m is None and self.return_reach_rows_m is None:
             return self.reach_m
         return torch.as_tensor(return_reaches(self.tracker, rows, self.return_reach_m,
                                               self.return_reach_rows_m, self.reach_m),
@@ -319,7 +319,7 @@ class StrikeInReach:
         end = np.where(role == 0, 1, -1) * self.tracker.server_end[rows]
         dev = pos_m.device
         reach = None
-        if self.return_reach_m is not None:
+        if self.return_reach_m is not None or self.return_reach_rows_m is not None:
             reach = torch.as_tensor(return_reaches(self.tracker, rows, self.return_reach_m,
                                                    self.return_reach_rows_m, self.reach_m),
                                     device=dev, dtype=pos_m.dtype)

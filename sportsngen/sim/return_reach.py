@@ -91,7 +91,7 @@ def fit_logistic(gap_m: np.ndarray, returned: np.ndarray) -> tuple[float, float]
         # -log sigmoid(-z) for returned, -log sigmoid(z) otherwise
         return float(np.sum(np.logaddexp(0.0, np.where(y, z, -z))))
 
-    start = np.array([float(np.median(gap[~y])) if (~y).any() else 1.5, np.log(0.1)])
+    start = np.array([float(np.median(gap[~y])), np.log(0.1)])
     res = minimize(nll, start, method="Nelder-Mead",
                    options={"xatol": 1e-5, "fatol": 1e-7, "maxiter": 2000})
     c, log_s = res.x
@@ -109,15 +109,12 @@ def serve_rows(rows: pd.DataFrame, rallies: pd.DataFrame) -> pd.DataFrame:
                          "answered": s["answered"].to_numpy(bool)})
 
 
-def fit_return_reach(serves: pd.DataFrame, pooled_from: pd.DataFrame | None = None,
-                     min_serves: int = MIN_SERVES) -> ReturnReach:
+def fit_return_reach(serves: pd.DataFrame, min_serves: int = MIN_SERVES) -> ReturnReach:
     """A `ReturnReach` from good serves (`serve_rows`' columns): each receiver with at least
-    `min_serves` his own row, the pooled row from `pooled_from` (default all of `serves`)."""
-    for name, df in (("serves", serves), ("pooled_from", pooled_from)):
-        if df is not None and not {"receiver", "gap_m", "answered"} <= set(df.columns):
-            raise ValueError(f"{name} needs columns receiver, gap_m, answered")
-    base = serves if pooled_from is None else pooled_from
-    pooled = fit_logistic(base["gap_m"], base["answered"])
+    `min_serves` his own row, the pooled row from all of them."""
+    if not {"receiver", "gap_m", "answered"} <= set(serves.columns):
+        raise ValueError("serves needs columns receiver, gap_m, answered")
+    pooled = fit_logistic(serves["gap_m"], serves["answered"])
     players = {}
     for name, g in serves.groupby("receiver"):
         if len(g) >= min_serves and g["answered"].any() and not g["answered"].all():

@@ -331,14 +331,12 @@ class Simulator:
                                    part["serve_number"].to_numpy(), self.fps, duration_s)
             drawn = self._return_reaches(part, seed, lo)
             limits = PhysicalLimits(fps=self.fps, reach_m=self.contact_reach_m,
-                                    tracker=tracker, return_reach_m=self.return_reach_m
-                                    if drawn is None else self.return_reach.pooled[0]) \
+                                    tracker=tracker, return_reach_m=self.return_reach_m) \
                 if self.physical_limits else None
             strike = StrikeInReach(tracker, reach_m=self.strike_in_reach_m, fps=self.fps,
                                    from_shot=self.strike_in_reach_from,
                                    force=self.strike_in_reach_force,
-                                   return_reach_m=self.strike_in_reach_return_m
-                                   if drawn is None else self.return_reach.pooled[0]) \
+                                   return_reach_m=self.strike_in_reach_return_m) \
                 if self.strike_in_reach else None
             for rule in (limits, strike):
                 if rule is not None:

@@ -111,12 +111,17 @@ __all__ = ["data_config", "evaluate_held_out", "metrics_table"]
 
 
 
-def split_arrays(model_path: str | Path, vocab) -> tuple:
-    """The model file's own training and validation rallies (`extra.split`) -> (train, val)
-    RallyArrays."""
+def _recorded_split(model_path: str | Path) -> dict:
     split = read_extra(model_path).get("split")
     if not split or "data" not in split:
         raise ValueError(f"{model_path} records no training data split (extra.split)")
+    return split
+
+
+def split_arrays(model_path: str | Path, vocab) -> tuple:
+    """The model file's own training and validation rallies (`extra.split`) -> (train, val)
+    RallyArrays."""
+    split = _recorded_split(model_path)
     return split_rallies(rally_arrays(load_rally_data(split["data"]), vocab),
                          float(split["val_fraction"]), int(split["seed"]))
 
@@ -125,9 +130,7 @@ def training_rally_data(model_path: str | Path, more_data: str | None = None) ->
     """`training_arrays`' rallies as tables: the file's training split (`extra.split`, the
     same rallies `split_arrays` keeps) and, with `more_data`, every rally of that data config
     -> [RallyData, ...]."""
-    split = read_extra(model_path).get("split")
-    if not split or "data" not in split:
-        raise ValueError(f"{model_path} records no training data split (extra.split)")
+    split = _recorded_split(model_path)
     data = load_rally_data(split["data"])
     train, _ = split_positions(len(data.rallies), float(split["val_fraction"]),
                                int(split["seed"]))
