@@ -158,6 +158,10 @@ def main() -> None:
              if sim.physical_limits and sim.return_reach_m is not None else "")
           + (", the return's reach drawn per receiver"
              if sim.return_reach_draw and sim.return_reach is not None else "")
+          + (", each rally ball's reach drawn per player"
+             if sim.rally_reach_draw and sim.rally_reach is not None else "")
+          + (", each player within his top speed"
+             if sim.player_top_speed and sim.top_speeds is not None else "")
           + (", the net in the ball's step" if sim.model.cfg.ball_net else "")
           + (", the surface's bounce" if sim.physical_bounce else "")
           + (f", players within {sim.player_accel_mps2:g} m/s²" if sim.player_accel_mps2

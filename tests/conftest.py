@@ -10,6 +10,21 @@ from hydra import compose, initialize_config_dir
 REPO = Path(__file__).resolve().parents[1]
 
 
+@pytest.fixture
+def load_script():
+    """scripts/NAME.py loaded as a fresh module (its `main` to call, its names to patch)."""
+    import importlib.util
+
+    def load(name: str):
+        spec = importlib.util.spec_from_file_location(f"{name}_script",
+                                                      REPO / "scripts" / f"{name}.py")
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module
+
+    return load
+
+
 @pytest.fixture(scope="session")
 def tiny_model_file(tmp_path_factory) -> Path:
     """A tiny decoder + event classifier trained a few steps on toy rallies, exported (with

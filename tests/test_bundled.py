@@ -153,7 +153,7 @@ def test_bundled_model_reads_the_shot_and_the_players_and_holds_short_second_ser
 
 def test_bundled_model_draws_each_receivers_reach_and_each_servers_lateral_bands():
     """The fifty-third part's file: each serve's return reach drawn from its receiver's row
-    (`sim.return_reach`, fitted on the training split and the named players' round robins:
+    (`sim.reach_table`, fitted on the training split and the named players' round robins:
     half of Nadal's good serves passing 1.48 m from him returned, Isner's 1.62 m), and the serve
     head's lateral bands per server (`model.serve_lateral`): Federer's first serves moved off the
     body (bands 2-3 cut) to the T and out wide, his wide odds held."""
@@ -172,3 +172,21 @@ def test_bundled_model_draws_each_receivers_reach_and_each_servers_lateral_bands
     torch.testing.assert_close(model.serve_lateral[vocab.player_index("Roger Federer"), 0],
                                torch.tensor([0.467, 0.317, -0.607, -0.930, -0.094, 0.338, 0.509]),
                                atol=1e-3, rtol=0)
+
+
+def test_bundled_model_bounds_each_player_by_his_records_top_speed():
+    """The fifty-fourth part's file: each player's top speed read from the training split and
+    the named players' round robins (`sim.top_speed`: the 99.9th percentile of his frame
+    speeds, the generator's own 6.0 m/s for Sharapova and Isner, 7.0 for Nadal), which bounds
+    every rollout frame of his by default; the rally balls' drawn reach stays off."""
+    from sportsngen.sim import Simulator
+
+    sim = Simulator.from_pretrained()
+    assert sim.player_top_speed and sim.top_speeds is not None
+    assert not sim.rally_reach_draw and sim.rally_reach is None
+    assert Simulator.from_pretrained(player_top_speed=False).player_top_speed is False
+    speeds = sim.top_speeds
+    assert speeds.pooled_mps == pytest.approx(6.48, abs=1e-3)
+    got = speeds.speeds_mps(["Maria Sharapova", "Serena Williams", "Rafael Nadal",
+                             "Novak Djokovic", "Somebody Else"])
+    assert got.tolist() == pytest.approx([6.0, 6.3, 7.0, 6.96, 6.48], abs=1e-3)

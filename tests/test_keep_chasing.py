@@ -61,7 +61,7 @@ def test_a_late_player_may_not_slow_down_toward_the_ball():
     pos, vel, hist = _state([[-12.0, -2.0], [-12.0, 3.0], [-12.0, -2.0]],
                             [[0.0, 2.0], [0.0, 2.0], [0.0, 7.5]])
     rule = KeepChasing(_Tracker(hist, np.full(3, 10)), fps=FPS, accel_mps2=0.0)
-    late, role, unit, along, least = rule.late(np.arange(3), pos, vel)
+    late, role, unit, along, least, cap = rule.late(np.arange(3), pos, vel)
     assert torch.equal(least[0], along[0])              # no `accel_mps2`: his own speed
     assert late.tolist() == [True, False, False]
     assert role.tolist() == [1, 1, 1]
@@ -93,7 +93,7 @@ def test_once_his_tries_run_out_a_late_player_holds_his_speed_toward_the_ball():
                             [[1.0, 2.0], [0.0, 2.0], [1.0, 2.0]])
     rows = np.arange(3)
     rule = KeepChasing(_Tracker(hist, np.full(3, 10)), fps=FPS, accel_mps2=0.0)
-    late, _, unit, along, _ = rule.late(rows, pos, vel, frame=50)
+    late, _, unit, along, _, _ = rule.late(rows, pos, vel, frame=50)
     assert late.tolist() == [True, False, True]
     # Row 0 stops, row 1 (not late) stops, row 2 runs faster than before.
     nxt = _moved(pos, [[0.0, 0.0], [0.0, 0.0], [2.0, 4.0]])
@@ -117,7 +117,7 @@ def test_with_an_acceleration_a_late_player_must_speed_up_toward_the_ball():
     pos, vel, hist = _state([[-12.0, -2.0], [-12.0, 3.0]], [[0.0, 2.0], [0.0, 2.0]])
     rows = np.arange(2)
     rule = KeepChasing(_Tracker(hist, np.full(2, 10)), fps=FPS, accel_mps2=6.0)
-    late, _, unit, along, least = rule.late(rows, pos, vel, frame=50)
+    late, _, unit, along, least, _ = rule.late(rows, pos, vel, frame=50)
     assert late.tolist() == [True, False]
     assert least[0].item() == pytest.approx(along[0].item() + 6.0 / FPS, abs=1e-5)
     u = unit[0, 1].item()                          # nearly all along y
@@ -133,7 +133,7 @@ def test_with_an_acceleration_a_late_player_must_speed_up_toward_the_ball():
     from sportsngen.model.forecast import ball_forecast, nearest_playable
     pos2, vel2, hist2 = _state([[-12.0, -2.0]], [[0.0, 0.0]])
     keen = KeepChasing(_Tracker(hist2, np.full(1, 10)), fps=FPS, accel_mps2=1000.0)
-    late2, _, _, along2, least2 = keen.late(np.arange(1), pos2, vel2)
+    late2, _, _, along2, least2, _ = keen.late(np.arange(1), pos2, vel2)
     prev = torch.as_tensor((hist2[:, -2, 2] - hist2[:, -3, 2]) * FPS, dtype=torch.float32)
     track = ball_forecast(pos2[:, 2], vel2[:, 2], prev, FPS, path=True)[1]
     near = nearest_playable(track, pos2[:, 1:2, :2])[0, 0]
@@ -187,7 +187,7 @@ def test_for_a_high_bounce_the_player_runs_to_where_it_is_at_a_comfortable_heigh
     plain = KeepChasing(_Tracker(hist, np.full(1, 10)), fps=FPS)
     banded = KeepChasing(_Tracker(hist, np.full(1, 10)), fps=FPS, band_m=(0.5, 1.4))
     assert not plain.late(rows, pos, vel)[0][0]
-    late, _, unit, _, _ = banded.late(rows, pos, vel)
+    late, _, unit, _, _, _ = banded.late(rows, pos, vel)
     post = track.clone()
     post[0, : bounce + 1, 2] = -1.0
     near = nearest_playable(post, pos[:, 1:2, :2], (0.5, 1.4))[0, 0]
@@ -296,3 +296,24 @@ def test_the_simulator_hands_the_high_ball_band_to_the_rule(tiny_model_file, mon
                               chase_high_balls=True).simulate_points(
         "Roger Federer", "Rafael Nadal", "hard", 2, seed=0)
     assert len(bands) == 2
+
+
+def test_a_late_player_is_not_asked_beyond_his_own_top_speed():
+    # Two late receivers running toward the ball at 5.9 m/s: one's top speed 6.0 m/s, the
+    # other's the rule's 7.0.
+    pos, vel, hist = _state([[-12.0, -4.0], [-12.0, -4.0]], [[0.0, 5.9], [0.0, 5.9]])
+    rows = np.arange(2)
+    rule = KeepChasing(_Tracker(hist, np.full(2, 10)), fps=FPS, accel_mps2=6.0)
+    rule.max_speed_rows_mps = np.array([[6.5, 6.0], [6.5, 9.0]])   # server, receiver
+    late, role, unit, along, least, cap = rule.late(rows, pos, vel)
+    assert late.tolist() == [True, True] and role.tolist() == [1, 1]
+    assert cap.tolist() == pytest.approx([6.0, 7.0])
+    assert least[0].item() == pytest.approx(6.0)                 # his own cap
+    assert least[1].item() == pytest.approx(along[1].item() + 6.0 / FPS)
+    # At his top speed he is running flat out: the rule leaves him; the other is asked on.
+    at_top = vel.clone()
+    at_top[:, 1, :2] = unit * 6.0
+    rule2 = KeepChasing(_Tracker(hist, np.full(2, 10)), fps=FPS, accel_mps2=6.0)
+    rule2.max_speed_rows_mps = rule.max_speed_rows_mps
+    slower = rule2.accept(rows, 50, pos, _moved(pos, [[0.0, 5.0], [0.0, 5.0]]), at_top)
+    assert slower.tolist() == [True, False]

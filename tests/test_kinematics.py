@@ -3,7 +3,7 @@
 import pytest
 import torch
 
-from sportsngen.sim.kinematics import limit_player_acceleration
+from sportsngen.sim.kinematics import limit_player_acceleration, limit_player_speed
 
 FPS = 25.0
 
@@ -77,3 +77,48 @@ def test_rollout_players_never_change_velocity_faster_than_the_limit():
     assert largest(Simulator.from_pretrained(**kw)) <= 6.0 + 1e-3
     with pytest.raises(ArgumentError, match="player_accel_mps2"):
         Simulator.from_pretrained(player_accel_mps2=-1.0)
+
+
+def test_a_step_beyond_a_players_top_speed_is_scaled_to_it_in_its_own_direction():
+    # Player 0 steps at 7.5 m/s (4.5-6.0) against his 6.0; player 1 at 5.0 within his 6.3.
+    nxt, pos, vel = frames([[4.5, 6.0], [0.0, -5.0]], [[0.0, 0.0], [0.0, 0.0]])
+    out = limit_player_speed(nxt, pos, FPS, torch.tensor([[6.0, 6.3]]))
+    step = (out[0, :2, :2] - pos[0, :2, :2]) * FPS
+    torch.testing.assert_close(step[0], torch.tensor([3.6, 4.8]))      # 6.0 m/s, 3-4-5
+    torch.testing.assert_close(step[1], torch.tensor([0.0, -5.0]))
+    torch.testing.assert_close(out[0, 2], nxt[0, 2])                  # the ball untouched
+    with pytest.raises(ValueError, match="top_speed_mps"):
+        limit_player_speed(nxt, pos, FPS, torch.tensor([6.0, 6.3]))
+
+
+def test_rollout_players_never_run_faster_than_their_top_speed(tiny_model_file, tmp_path):
+    """A file with a top-speed table: with `player_top_speed` no player's frame is faster than
+    his row (the chase rule's hold included), without it the tiny model's draws are."""
+    import shutil
+
+    import numpy as np
+
+    from sportsngen.model.export import update_extra
+    from sportsngen.sim import Simulator
+    from sportsngen.sim.top_speed import TopSpeeds
+
+    path = shutil.copy(tiny_model_file, tmp_path / "with_top_speed.pt")
+    update_extra(path, top_speed=TopSpeeds(2.0, {"Toy Alpha": 1.5}).to_dict())
+
+    def fastest(sim):
+        data = sim.simulate_points("Toy Alpha", "Toy Gamma", "hard", 8, seed=2, serve_number=1)
+        players = data.frames[data.frames["object"] != "ball"]
+        out = {}
+        for (_, who), g in players.groupby(["rally_id", "object"]):
+            xy = g.sort_values("frame")[["x", "y"]].to_numpy(float)
+            v = np.linalg.norm(np.diff(xy, axis=0), axis=-1) * FPS
+            out[who] = max(out.get(who, 0.0), float(v.max()) if len(v) else 0.0)
+        return out
+
+    kw = dict(max_duration_s=1.5, keep_chasing=True)
+    free = fastest(Simulator.from_pretrained(path, **kw))
+    assert max(free.values()) > 2.5
+    sim = Simulator.from_pretrained(path, player_top_speed=True, **kw)
+    assert sim.top_speeds == TopSpeeds(2.0, {"Toy Alpha": 1.5})
+    capped = fastest(sim)
+    assert capped["Toy Alpha"] <= 1.5 + 1e-3 and capped["Toy Gamma"] <= 2.0 + 1e-3

@@ -124,3 +124,35 @@ def test_a_player_without_his_own_row_or_a_model_without_tables(data):
     assert (new.serve_bias[idx] == 0).all()
     with pytest.raises(ValueError, match="plays no rally"):
         fit_player_tables(new, vocab2, data, "New Player")
+
+
+def test_the_rule_tables_carry_over_with_the_players_own_rows(data):
+    """The base file's reach and top-speed tables keyed by name come through a fine-tune with
+    the player's rows fitted on his rallies: the receiver's return reach, both players' rally
+    reach and top speed (the generator's own, 6.8 m/s for Federer and 7.0 for Nadal), the base's
+    other rows as they were; a player with too few balls or frames keeps the pooled row."""
+    from sportsngen.sim.reach_table import ReachTable
+    from sportsngen.sim.top_speed import TopSpeeds
+    from sportsngen.train.player_tables import player_rule_tables
+
+    server = str(data.rallies["server"].iloc[0])
+    receiver = str(data.rallies["receiver"].iloc[0])
+    base = {"return_reach": ReachTable((1.5, 0.04), {"Other": (1.4, 0.03)}).to_dict(),
+            "rally_reach": ReachTable((1.9, 0.2)).to_dict(),
+            "top_speed": TopSpeeds(6.5, {"Other": 6.1}).to_dict()}
+    got = player_rule_tables(base, data, receiver, min_balls=30, min_frames=1000)
+    ret = ReachTable.from_dict(got["return_reach"])
+    assert ret.players["Other"] == (1.4, 0.03) and ret.pooled == (1.5, 0.04)
+    assert 1.2 < ret.players[receiver][0] < 1.8 and ret.players[receiver][1] > 0
+    assert receiver in ReachTable.from_dict(got["rally_reach"]).players
+    speeds = TopSpeeds.from_dict(got["top_speed"])
+    top = {"Roger Federer": 6.8, "Rafael Nadal": 7.0}[receiver]
+    assert speeds.players_mps["Other"] == 6.1 and 6.0 < speeds.players_mps[receiver] <= top + 1e-6
+    # The server receives no serve here, and answered every rally ball due to him: both his
+    # reaches stay the pooled rows (the fall of his odds cannot be read).
+    got = player_rule_tables(base, data, server, min_balls=30, min_frames=1000)
+    assert server not in ReachTable.from_dict(got["return_reach"]).players
+    assert server not in ReachTable.from_dict(got["rally_reach"]).players
+    assert server in TopSpeeds.from_dict(got["top_speed"]).players_mps
+    few = player_rule_tables({"top_speed": base["top_speed"]}, data, server, min_frames=10 ** 9)
+    assert set(few) == {"top_speed"} and server not in few["top_speed"]["players_mps"]

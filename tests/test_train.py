@@ -211,7 +211,8 @@ def test_train_py_through_hydra_resume_mismatch_and_finetune(tmp_path, monkeypat
     # Fine-tune a player's identity on the generic model (everything else frozen). It samples
     # as its base: the base's simulation defaults are carried over.
     defaults = {"top_p_player": 1.0, "top_p_ball": 0.45, "contact_odds": True}
-    update_extra(out / "model.pt", sim_defaults=defaults)
+    speeds = {"pooled_mps": 6.5, "players_mps": {"Toy Beta": 6.1}}
+    update_extra(out / "model.pt", sim_defaults=defaults, top_speed=speeds)
     ft = train_from_config(_compose([
         "experiment=finetune_player", "player=Toy Alpha", f"init={out / 'model.pt'}",
         "data=toy", "data.n_rallies=16", "finetune.n_sequences=4", "trainer.max_steps=3",
@@ -246,6 +247,9 @@ def test_train_py_through_hydra_resume_mismatch_and_finetune(tmp_path, monkeypat
             for name, run in (("base", summary), ("player", ft), ("data", g))}
     assert pool["data"] == pool["base"] and pool["player"] > pool["base"]
     assert read_extra(ft["model_file"])["sim_defaults"] == defaults
+    # ... and its rules' tables (16 toy rallies are too few frames for his own top speed).
+    assert read_extra(ft["model_file"])["top_speed"] == speeds
+    assert "top_speed" not in read_extra(g["model_file"])
     assert "sim_defaults" not in read_extra(g["model_file"])   # a new model: its own choice
     for k, v in model.state_dict().items():
         assert torch.equal(v, m4.state_dict()[k]), k

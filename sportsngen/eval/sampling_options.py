@@ -12,7 +12,8 @@ _NUCLEI = ("top_p_ball", "top_p_contact", "top_p_serve")
 _FLAGS = ("contact_odds", "strike_in_reach", "strike_in_reach_from", "strike_in_reach_force",
           "strike_in_reach_m", "ball_net", "keep_chasing", "contact_reach_m",
           "return_reach_m", "strike_in_reach_return_m", "physical_bounce",
-          "player_accel_mps2", "chase_high_balls", "return_reach_draw")
+          "player_accel_mps2", "chase_high_balls", "return_reach_draw", "rally_reach_draw",
+          "player_top_speed")
 
 
 def add_sampling_options(parser: argparse.ArgumentParser) -> None:
@@ -64,6 +65,16 @@ def add_sampling_options(parser: argparse.ArgumentParser) -> None:
                         default=None,
                         help="each serve's return reach drawn from its receiver's row of the "
                              "file's table (scripts/fit_return_reach.py; default: the model "
+                             "file's, else off)")
+    parser.add_argument("--rally-reach-draw", action=argparse.BooleanOptionalAction,
+                        default=None,
+                        help="each rally ball's reach drawn from the row of the player due in "
+                             "the file's table (scripts/fit_return_reach.py --rally; default: "
+                             "the model file's, else off)")
+    parser.add_argument("--player-top-speed", action=argparse.BooleanOptionalAction,
+                        default=None,
+                        help="each player runs no faster than his record's top speed, the "
+                             "file's table (scripts/fit_top_speed.py; default: the model "
                              "file's, else off)")
     parser.add_argument("--physical-bounce", action=argparse.BooleanOptionalAction,
                         default=None,

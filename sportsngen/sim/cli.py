@@ -155,6 +155,10 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
         kw["chase_high_balls"] = bool(cfg.chase_high_balls)
     if cfg.get("return_reach_draw") is not None:
         kw["return_reach_draw"] = bool(cfg.return_reach_draw)
+    if cfg.get("rally_reach_draw") is not None:
+        kw["rally_reach_draw"] = bool(cfg.rally_reach_draw)
+    if cfg.get("player_top_speed") is not None:
+        kw["player_top_speed"] = bool(cfg.player_top_speed)
     if cfg.get("top_p_contact") is not None:
         kw["top_p_contact"] = float(cfg.top_p_contact)
     if cfg.get("top_p_serve") is not None:

@@ -112,13 +112,20 @@ def ball_jolted(pos_m: torch.Tensor, next_pos_m: torch.Tensor, vel_mps: torch.Te
     return (in_air | braked) & inside
 
 
-def return_reaches(tracker, rows, return_reach_m: float | None, rows_m: np.ndarray | None,
-                   reach_m: float) -> np.ndarray:
+def contact_reaches(tracker, rows, return_reach_m: float | None, rows_m: np.ndarray | None,
+                    reach_m: float, rally_rows_m: np.ndarray | None = None) -> np.ndarray:
     """(rows,) the reach of each row's next contact: the return's where it is the return (each
-    row's own in `rows_m`, indexed like the tracker, else `return_reach_m`), `reach_m` else."""
+    row's own in `rows_m` (B,), indexed like the tracker, else `return_reach_m`); else the
+    rally ball's own where `rally_rows_m` (B, K) holds a reach per contact (contact k in column
+    k mod K), `reach_m` where not."""
     rows = np.asarray(rows)
+    n_shots = tracker.n_shots[rows]
     ret = rows_m[rows] if rows_m is not None else return_reach_m
-    return np.where(awaiting_return(tracker.n_shots[rows]), ret, reach_m)
+    if return_reach_m is None and rows_m is None:
+        ret = reach_m
+    rally = reach_m if rally_rows_m is None else \
+        rally_rows_m[rows, np.asarray(n_shots) % rally_rows_m.shape[1]]
+    return np.where(awaiting_return(n_shots), ret, rally)
 
 
 class PhysicalLimits:
@@ -155,9 +162,11 @@ class PhysicalLimits:
         self.reach_m = reach_m
         self.tracker = tracker
         self.return_reach_m = None if return_reach_m is None else float(return_reach_m)
-        # (B,) per rollout row, where each serve draws its receiver's own (`return_reach`; set
-        # with a tracker): replaces `return_reach_m`.
+        # (B,) per rollout row, where each serve draws its receiver's own (`sim.reach_table`;
+        # set with a tracker): replaces `return_reach_m`; and (B, K) a reach per rally ball
+        # (`contact_reaches`), drawn from the player due's row: replaces `reach_m` there.
         self.return_reach_rows_m: np.ndarray | None = None
+        self.rally_reach_rows_m: np.ndarray | None = None
         self.max_tries = max_tries
         self.offset = 0
         self.given_up = 0
@@ -178,11 +187,13 @@ class PhysicalLimits:
         return ok
 
     def _reach(self, rows: np.ndarray, ball: torch.Tensor) -> torch.Tensor | float:
-        """The reach of each row's next contact: `return_reach_m` where it is the return."""
-        if self.return_reach_m is None and self.return_reach_rows_m is None:
+        """The reach of each row's next contact (`contact_reaches`)."""
+        if self.return_reach_m is None and self.return_reach_rows_m is None \
+                and self.rally_reach_rows_m is None:
             return self.reach_m
-        return torch.as_tensor(return_reaches(self.tracker, rows, self.return_reach_m,
-                                              self.return_reach_rows_m, self.reach_m),
+        return torch.as_tensor(contact_reaches(self.tracker, rows, self.return_reach_m,
+                                               self.return_reach_rows_m, self.reach_m,
+                                               self.rally_reach_rows_m),
                                device=ball.device, dtype=ball.dtype)
 
     def struck_out_of_reach(self, pos_m: torch.Tensor, next_pos_m: torch.Tensor,
@@ -293,8 +304,9 @@ class StrikeInReach:
         if return_reach_m is not None and not return_reach_m > 0:
             raise ValueError(f"return_reach_m must be positive, got {return_reach_m}")
         self.return_reach_m = None if return_reach_m is None else float(return_reach_m)
-        # (B,) per rollout row, as `PhysicalLimits.return_reach_rows_m`.
+        # (B,) and (B, K) per rollout row, as `PhysicalLimits`' rows.
         self.return_reach_rows_m: np.ndarray | None = None
+        self.rally_reach_rows_m: np.ndarray | None = None
         self.max_z_m = float(max_z_m)
         self.max_tries = max_tries
         self.fps = float(fps)
@@ -319,9 +331,11 @@ class StrikeInReach:
         end = np.where(role == 0, 1, -1) * self.tracker.server_end[rows]
         dev = pos_m.device
         reach = None
-        if self.return_reach_m is not None or self.return_reach_rows_m is not None:
-            reach = torch.as_tensor(return_reaches(self.tracker, rows, self.return_reach_m,
-                                                   self.return_reach_rows_m, self.reach_m),
+        if self.return_reach_m is not None or self.return_reach_rows_m is not None \
+                or self.rally_reach_rows_m is not None:
+            reach = torch.as_tensor(contact_reaches(self.tracker, rows, self.return_reach_m,
+                                                    self.return_reach_rows_m, self.reach_m,
+                                                    self.rally_reach_rows_m),
                                     device=dev, dtype=pos_m.dtype)
         return ~(torch.as_tensor(due, device=dev) & self.passes(
             pos_m, next_pos_m, torch.as_tensor(role, device=dev),
@@ -438,6 +452,9 @@ class KeepChasing:
         self.offset = 0
         self.given_up = 0
         self.held = 0
+        # (B, 2) per rollout row the server's and the receiver's top speed (`sim.top_speed`),
+        # where the simulator reads them: a late player is not asked beyond his own.
+        self.max_speed_rows_mps: np.ndarray | None = None
         # Per frame, by the rollout's row: where a row sits in the frame's first reading (-1:
         # not read) and how often it has been judged.
         n = len(tracker.ended)
@@ -451,7 +468,8 @@ class KeepChasing:
         """-> (B,) bool late rows, (B,) role of the player due, (B, 2) unit direction to his
         nearest playable ball, (B,) his speed along it (m/s), (B,) the least speed along it a
         late player's next frame may have (m/s): his speed, raised by `accel_mps2` for a frame
-        short of what he needs, never above `max_speed_mps`. With `frame`, read once a frame:
+        short of what he needs, never above his cap, and (B,) that cap: `max_speed_mps`, or his
+        own top speed where lower (`max_speed_rows_mps`). With `frame`, read once a frame:
         the redraws of a frame ask again for some of its rows, in the same state."""
         rows = np.asarray(rows)
         if frame is not None and self._frame == frame and (self._at[rows] >= 0).all():
@@ -466,6 +484,10 @@ class KeepChasing:
         unit = torch.zeros(len(rows), 2, dtype=dtype, device=dev)
         along = torch.zeros(len(rows), dtype=dtype, device=dev)
         least = torch.zeros(len(rows), dtype=dtype, device=dev)
+        cap = torch.full((len(rows),), self.max_speed_mps, dtype=dtype, device=dev)
+        if self.max_speed_rows_mps is not None:
+            own = self.max_speed_rows_mps[rows, role.cpu().numpy()]
+            cap = torch.minimum(cap, torch.as_tensor(own, dtype=dtype, device=dev))
         if due.any():
             i = torch.as_tensor(np.flatnonzero(due), device=dev)
             recent = torch.as_tensor(t.recent_frames(rows[due]), dtype=dtype, device=dev)
@@ -488,9 +510,8 @@ class KeepChasing:
             accel = torch.where(shot >= self.accel_from_shot, self.accel_mps2, 0.0)
             # A late player is slower than he needs (v_along < wanted), so this is never
             # below his speed but where he already runs flat out, which the rule leaves.
-            least[i] = torch.minimum(torch.minimum(v_along + accel / self.fps, wanted),
-                                     torch.full_like(v_along, self.max_speed_mps))
-        out = (late, role, unit, along, least)
+            least[i] = torch.minimum(torch.minimum(v_along + accel / self.fps, wanted), cap[i])
+        out = (late, role, unit, along, least, cap)
         if frame is not None:
             self._frame, self._late = frame, out
             self._at[:] = -1
@@ -524,7 +545,7 @@ class KeepChasing:
             if vel_mps is None:
                 self._frame = None               # nothing read: nothing for `settle` to hold
             return ok
-        late, role, unit, along, least = self.late(rows, pos_m, vel_mps, frame)
+        late, role, unit, along, least, cap = self.late(rows, pos_m, vel_mps, frame)
         if not late.any():
             return ok
         # Each row is judged at most `max_tries` times a frame: the rollout keeps redrawing
@@ -533,8 +554,7 @@ class KeepChasing:
         # rollouts there (four times slower).
         fresh = torch.as_tensor(self._tries[rows] < self.max_tries, device=pos_m.device)
         self._tries[rows] += 1
-        slows = (self._speed_along(pos_m, next_pos_m, role, unit) < least) & \
-            (along < self.max_speed_mps)
+        slows = (self._speed_along(pos_m, next_pos_m, role, unit) < least) & (along < cap)
         return ~(late & slows & fresh)
 
     def _speed_along(self, pos_m, next_pos_m, role, unit) -> torch.Tensor:
@@ -560,9 +580,9 @@ class KeepChasing:
         if not bool(read.any()):
             return next_pos_m
         i = torch.as_tensor(np.where(at >= 0, at, 0), device=pos_m.device)
-        late, role, unit, along, least = (x[i] for x in self._late)
+        late, role, unit, along, least, cap = (x[i] for x in self._late)
         short_mps = least - self._speed_along(pos_m, next_pos_m, role, unit)
-        fix = read & late & (short_mps > 0) & (along < self.max_speed_mps)
+        fix = read & late & (short_mps > 0) & (along < cap)
         if not bool(fix.any()):
             return next_pos_m
         out = next_pos_m.clone()

@@ -11,7 +11,9 @@ the serve and reaches more serves than they do (docs/evaluation.md, thirty-seven
 to the limit, keeping its direction: physics the model need not learn. Every frame the model
 draws is limited, redraws included (`sim.rollout`); the rule that keeps a late chaser running
 (`sim.constraints.KeepChasing`) acts after the draw, raising his speed toward the ball by its
-own 6 m/s², and may then take a frame beyond the limit.
+own 6 m/s², and may then take a frame beyond the limit. `limit_player_speed` bounds each
+player's speed in a frame by his own top speed read from his record (`sim.top_speed`), every
+draw and the chase rule's final frame included (fifty-fourth part).
 """
 
 from __future__ import annotations
@@ -37,4 +39,21 @@ def limit_player_acceleration(next_pos_m: torch.Tensor, pos_m: torch.Tensor,
     scale = torch.where(norm > limit, limit / norm.clamp_min(1e-12), torch.ones_like(norm))
     out = next_pos_m.clone()
     out[:, :BALL, :2] = pos_m[:, :BALL, :2] + (vel_mps[:, :BALL, :2] + dv * scale) / fps
+    return out
+
+
+def limit_player_speed(next_pos_m: torch.Tensor, pos_m: torch.Tensor, fps: float,
+                       top_speed_mps: torch.Tensor) -> torch.Tensor:
+    """Sampled next frames `next_pos_m` (B, 3, 3) from positions `pos_m` -> the same frames
+    with each player's horizontal step scaled down to at most his top speed `top_speed_mps`
+    (B, 2: server, receiver; `sim.top_speed`) over a frame, its direction kept; the ball and
+    players within their speed unchanged."""
+    if top_speed_mps.shape != (len(pos_m), BALL):
+        raise ValueError(f"top_speed_mps must be (B, {BALL}), got {tuple(top_speed_mps.shape)}")
+    step = next_pos_m[:, :BALL, :2] - pos_m[:, :BALL, :2]
+    norm = step.norm(dim=-1, keepdim=True)
+    limit = top_speed_mps[..., None].to(step.dtype) / fps
+    scale = torch.where(norm > limit, limit / norm.clamp_min(1e-12), torch.ones_like(norm))
+    out = next_pos_m.clone()
+    out[:, :BALL, :2] = pos_m[:, :BALL, :2] + step * scale
     return out

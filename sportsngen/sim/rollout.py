@@ -32,7 +32,7 @@ from sportsngen.data.tokens import BALL, object_features
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.model.receiver_start import receiver_waiting, wait_frames
 from sportsngen.sim.bounce import place_bounces
-from sportsngen.sim.kinematics import limit_player_acceleration
+from sportsngen.sim.kinematics import limit_player_acceleration, limit_player_speed
 from sportsngen.tennis.rally import awaiting_return
 
 MODES = ("cache", "recompute", "window")
@@ -121,9 +121,10 @@ class Constraint(Protocol):
 
 def redraw_rejected(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top_p_player,
                     top_p_ball, generator, contact_odds=False, top_p_contact=None,
-                    player_bias=None, player_accel_mps2=None):
+                    player_bias=None, player_accel_mps2=None, player_top_speed_mps=None):
     """Resample the rows `constraint` rejects: up to its max_tries from the nucleus, then as
-    many from the whole distribution (each draw within `player_accel_mps2`, where given). ->
+    many from the whole distribution (each draw within `player_accel_mps2`, where given, and
+    every row's final frame within its players' `player_top_speed_mps` (B, 2), where given). ->
     (frames, redraws per live row, (B,) bool: the rows given up on whose ball the constraint
     wants struck anyway)."""
     bad = ~constraint.accept(alive, n, pos, nxt, vel)
@@ -141,6 +142,9 @@ def redraw_rejected(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top
         if player_accel_mps2 is not None:
             again = limit_player_acceleration(again, pos[idx], vel[idx], model.cfg.fps,
                                               player_accel_mps2)
+        if player_top_speed_mps is not None:
+            again = limit_player_speed(again, pos[idx], model.cfg.fps,
+                                       player_top_speed_mps[idx])
         nxt[idx] = again
         drawn[idx.cpu().numpy()] += 1
         ok = constraint.accept(alive[idx.cpu().numpy()], n, pos[idx], again, vel[idx])
@@ -157,6 +161,8 @@ def redraw_rejected(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top
             strike[given] = constraint.strike_rows(alive[given])
     if hasattr(constraint, "settle"):            # e.g. rows accepted once their tries ran out
         nxt = constraint.settle(alive, pos, nxt)
+        if player_top_speed_mps is not None:
+            nxt = limit_player_speed(nxt, pos, model.cfg.fps, player_top_speed_mps)
     return nxt, drawn, strike
 
 
@@ -240,7 +246,8 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             contact_odds: bool = False, top_p_contact: float | None = None,
             refresh_frames: int | None = None, top_p_serve: float = 1.0,
             bounce_surfaces: np.ndarray | None = None,
-            player_accel_mps2: float | None = None) -> Rollout:
+            player_accel_mps2: float | None = None,
+            player_top_speed_mps: np.ndarray | None = None) -> Rollout:
     """Roll `inputs` forward until the tracker ends each rally or it has `max_frames` frames.
 
     The tracker sees every frame of every rally in order, the initial ones included, and
@@ -258,7 +265,9 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
     nucleus, with one (`SportsNGEN.place_strikes`). `bounce_surfaces` (B,) surface names: the
     ball's bounces are the surface's physics, not the model's draw (`sim.bounce`).
     `player_accel_mps2`: every sampled frame changes a player's velocity by at most this
-    acceleration (`sim.kinematics`). Cached rollouts of up to
+    acceleration (`sim.kinematics`); `player_top_speed_mps` (B, 2): the server's and the
+    receiver's top speed, which no frame of theirs exceeds (`sim.top_speed`). Cached rollouts
+    of up to
     `SINGLE_THREAD_ROWS` rallies run on one CPU thread.
     """
     small = (mode == "cache" and len(inputs.init_pos_m) <= SINGLE_THREAD_ROWS
@@ -297,6 +306,12 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
         length = np.full(b, t0, dtype=np.int64)
         ended = np.zeros(b, dtype=bool)
         alive = np.arange(b)                      # original row of each live batch row
+        top_all = None
+        if player_top_speed_mps is not None:
+            top_all = tens(player_top_speed_mps, torch.float32)
+            if top_all.shape != (b, 2):
+                raise ValueError(f"player_top_speed_mps must be ({b}, 2), got "
+                                 f"{tuple(top_all.shape)}")
 
         done = np.zeros(b, dtype=bool)
         # The receivers' waits for the serve (`model.receiver_start`), counted over the initial
@@ -356,12 +371,15 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                                     contact_odds, top_p_contact, p_bias)
             if player_accel_mps2 is not None:
                 nxt = limit_player_acceleration(nxt, pos, vel, fps, player_accel_mps2)
+            top = None if top_all is None else top_all[torch.as_tensor(alive, device=dev)]
+            if top is not None:
+                nxt = limit_player_speed(nxt, pos, fps, top)
             forced = None
             if constraint is not None:
                 nxt, drawn, forced = redraw_rejected(model, constraint, alive, n, h, pos, vel,
                                                      prev_vel, nxt, top_p_player, top_p_ball,
                                                      generator, contact_odds, top_p_contact,
-                                                     p_bias, player_accel_mps2)
+                                                     p_bias, player_accel_mps2, top)
                 resampled[alive] += drawn
                 if model.strike_head is not None:
                     forced_strikes[alive] += forced

@@ -50,11 +50,14 @@ from sportsngen.sim.constraints import (
 from sportsngen.sim.events import frame_labels
 from sportsngen.sim.initial import InitialConditions
 from sportsngen.sim.match import MatchResult, simulate_matches
-from sportsngen.sim.return_reach import ReturnReach
+from sportsngen.sim.reach_table import ReachTable
 from sportsngen.sim.rollout import Constraint, RolloutInputs, rollout
+from sportsngen.sim.top_speed import TopSpeeds
 from sportsngen.tennis.rally import CONTACT_REACH_M, MAX_RALLY_S, RallyTracker
 
 RETURN_REACH_STREAM = 0x5E7E        # the return reaches' own random stream (`_return_reaches`)
+RALLY_REACH_STREAM = 0x5E7F         # the rally balls' (`_rally_reaches`)
+RALLY_REACH_DRAWS = 64              # a rally's reaches drawn per row: contact k reads k mod this
 BUNDLED_DIR = Path(__file__).resolve().parents[1] / "model" / "bundled"
 BUNDLED_NAMES = {"sportsngen-small": BUNDLED_DIR / "sportsngen-small.pt"}
 DEFAULT_MODEL = "sportsngen-small"
@@ -124,7 +127,8 @@ class Simulator:
                  return_reach_m: float | None = None,
                  strike_in_reach_return_m: float | None = None,
                  physical_bounce: bool = False, player_accel_mps2: float | None = None,
-                 chase_high_balls: bool = False, return_reach_draw: bool = False):
+                 chase_high_balls: bool = False, return_reach_draw: bool = False,
+                 rally_reach_draw: bool = False, player_top_speed: bool = False):
         if abs(initial.fps - model.cfg.fps) > 1e-6:
             raise ValueError(f"initial conditions at {initial.fps} Hz, model at {model.cfg.fps}")
         for name, p in (("top_p_player", top_p_player), ("top_p_ball", top_p_ball),
@@ -215,10 +219,17 @@ class Simulator:
             raise ArgumentError(f"player_accel_mps2 must be positive, got {player_accel_mps2!r}")
         self.player_accel_mps2 = None if player_accel_mps2 is None else float(player_accel_mps2)
         # Each serve's return reach (the contact limit's and the strike rule's) drawn from its
-        # receiver's row of `return_reach` (`sim.return_reach`), where the file has the table
+        # receiver's row of `return_reach` (`sim.reach_table`), and each rally ball's from the
+        # row of the player due in `rally_reach`, where the file has the tables
         # (`from_pretrained`); without one the fixed reaches stand.
         self.return_reach_draw = bool(return_reach_draw)
-        self.return_reach: ReturnReach | None = None
+        self.rally_reach_draw = bool(rally_reach_draw)
+        self.return_reach: ReachTable | None = None
+        self.rally_reach: ReachTable | None = None
+        # Each player runs no faster than his record's top speed (`sim.top_speed`), where the
+        # file has the table (`from_pretrained`): every frame and the chase rule's cap.
+        self.player_top_speed = bool(player_top_speed)
+        self.top_speeds: TopSpeeds | None = None
         self._warned: set[str] = set()    # unknown players already warned about
         # Raw rollout win probabilities -> observed frequencies, when the model file has one
         # (`scripts/rally_outcome_study.py --save-calibrator`).
@@ -243,7 +254,11 @@ class Simulator:
         if extra.get("outcome_calibrator") is not None:
             sim.outcome_calibrator = calibrator_from_dict(extra["outcome_calibrator"])
         if extra.get("return_reach") is not None:
-            sim.return_reach = ReturnReach.from_dict(extra["return_reach"])
+            sim.return_reach = ReachTable.from_dict(extra["return_reach"])
+        if extra.get("rally_reach") is not None:
+            sim.rally_reach = ReachTable.from_dict(extra["rally_reach"])
+        if extra.get("top_speed") is not None:
+            sim.top_speeds = TopSpeeds.from_dict(extra["top_speed"])
         return sim
 
     @staticmethod
@@ -304,6 +319,26 @@ class Simulator:
         rng = np.random.default_rng((int(seed), int(lo), RETURN_REACH_STREAM))
         return self.return_reach.draw(part["receiver"].to_numpy(), rng)
 
+    def _top_speeds(self, part: pd.DataFrame) -> np.ndarray | None:
+        """(len(part), 2) the server's and the receiver's top speed (m/s) where the simulator
+        bounds them (`player_top_speed` with a table); None: unbounded."""
+        if not self.player_top_speed or self.top_speeds is None:
+            return None
+        return self.top_speeds.speeds_mps(part[["server", "receiver"]].to_numpy(str))
+
+    def _rally_reaches(self, part: pd.DataFrame, seed: int, lo: int) -> np.ndarray | None:
+        """(len(part), RALLY_REACH_DRAWS) each rally ball's reach, contact k (1 the return) in
+        column k, drawn from the row of the player due (the receiver at odd k, the server at
+        even) in `rally_reach` (`rally_reach_draw` with a table), from a stream of its own.
+        None: the fixed reach."""
+        if not self.rally_reach_draw or self.rally_reach is None:
+            return None
+        rng = np.random.default_rng((int(seed), int(lo), RALLY_REACH_STREAM))
+        odd = np.arange(RALLY_REACH_DRAWS) % 2 == 1
+        due = np.where(odd[None, :], part["receiver"].to_numpy(str)[:, None],
+                       part["server"].to_numpy(str)[:, None])
+        return self.rally_reach.draw(due, rng)
+
     def simulate_rallies(self, plan: pd.DataFrame, seed: int = 0, progress: bool = False,
                          init_pos_m: np.ndarray | None = None,
                          constraint: Constraint | None = None,
@@ -330,6 +365,7 @@ class Simulator:
             tracker = RallyTracker(part["server_end"].to_numpy(), part["side"].to_numpy(),
                                    part["serve_number"].to_numpy(), self.fps, duration_s)
             drawn = self._return_reaches(part, seed, lo)
+            rally_drawn = self._rally_reaches(part, seed, lo)
             limits = PhysicalLimits(fps=self.fps, reach_m=self.contact_reach_m,
                                     tracker=tracker, return_reach_m=self.return_reach_m) \
                 if self.physical_limits else None
@@ -341,9 +377,13 @@ class Simulator:
             for rule in (limits, strike):
                 if rule is not None:
                     rule.return_reach_rows_m = drawn
+                    rule.rally_reach_rows_m = rally_drawn
+            top = self._top_speeds(part)
             chase = KeepChasing(tracker, fps=self.fps,
                                 band_m=HIGH_BALL_BAND_M if self.chase_high_balls else None) \
                 if self.keep_chasing else None
+            if chase is not None:
+                chase.max_speed_rows_mps = top
             con = AllOf(limits, strike, chase, constraint) \
                 if (limits or strike or chase or constraint) else None
             if con is not None:
@@ -358,7 +398,8 @@ class Simulator:
                            refresh_frames=self.refresh_frames, top_p_serve=self.top_p_serve,
                            bounce_surfaces=part["surface"].astype(str).to_numpy()
                            if self.physical_bounce else None,
-                           player_accel_mps2=self.player_accel_mps2)
+                           player_accel_mps2=self.player_accel_mps2,
+                           player_top_speed_mps=top)
             labels = None if self.event_model is None else frame_labels(
                 self.event_model, roll.pos_m, roll.length, self.fps, self.model.cfg.window_frames)
             data = assemble(part, roll.pos_m, roll.length, tracker.results(), labels, self.fps)

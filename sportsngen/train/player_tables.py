@@ -18,6 +18,12 @@ rallies moves little); every other row is left as it is. His row of the opponent
 opponents' strikes, whose rows the fine-tune does not touch. Nor are his rows of the shape
 tables (`model.strike_shape` and `strike_shape_opponent`, where the file has them): they stay
 at zero, the head's own depth and height for him.
+
+The rollout rules' tables keyed by name in the file's extra (his reach for the return and for
+the rally balls, `sim.reach_table`, and his top speed, `sim.top_speed`) are carried from the
+base file with his own row added where his rallies have enough of his balls or frames
+(`player_rule_tables`): a fine-tune that copied the base's sampling defaults but not the tables
+left its rollouts with the fixed reaches and no speed bound at all.
 """
 
 from __future__ import annotations
@@ -27,7 +33,10 @@ import torch
 
 from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.data.tracking import RallyData
+from sportsngen.eval.reach import reach_rows
 from sportsngen.model.decoder import SportsNGEN
+from sportsngen.sim.reach_table import BALLS, MIN_BALLS, ReachTable, fit_logistic
+from sportsngen.sim.top_speed import MIN_FRAMES, QUANTILE, TopSpeeds, player_speeds
 from sportsngen.train.head_fit import collect_head_states
 from sportsngen.train.serve_bias import fit_serve_bias, fit_serve_lateral, fit_serve_short
 from sportsngen.train.strike_bias import fit_strike_bias, fit_strike_return
@@ -107,4 +116,36 @@ def _labelled(fit: pd.DataFrame, table: str, key: str, roles: dict, id_column: s
     return fit.assign(table=table, role=fit[key].map(roles)).drop(columns=[id_column, key])
 
 
-__all__ = ["fit_player_tables"]
+# The rule tables of a file's extra keyed by player name, and which balls each reach reads.
+REACH_TABLES = {"return_reach": "serve", "rally_reach": "rally"}
+
+
+def player_rule_tables(base_extra: dict, data: RallyData, player: str,
+                       min_balls: int = MIN_BALLS, min_frames: int = MIN_FRAMES) -> dict:
+    """The base file's rule tables (`base_extra`'s `return_reach`, `rally_reach`, `top_speed`,
+    those it has) with `player`'s own row fitted on `data` where he has at least `min_balls`
+    good balls to answer (some answered, some not) or `min_frames` frames; else he plays the
+    pooled row. -> {extra key: the table's dict}."""
+    out = {}
+    rows = None
+    for key, kind in REACH_TABLES.items():
+        if base_extra.get(key) is None:
+            continue
+        table = ReachTable.from_dict(base_extra[key])
+        if rows is None:
+            rows = reach_rows(data)
+        balls = BALLS[kind](rows, data.rallies) if len(rows) else rows
+        mine = balls[balls["player"] == player] if len(balls) else balls
+        if len(mine) >= min_balls and mine["answered"].any() and not mine["answered"].all():
+            table.players[player] = fit_logistic(mine["gap_m"], mine["answered"])
+        out[key] = table.to_dict()
+    if base_extra.get("top_speed") is not None:
+        table = TopSpeeds.from_dict(base_extra["top_speed"])
+        speeds = player_speeds(data.frames[data.frames["object"] == player], data.fps)
+        if len(speeds) >= min_frames:
+            table.players_mps[player] = float(speeds["speed_mps"].quantile(QUANTILE))
+        out["top_speed"] = table.to_dict()
+    return out
+
+
+__all__ = ["fit_player_tables", "player_rule_tables"]

@@ -35,7 +35,7 @@ from sportsngen.train.finetune import (
     read_torch_file,
 )
 from sportsngen.train.module import TOKEN_WEIGHTS, DecoderModule, EventModule
-from sportsngen.train.player_tables import fit_player_tables
+from sportsngen.train.player_tables import fit_player_tables, player_rule_tables
 
 log = logging.getLogger(__name__)
 
@@ -279,6 +279,9 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
         # compared identities at different nuclei).
         if base_extra.get("sim_defaults"):
             extra["sim_defaults"] = base_extra["sim_defaults"]
+        if cfg.get("init") and cfg.get("player"):
+            # ... and its rules' tables, with his own rows (`train.player_tables`).
+            extra.update(player_rule_tables(base_extra, data, cfg.player))
         if not cfg.get("init"):   # from `init`, the generic row is the base model's
             average_generic_identity(module.model, vocab)   # unknown players: the average
         path = save_model(out_dir / "model.pt", module.model.cpu(), vocab, event_model,
