@@ -267,8 +267,7 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
     `player_accel_mps2`: every sampled frame changes a player's velocity by at most this
     acceleration (`sim.kinematics`); `player_top_speed_mps` (B, 2): the server's and the
     receiver's top speed, which no frame of theirs exceeds (`sim.top_speed`). Cached rollouts
-    of up to
-    `SINGLE_THREAD_ROWS` rallies run on one CPU thread.
+    of up to `SINGLE_THREAD_ROWS` rallies run on one CPU thread.
     """
     small = (mode == "cache" and len(inputs.init_pos_m) <= SINGLE_THREAD_ROWS
              and next(model.parameters()).device.type == "cpu")
