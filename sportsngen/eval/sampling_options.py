@@ -15,6 +15,16 @@ _FLAGS = ("contact_odds", "strike_in_reach", "strike_in_reach_from", "strike_in_
           "player_accel_mps2", "chase_high_balls", "return_reach_draw", "rally_reach_draw",
           "player_top_speed")
 
+# The rules that read a table of the model file's extra, switched on and off by name.
+_TABLE_SWITCHES = (
+    ("--return-reach-draw", "each serve's return reach drawn from its receiver's row of the "
+                            "file's table (scripts/fit_return_reach.py)"),
+    ("--rally-reach-draw", "each rally ball's reach drawn from the row of the player due in the "
+                           "file's table (scripts/fit_return_reach.py --rally)"),
+    ("--player-top-speed", "each player runs no faster than his record's top speed, the file's "
+                           "table (scripts/fit_top_speed.py)"),
+)
+
 
 def add_sampling_options(parser: argparse.ArgumentParser) -> None:
     """Add the `Simulator` sampling flags to `parser` (every default None: the model file's)."""
@@ -61,21 +71,9 @@ def add_sampling_options(parser: argparse.ArgumentParser) -> None:
                         help="with physical limits, the return (the contact after the serve) "
                              "needs the receiver within this distance of the ball (m, "
                              "horizontally; default: the model file's, else the contact's)")
-    parser.add_argument("--return-reach-draw", action=argparse.BooleanOptionalAction,
-                        default=None,
-                        help="each serve's return reach drawn from its receiver's row of the "
-                             "file's table (scripts/fit_return_reach.py; default: the model "
-                             "file's, else off)")
-    parser.add_argument("--rally-reach-draw", action=argparse.BooleanOptionalAction,
-                        default=None,
-                        help="each rally ball's reach drawn from the row of the player due in "
-                             "the file's table (scripts/fit_return_reach.py --rally; default: "
-                             "the model file's, else off)")
-    parser.add_argument("--player-top-speed", action=argparse.BooleanOptionalAction,
-                        default=None,
-                        help="each player runs no faster than his record's top speed, the "
-                             "file's table (scripts/fit_top_speed.py; default: the model "
-                             "file's, else off)")
+    for flag, what in _TABLE_SWITCHES:
+        parser.add_argument(flag, action=argparse.BooleanOptionalAction, default=None,
+                            help=f"{what} (default: the model file's, else off)")
     parser.add_argument("--physical-bounce", action=argparse.BooleanOptionalAction,
                         default=None,
                         help="the ball's bounces are the surface's physics, not the model's "

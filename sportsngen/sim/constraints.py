@@ -120,9 +120,8 @@ def contact_reaches(tracker, rows, return_reach_m: float | None, rows_m: np.ndar
     k mod K), `reach_m` where not."""
     rows = np.asarray(rows)
     n_shots = tracker.n_shots[rows]
-    ret = rows_m[rows] if rows_m is not None else return_reach_m
-    if return_reach_m is None and rows_m is None:
-        ret = reach_m
+    ret = rows_m[rows] if rows_m is not None else \
+        (reach_m if return_reach_m is None else return_reach_m)
     rally = reach_m if rally_rows_m is None else \
         rally_rows_m[rows, np.asarray(n_shots) % rally_rows_m.shape[1]]
     return np.where(awaiting_return(n_shots), ret, rally)
