@@ -3,7 +3,7 @@ wide or into the net (`model.strike_bias`; `sportsngen.train.strike_bias`).
 
     .venv/bin/python scripts/fit_strike_bias.py --model FILE --out FILE [--more-data NAME]
         [--prior-strikes 200] [--width | --returns | --pressure | --shape | --shots |
-        --players | --late | --depth] [--states FILE] [--view 8]
+        --players | --late | --depth | --return-surface] [--states FILE] [--view 8]
         [--draws K] [--more-data-only]
         [--threads 2]
 
@@ -34,6 +34,10 @@ top (with `--late-only` the late table alone, on top of the file's tables as the
 `--depth` (a file with the opponents' table) a table by the contact's depth behind the
 baseline and the hitter's role (`model.strike_depth`) is added and fitted alone on top of the
 file's tables as they are, then centred (it tilts the errors by depth, the level stays).
+With `--return-surface` (a file with the returns' table) a table of the returns' error shifts
+by surface and serve is added (`model.strike_return_surface`) and fitted in turn with the
+receivers' returns table on the returns (`train.return_surface.fit_return_surface`; states
+read before this part hold no surfaces: read them again).
 `--view 8` reads each strike's state from its own window ending 8 frames after it (the
 history a rollout gives it) and `--draws K` matches the odds at K of the head's own draws of
 the earlier dimensions (as a rollout draws) with `--pressure`, `--late` or `--depth`.
@@ -48,6 +52,7 @@ import time
 
 from sportsngen.data.tokens import N_SPECIAL_IDS
 from sportsngen.train.head_fit import HeadStates, cached_states, collect_head_states
+from sportsngen.train.return_surface import fit_return_surface, with_return_surface
 from sportsngen.train.strike_bias import (
     KINDS,
     error_shares,
@@ -109,6 +114,8 @@ FITS = (
                "fifth on (model.strike_late), fitted in turn with the hitters' and opponents'"),
     ("--depth", "add a table by the contact's depth behind the baseline (model.strike_depth), "
                 "fitted alone on top of the file's tables and centred"),
+    ("--return-surface", "add a table of the returns' error shifts by surface and serve "
+                         "(model.strike_return_surface) fitted in turn with the receivers'"),
     ("--players", "add shifts of the strike head's input per hitter and per opponent "
                   "(model.strike_players), the error tables refitted with them"),
 )
@@ -135,7 +142,8 @@ def main() -> None:
                          "(the named players' round robins: the rows of players only in the "
                          "split are left as they are)")
     ap.add_argument("--draws", type=int, default=0,
-                    help="with --pressure, --late or --depth: match each strike's odds at "
+                    help="with --pressure, --late, --depth or --return-surface: match each "
+                         "strike's odds at "
                          "that many of the head's own draws of the earlier dimensions (as a "
                          "rollout draws), not at the record's")
     args = ap.parse_args()
@@ -143,13 +151,30 @@ def main() -> None:
         ap.error("--late-only goes with --late")
     if args.more_data_only and not args.more_data:
         ap.error("--more-data-only goes with --more-data")
-    if args.draws and not (args.pressure or args.late or args.depth):
-        ap.error("--draws goes with --pressure, --late or --depth")
+    if args.draws and not (args.pressure or args.late or args.depth or args.return_surface):
+        ap.error("--draws goes with --pressure, --late, --depth or --return-surface")
     run = open_table_run(args, lambda m: None if m.strike_head is not None
                          else "no strike head (model.strike_head)")
     model, vocab = run.model, run.vocab
     states = _read_states(model, run, args)
     names = {N_SPECIAL_IDS + i: p for i, p in enumerate(vocab.players)}
+    if args.return_surface:
+        if model.strike_return is None:
+            raise SystemExit(f"{run.path}: no model.strike_return: fit it first (--returns)")
+        model = with_return_surface(model)
+        try:
+            table = fit_return_surface(model, states, states.returns(),
+                                       prior_strikes=args.prior_strikes, draws=args.draws)
+        except ValueError as exc:
+            raise SystemExit(f"{exc} (remove {args.states})") from None
+        surfaces = dict(enumerate(vocab.surfaces))
+        table.insert(0, "player", [names[i] if t == "receiver" else surfaces[i]
+                                   for t, i in zip(table["table"], table.pop("id"))])
+        print(table[["table", "player", "serve", "n"] + [f"{k}_{w}" for k in KINDS
+                                                       for w in ("record", "after", "shift")]]
+              .round(3).to_string(index=False))
+        run.save(model, args.out)
+        return
     if args.width and model.strike_pressure is not None:
         # The error tables split by returns and opponents: the width alone, then those tables
         # refitted with its tilt (`fit_strike_pressure` reads it, the returns' table last).

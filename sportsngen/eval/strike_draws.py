@@ -72,7 +72,8 @@ def teacher_forced_strikes(model, arrays: RallyArrays, truth: RallyData, draws: 
     rng = np.random.default_rng(seed)
     was_training = model.training
     model.eval()
-    found, h_rows, bin_rows, hitters, opponents, receivers, ball_x = ([] for _ in range(7))
+    found, h_rows, bin_rows, hitters, opponents, receivers, ball_x, surfaces = \
+        ([] for _ in range(8))
     for b0, batch in enumerate(loader):
         mask, bins = model.strike_targets(batch["pos_m"], batch["vel_mps"], batch["next_pos_m"],
                                           batch["has_next"])
@@ -92,6 +93,7 @@ def teacher_forced_strikes(model, arrays: RallyArrays, truth: RallyData, draws: 
                                          hitters[-1], opponents[-1]))
         bin_rows.append(bins[ok, t[ok]])
         ball_x.append(batch["pos_m"][ok, t[ok], BALL, 0])
+        surfaces.append(batch["surface"][ok])
         receivers.append(recv)
         found.append(b0 * batch_size + ok)
     model.train(was_training)
@@ -100,19 +102,22 @@ def teacher_forced_strikes(model, arrays: RallyArrays, truth: RallyData, draws: 
     rows, h, rec_bins = np.concatenate(found), torch.cat(h_rows), torch.cat(bin_rows).numpy()
     picked = shots.iloc[rows]
     shot = picked["shot_index"].to_numpy(np.int64)
+    serve = picked["rally_id"].map(truth.rallies.set_index("rally_id")["serve_number"])
+    serve = serve.to_numpy(np.int64) - 1
     # The file's per-hitter shifts, where it has them (`model.strike_bias`; the returns' own
     # with `model.strike_return`, the opponents' with `model.strike_pressure`, the late
-    # strikes' with `model.strike_late`).
+    # strikes' with `model.strike_late`, the surfaces' returns table with
+    # `model.strike_return_surface`).
     bias = model.strike_head_bias(torch.cat(hitters), torch.cat(receivers),
                                   torch.as_tensor(shot == 1), torch.cat(opponents),
-                                  torch.as_tensor(shot), torch.cat(ball_x))
+                                  torch.as_tensor(shot), torch.cat(ball_x),
+                                  torch.as_tensor(serve), torch.cat(surfaces))
     idx = torch.stack([model.strike_head.sample(h, 1.0, gen, dim_bias=bias)
                        for _ in range(draws)], 1).numpy()
     rec = strike_errors(strike.strike_bin_value(rec_bins, rng.random(rec_bins.shape)))
     mod = strike_errors(strike.strike_bin_value(idx, rng.random(idx.shape))).mean(axis=1)
-    serve = picked["rally_id"].map(truth.rallies.set_index("rally_id")["serve_number"])
     return pd.DataFrame({"rally_id": picked["rally_id"].to_numpy(), "shot": shot,
-                         "serve": serve.to_numpy(np.int64) - 1, "receiver": shot % 2 == 1,
+                         "serve": serve, "receiver": shot % 2 == 1,
                          "record_error": rec, "model_error": mod})
 
 

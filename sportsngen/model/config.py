@@ -151,6 +151,14 @@ class ModelConfig:
     # of first serves than the record's in six of seven matchups, while one shift for all of a
     # receiver's strikes matched his errors overall (docs/evaluation.md, thirty-fifth part).
     strike_return: bool = False
+    # With the returns' table, one more per surface and serve (first, second) of the same three
+    # shifts, added on the returns (`model.strike_bias`, fitted in turn with the receivers'
+    # returns table by `train.return_surface.fit_return_surface`; zero until then): the
+    # generator's return faces the serve's heaviness, which clay and a second serve pass on
+    # less, and the head drew first serves' returns on clay erring 0.05 more than the round
+    # robins' record and second serves' on hard 0.04 less (docs/evaluation.md, fifty-fifth
+    # part).
+    strike_return_surface: bool = False
     # With it and the returns' table, a per-opponent table of the same three shifts by the
     # hitter's role, added on every strike but the return (`model.strike_bias`, fitted by
     # `train.strike_bias.fit_strike_pressure`; zero until then): a hitter's errors depend on
@@ -277,6 +285,9 @@ class ModelConfig:
         if self.strike_late and not self.strike_pressure:
             raise ValueError("model.strike_late is fitted with the opponents' table: it needs "
                              "strike_pressure=True")
+        if self.strike_return_surface and not self.strike_return:
+            raise ValueError("model.strike_return_surface is fitted with the receivers' returns "
+                             "table: it needs strike_return=True")
         if self.strike_return and not self.strike_bias:
             raise ValueError("model.strike_return is read with the strike head's error table: "
                              "it needs strike_bias=True")

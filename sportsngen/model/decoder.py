@@ -245,6 +245,11 @@ class SportsNGEN(nn.Module):
                              if cfg.strike_width else None)
         self.register_buffer("strike_return", torch.zeros(cfg.n_ids, strike_bias_table.N_KINDS)
                              if cfg.strike_return else None)
+        # By surface and serve, not by identity: not among PER_IDENTITY_TABLES.
+        self.register_buffer("strike_return_surface",
+                             torch.zeros(cfg.n_surfaces, strike_bias_table.N_SERVES,
+                                         strike_bias_table.N_KINDS)
+                             if cfg.strike_return_surface else None)
         self.register_buffer("strike_pressure",
                              torch.zeros(cfg.n_ids, strike_bias_table.N_ROLES,
                                          strike_bias_table.N_KINDS)
@@ -519,7 +524,9 @@ class SportsNGEN(nn.Module):
                          returning: torch.Tensor | None = None,
                          opponent_ident: torch.Tensor | None = None,
                          shot: torch.Tensor | None = None,
-                         ball_x_m: torch.Tensor | None = None) -> torch.Tensor | None:
+                         ball_x_m: torch.Tensor | None = None,
+                         serve: torch.Tensor | None = None,
+                         surface: torch.Tensor | None = None) -> torch.Tensor | None:
         """The strike head's logit shifts (N, 4, bins) for strikes of `hitter_ident` (N,), the
         point's receiver where `receiver` (N,) bool (`model.strike_bias`, with the width's tilt
         where the model has `strike_width`, the returns' table on the rows `returning` (N,)
@@ -528,7 +535,9 @@ class SportsNGEN(nn.Module):
         has `strike_shape`, and the late table on the strikes `shot` (N,) numbered
         `strike_bias.LATE_SHOT` or more where it has `strike_late`, and the depth table's row by
         where the ball is struck, `ball_x_m` (N,), on the rally strikes where it has
-        `strike_depth`); None where the model has no table or the hitter is not given."""
+        `strike_depth`, and on the returns the row of `surface` (N,) (the surfaces' indices)
+        and `serve` (N,) (0 first, 1 second) where it has `strike_return_surface`); None where
+        the model has no table or the hitter is not given."""
         if self.strike_bias is None or hitter_ident is None or receiver is None:
             return None
         opponent = None if opponent_ident is None else self._ident(opponent_ident)
@@ -539,7 +548,8 @@ class SportsNGEN(nn.Module):
                                                  self.strike_shape,
                                                  self.strike_shape_opponent,
                                                  self.strike_late, shot,
-                                                 self.strike_depth, ball_x_m)
+                                                 self.strike_depth, ball_x_m,
+                                                 self.strike_return_surface, serve, surface)
 
     def receiver_start_bias(self, server_ident: torch.Tensor | None,
                             serve: torch.Tensor | None,
@@ -588,7 +598,8 @@ class SportsNGEN(nn.Module):
                       server_ident: torch.Tensor | None = None,
                       receiver_ident: torch.Tensor | None = None,
                       returning: torch.Tensor | None = None,
-                      shot: torch.Tensor | None = None
+                      shot: torch.Tensor | None = None,
+                      surface: torch.Tensor | None = None
                       ) -> tuple[torch.Tensor, torch.Tensor]:
         """This model's strike and serve heads' draws placed in the sampled frames `nxt`
         (`strike_heads.place_strikes`; `serve` (B,) the rallies' serve, 0 first, 1 second,
@@ -598,7 +609,8 @@ class SportsNGEN(nn.Module):
         next contact is the return (only the serve struck so far), which `cfg.strike_return`
         reads on a strike from the receiver's end; `shot` (B,): the rallies' contacts so far,
         the number of a strike drawn now (1 the return), which `cfg.strike_shots` and
-        `cfg.strike_late` read). ->
+        `cfg.strike_late` read; `surface` (B,): the surfaces' indices, which
+        `cfg.strike_return_surface` reads). ->
         (nxt, the launches' next two frames (B, 2, 3))."""
         # Whose strike a frame would be: the receiver's on his end, else the server's.
         recv = strike_heads.ball_on_receivers_end(pos_m)
@@ -623,7 +635,9 @@ class SportsNGEN(nn.Module):
                 ret = None if returning is None else recv[rows] & returning[rows]
                 return self.strike_head_bias(hitter[rows], recv[rows], ret, opponent[rows],
                                              None if shot is None else shot[rows],
-                                             pos_m[rows, BALL, 0])
+                                             pos_m[rows, BALL, 0],
+                                             None if serve is None else serve[rows],
+                                             None if surface is None else surface[rows])
         return strike_heads.place_strikes(self.strike_head, self.serve_head, h, pos_m, vel_mps,
                                           nxt, self.cfg.fps, generator, top_p, allowed, forced,
                                           top_p_serve, strike_h, serve_shift, strike_shift)

@@ -50,6 +50,15 @@ part). Fitted on the record it moved the wrong way (the head at the record's own
 errs less than the record; the rollouts' players arrive worse); `train.rollout_tables` moves it
 by the model's own rollouts instead (docs/evaluation.md, forty-eighth part).
 
+`ModelConfig.strike_return_surface` adds a table per surface and serve (first, second) of the
+same three shifts on the returns. The generator's return faces the serve's heaviness, which a
+surface passes on (clay less: `synth.behaviour.SURFACE_SERVE_WEIGHT`) and a second serve less;
+the head draws a receiver's returns erring about alike on every surface and after either serve:
+at the round robins' returns (the rollout's reading) it drew first serves' returns on clay
+erring 0.184 where the record's erred 0.134, and second serves' on hard 0.097 against 0.136
+(docs/evaluation.md, fifty-fifth part). `sportsngen.train.return_surface` fits it in turn with
+the receivers' returns rows.
+
 `ModelConfig.strike_depth` adds a table by where the ball is struck, not by whom: per band of
 the contact's distance behind the hitter's baseline (`DEPTH_EDGES_M`) and his role, the same
 three shifts on every strike but the return. In the generator a player far behind his baseline
@@ -71,6 +80,7 @@ from sportsngen.tennis.court import BASELINE_X_M, SINGLES_HALF_WIDTH_M, net_heig
 LONG, WIDE, NET = 0, 1, 2      # the table's last axis: the kind of error
 N_KINDS = 3
 N_ROLES = 2                    # 0: the hitter serves this point; 1: he receives
+N_SERVES = 2                   # the surfaces' returns table: 0 a first serve's return, 1 a second's
 DEPTH, HEIGHT = 0, 1           # the shape tables' last axis: which dimension is tilted
 N_SHAPES = 2
 LATE_SHOT = 5                  # the late table's first strike (1 the return)
@@ -170,7 +180,10 @@ def strike_dim_bias(table: torch.Tensor, hitter_id: torch.Tensor, receiver: torc
                     late: torch.Tensor | None = None,
                     shot: torch.Tensor | None = None,
                     depth: torch.Tensor | None = None,
-                    ball_x_m: torch.Tensor | None = None) -> torch.Tensor:
+                    ball_x_m: torch.Tensor | None = None,
+                    return_surface: torch.Tensor | None = None,
+                    serve: torch.Tensor | None = None,
+                    surface: torch.Tensor | None = None) -> torch.Tensor:
     """The strike head's logit shifts for strikes of `hitter_id` (N,), who is the point's
     receiver where `receiver` (N,) bool, from `table` (n_ids, N_ROLES, N_KINDS) and the
     width's `width` (n_ids, N_ROLES) or None -> (N, 4, STRIKE_BINS): each kind's error bins
@@ -186,13 +199,19 @@ def strike_dim_bias(table: torch.Tensor, hitter_id: torch.Tensor, receiver: torc
     row by role is added on the strikes numbered `LATE_SHOT` or more. With the depth table
     `depth` (N_DEPTH_BANDS, N_ROLES, N_KINDS) and `ball_x_m` (N,) (the ball's x where it is
     struck), its row by `depth_band` and the hitter's role is added on every strike but a
-    return."""
+    return. With the surfaces' returns table `return_surface` (n_surfaces, N_SERVES,
+    N_KINDS), `serve` (N,) (0 first, 1 second) and `surface` (N,) (the surfaces' indices),
+    the row of the surface and serve is added on the returns."""
     shift = table[hitter_id.long(), receiver.long()]                      # (N, N_KINDS)
     if late is not None and shot is not None:
         shift = shift + late[hitter_id.long(), receiver.long()] * \
             (shot >= LATE_SHOT).to(shift.dtype)[:, None]
     if returns is not None and returning is not None:
         shift = shift + returns[hitter_id.long()] * returning.to(shift.dtype)[:, None]
+    if return_surface is not None and returning is not None and serve is not None \
+            and surface is not None:
+        shift = shift + return_surface[surface.long(), serve.long()] * \
+            returning.to(shift.dtype)[:, None]
     # The opponents' and depth tables add on every strike but a return.
     rally = torch.ones_like(shift[:, 0]) if returning is None else \
         (~returning.bool()).to(shift.dtype)

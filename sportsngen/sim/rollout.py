@@ -173,7 +173,8 @@ def _follow_strikes(model: SportsNGEN, h: torch.Tensor, pos: torch.Tensor, vel: 
                     server_ident: torch.Tensor | None = None,
                     receiver_ident: torch.Tensor | None = None,
                     returning: torch.Tensor | None = None,
-                    shot: torch.Tensor | None = None
+                    shot: torch.Tensor | None = None,
+                    surface: torch.Tensor | None = None
                     ) -> tuple[torch.Tensor, torch.Tensor]:
     """With a strike head: a ball in the frames after its strike flies the launch solved at the
     strike (`plan`, (B, 2, 3), NaN where none), so the physics centre reads the strike's spin
@@ -184,7 +185,8 @@ def _follow_strikes(model: SportsNGEN, h: torch.Tensor, pos: torch.Tensor, vel: 
     per-server shift (`cfg.serve_bias`), with `receiver_ident` (B,) too the strike head's
     per-hitter shift (`cfg.strike_bias`), with `returning` (B,) bool (only the serve struck
     so far) the returns' (`cfg.strike_return`), with `shot` (B,) (the contacts so far) the
-    strike's number (`cfg.strike_shots`, `cfg.strike_late`)."""
+    strike's number (`cfg.strike_shots`, `cfg.strike_late`), with `surface` (B,) the
+    surfaces' indices (`cfg.strike_return_surface`)."""
     planned = ~torch.isnan(plan[:, 0, 0])
     if bool(planned.any()):
         nxt = nxt.clone()
@@ -195,7 +197,7 @@ def _follow_strikes(model: SportsNGEN, h: torch.Tensor, pos: torch.Tensor, vel: 
     nxt, new = model.place_strikes(h, pos, vel, nxt, generator, allowed=~planned, forced=force,
                                    top_p_serve=top_p_serve, serve=serve,
                                    server_ident=server_ident, receiver_ident=receiver_ident,
-                                   returning=returning, shot=shot)
+                                   returning=returning, shot=shot, surface=surface)
     return nxt, torch.where(torch.isnan(new[:, :1, :1]), plan, new)
 
 
@@ -294,6 +296,7 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
 
         ident = tens(inputs.ident, torch.long)
         serve = tens(inputs.serve, torch.long)
+        surface = tens(inputs.surface, torch.long)
         ctx = model.context_tokens(tens(inputs.surface, torch.long),
                                    tens(inputs.tournament, torch.long),
                                    tens(inputs.serve, torch.long),
@@ -342,7 +345,7 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                     break
                 kt = torch.as_tensor(keep, device=dev)
                 hist, ident, ctx, plan = hist[kt], ident[kt], ctx[kt], plan[kt]
-                serve = serve[kt]
+                serve, surface = serve[kt], surface[kt]
                 wait = None if wait is None else wait[kt]
                 if cache is not None:
                     cache, h = cache.select(kt), h[kt]
@@ -392,7 +395,7 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                     torch.as_tensor(np.asarray(shots)[alive], device=dev)
                 nxt, plan = _follow_strikes(model, h, pos, vel, nxt, plan, generator, forced,
                                             top_p_serve, serve, ident[:, 0], ident[:, 1],
-                                            returning, shot)
+                                            returning, shot, surface)
             if bounce_surfaces is not None and n >= 3:
                 nxt, plan = place_bounces(nxt, plan, pos, vel, prev_vel, fps, bounce_surfaces,
                                           alive, planned)

@@ -50,19 +50,22 @@ class HeadStates:
     server_id: np.ndarray    # (N,) int64: the rally's server's identity (the Vocab's index)
     receiver_id: np.ndarray | None = None   # (N,) int64: the rally's receiver's, where read
     shot: np.ndarray | None = None   # (N,) int64: the strike's number, where fixed (`take`)
+    surface: np.ndarray | None = None    # (N,) int64: the rally's surface index, where read
 
     def __len__(self) -> int:
         return len(self.bins)
 
     @staticmethod
     def concat(parts: list[HeadStates]) -> HeadStates:
-        recv = None if any(p.receiver_id is None for p in parts) else \
-            np.concatenate([p.receiver_id for p in parts])
+        def optional(k: str) -> np.ndarray | None:
+            return None if any(getattr(p, k) is None for p in parts) else \
+                np.concatenate([getattr(p, k) for p in parts])
         return HeadStates(torch.cat([p.h for p in parts]), torch.cat([p.bins for p in parts]),
                           *(np.concatenate([getattr(p, k) for p in parts])
                             for k in ("rally_id", "serve", "contact_m", "receiver",
-                                      "server_id")), receiver_id=recv,
-                          shot=np.concatenate([p.shot_numbers() for p in parts]))
+                                      "server_id")), receiver_id=optional("receiver_id"),
+                          shot=np.concatenate([p.shot_numbers() for p in parts]),
+                          surface=optional("surface"))
 
     def take(self, keep: np.ndarray) -> HeadStates:
         """The rows where `keep` ((N,) bool) holds, in order, with their shot numbers counted
@@ -75,7 +78,8 @@ class HeadStates:
                           *(getattr(self, k)[keep] for k in ("rally_id", "serve", "contact_m",
                                                              "receiver", "server_id")),
                           receiver_id=None if self.receiver_id is None
-                          else self.receiver_id[keep], shot=self.shot_numbers()[keep])
+                          else self.receiver_id[keep], shot=self.shot_numbers()[keep],
+                          surface=None if self.surface is None else self.surface[keep])
 
     def hitter_id(self) -> np.ndarray:
         """(N,) int64: the identity of the player who strikes each target (the receiver's
@@ -235,7 +239,8 @@ def collect_head_states(model: SportsNGEN, arrays: RallyArrays, which: str = "se
         batches, total = window_batches(model, arrays, which == "serve", flip, batch_size)
     else:
         batches, total = strike_view_batches(model, arrays, lead_frames, batch_size)
-    hs, bins, rid, srv, contact, receiver, server_id, receiver_id = ([] for _ in range(8))
+    hs, bins, rid, srv, contact, receiver, server_id, receiver_id, surface = \
+        ([] for _ in range(9))
     for batch in tqdm(batches, desc=f"{which} states", total=total, disable=not progress):
         mask, b = model.strike_targets(batch["pos_m"], batch["vel_mps"], batch["next_pos_m"],
                                        batch["has_next"], serves=which == "serve")
@@ -260,13 +265,15 @@ def collect_head_states(model: SportsNGEN, arrays: RallyArrays, which: str = "se
         receiver.append(strike_heads.ball_on_receivers_end(batch["pos_m"][mask]).numpy())
         server_id.append(batch["ident"][rows, 0].numpy())
         receiver_id.append(batch["ident"][rows, 1].numpy())
+        surface.append(batch["surface"][rows].numpy())
     model.train(was_training)
     if not hs:
         raise ValueError(f"no {which} targets in the {len(arrays)} rallies given")
     return HeadStates(torch.cat(hs), torch.cat(bins), np.concatenate(rid), np.concatenate(srv),
                       np.concatenate(contact), np.concatenate(receiver),
                       np.concatenate(server_id).astype(np.int64),
-                      np.concatenate(receiver_id).astype(np.int64))
+                      np.concatenate(receiver_id).astype(np.int64),
+                      surface=np.concatenate(surface).astype(np.int64))
 
 
 def _fitted(model: SportsNGEN, which: str) -> list[torch.nn.Module]:

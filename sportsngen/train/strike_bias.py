@@ -95,7 +95,10 @@ def head_draws(model: SportsNGEN, states: HeadStates, rows: np.ndarray, x: torch
     bias = model.strike_head_bias(torch.as_tensor(states.hitter_id()[rows]), receiver,
                                   torch.as_tensor(states.returns()[rows]),
                                   torch.as_tensor(states.opponent_id()[rows]), shot,
-                                  torch.as_tensor(states.contact_m[rows, 0], dtype=x.dtype))
+                                  torch.as_tensor(states.contact_m[rows, 0], dtype=x.dtype),
+                                  torch.as_tensor(states.serve[rows]),
+                                  None if states.surface is None
+                                  else torch.as_tensor(states.surface[rows]))
     gen = torch.Generator().manual_seed(seed)
     return rows, x, model.strike_head.sample(x, 1.0, gen, dim_bias=bias)
 

@@ -77,8 +77,8 @@ def _parameters(model: SportsNGEN, parts: tuple[str, ...]) -> list[torch.nn.Para
 @torch.no_grad()
 def table_bias(model: SportsNGEN, states: HeadStates) -> torch.Tensor | None:
     """The file's per-player shifts of the strike head's logits at `states` (N, 4, bins), as a
-    rollout draws them (hitter, role, returns, opponent, the strike's number); None where the
-    model has none."""
+    rollout draws them (hitter, role, returns, opponent, the strike's number, the serve, the
+    surface); None where the model has none."""
     if states.receiver_id is None:
         return None
     return model.strike_head_bias(torch.as_tensor(states.hitter_id()),
@@ -86,7 +86,10 @@ def table_bias(model: SportsNGEN, states: HeadStates) -> torch.Tensor | None:
                                   torch.as_tensor(states.returns()),
                                   torch.as_tensor(states.opponent_id()),
                                   torch.as_tensor(states.shot_numbers()),
-                                  torch.as_tensor(states.contact_m[:, 0]))
+                                  torch.as_tensor(states.contact_m[:, 0]),
+                                  torch.as_tensor(states.serve),
+                                  None if states.surface is None
+                                  else torch.as_tensor(states.surface))
 
 
 def held_out(states: HeadStates, every: int = HELD_OUT_EVERY) -> np.ndarray:
