@@ -166,7 +166,8 @@ def main() -> None:
             table = fit_return_surface(model, states, states.returns(),
                                        prior_strikes=args.prior_strikes, draws=args.draws)
         except ValueError as exc:
-            raise SystemExit(f"{exc} (remove {args.states})") from None
+            hint = f" (remove {args.states})" if args.states else ""
+            raise SystemExit(f"{exc}{hint}") from None
         surfaces = dict(enumerate(vocab.surfaces))
         table.insert(0, "player", [names[i] if t == "receiver" else surfaces[i]
                                    for t, i in zip(table["table"], table.pop("id"))])

@@ -247,7 +247,7 @@ class SportsNGEN(nn.Module):
                              if cfg.strike_return else None)
         # By surface and serve, not by identity: not among PER_IDENTITY_TABLES.
         self.register_buffer("strike_return_surface",
-                             torch.zeros(cfg.n_surfaces, strike_bias_table.N_SERVES,
+                             torch.zeros(cfg.n_surfaces, serve_bias.N_SERVES,
                                          strike_bias_table.N_KINDS)
                              if cfg.strike_return_surface else None)
         self.register_buffer("strike_pressure",

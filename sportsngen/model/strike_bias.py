@@ -80,7 +80,6 @@ from sportsngen.tennis.court import BASELINE_X_M, SINGLES_HALF_WIDTH_M, net_heig
 LONG, WIDE, NET = 0, 1, 2      # the table's last axis: the kind of error
 N_KINDS = 3
 N_ROLES = 2                    # 0: the hitter serves this point; 1: he receives
-N_SERVES = 2                   # the surfaces' returns table: 0 a first serve's return, 1 a second's
 DEPTH, HEIGHT = 0, 1           # the shape tables' last axis: which dimension is tilted
 N_SHAPES = 2
 LATE_SHOT = 5                  # the late table's first strike (1 the return)
@@ -199,9 +198,9 @@ def strike_dim_bias(table: torch.Tensor, hitter_id: torch.Tensor, receiver: torc
     row by role is added on the strikes numbered `LATE_SHOT` or more. With the depth table
     `depth` (N_DEPTH_BANDS, N_ROLES, N_KINDS) and `ball_x_m` (N,) (the ball's x where it is
     struck), its row by `depth_band` and the hitter's role is added on every strike but a
-    return. With the surfaces' returns table `return_surface` (n_surfaces, N_SERVES,
-    N_KINDS), `serve` (N,) (0 first, 1 second) and `surface` (N,) (the surfaces' indices),
-    the row of the surface and serve is added on the returns."""
+    return. With the surfaces' returns table `return_surface` (n_surfaces,
+    `serve_bias.N_SERVES`, N_KINDS), `serve` (N,) (0 first, 1 second) and `surface` (N,)
+    (the surfaces' indices), the row of the surface and serve is added on the returns."""
     shift = table[hitter_id.long(), receiver.long()]                      # (N, N_KINDS)
     if late is not None and shot is not None:
         shift = shift + late[hitter_id.long(), receiver.long()] * \
