@@ -81,6 +81,29 @@ def test_a_strike_is_a_ball_turned_back_from_the_hitters_half_not_a_toss():
     assert S.is_strike(pos, vel, nxt, FPS).tolist() == [True, False, True, False]
 
 
+def test_a_strike_struck_where_its_step_barely_moves_is_found_once_at_the_frame_before():
+    # Frames of a ball coming to +x at 20 m/s (0.8 m a frame), then: struck in the step where
+    # its ways in and out cancel (the step moves 0.02 m) and sent back at 20 m/s; struck early
+    # (the step already goes back); braked to a stop and never sent back; and a slowed step
+    # followed by one still coming in.
+    x = {"across": [9.4, 10.2, 10.22, 9.42, 8.62],
+         "early": [9.4, 10.2, 9.6, 8.8, 8.0],
+         "stopped": [9.4, 10.2, 10.21, 10.21, 10.21],
+         "slowed": [9.4, 10.2, 10.22, 10.9, 11.6]}
+    found = {}
+    for name, xs in x.items():
+        b = np.array([[v, 0.5, 1.0] for v in xs])
+        vel = np.zeros_like(b)
+        vel[1:] = (b[1:] - b[:-1]) * FPS
+        t = np.arange(1, 3)
+        found[name] = S.is_strike_across(b[t], vel[t], b[t + 1], b[t + 2], FPS).tolist()
+        one = S.is_strike(b[t], vel[t], b[t + 1], FPS).tolist()
+        if name == "across":
+            assert one == [False, False]        # the single step sees no strike at all
+    assert found == {"across": [True, False], "early": [True, False],
+                     "stopped": [False, False], "slowed": [False, False]}
+
+
 def test_a_serve_is_a_tossed_ball_sent_over_the_net_and_no_rally_strike_is_one():
     pos = np.array([[11.4, 0.7, 2.9], [11.4, 0.7, 2.9], [-11.6, -0.5, 2.8], [11.0, 1.0, 1.0],
                     [11.4, 0.7, 1.5], [6.0, 0.7, 2.9], [11.4, 0.7, 2.9]])
@@ -179,6 +202,30 @@ def test_recorded_strikes_read_where_the_generator_bounced_them(recorded_strikes
     # Rally balls: topspin for most, clear the net, land in the other half.
     assert np.median(labels[ok, 3]) < 0 and np.median(labels[ok, 2]) > 1.0
     assert 4.0 < np.median(labels[ok, 0]) < BASELINE_X_M
+
+
+def test_every_recorded_rally_strike_is_found_once_where_single_steps_miss_some():
+    from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
+
+    data = truth_points(DiagnosticsSetup(n_points=60, seed=3))
+    balls = data.frames[data.frames["object"] == "ball"].sort_values(["rally_id", "frame"])
+    tracks = {rid: (int(g["frame"].min()), g[["x", "y", "z"]].to_numpy(float))
+              for rid, g in balls.groupby("rally_id")}
+    counts, singles = [], []
+    for rid, frame in data.shots.loc[data.shots["shot_index"] > 0,
+                                     ["rally_id", "frame"]].itertuples(index=False):
+        first, b = tracks[rid]
+        f = int(frame) - first
+        if f < 3 or f + 4 >= len(b):
+            continue
+        t = np.arange(f - 2, f + 2)
+        vel = (b[t] - b[t - 1]) * data.fps
+        counts.append(int(S.is_strike_across(b[t], vel, b[t + 1], b[t + 2], data.fps).sum()))
+        singles.append(bool(S.is_strike(b[t], vel, b[t + 1], data.fps).any()))
+    assert len(counts) > 60
+    assert counts == [1] * len(counts)
+    # Contacts fall anywhere in a frame's interval: some steps mix the ways in and out.
+    assert 0 < len(singles) - sum(singles) < 0.2 * len(singles)
 
 
 def _struck_model():

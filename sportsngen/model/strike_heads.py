@@ -56,11 +56,11 @@ def strike_role_index(pos_m: torch.Tensor, serve: torch.Tensor) -> torch.Tensor:
 def strike_targets(pos_m: torch.Tensor, vel_mps: torch.Tensor, next_pos_m: torch.Tensor,
                    has_next: torch.Tensor, fps: float,
                    serves: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
-    """Windows' rally strikes (`strike.is_strike`; `serves`: the serves, `strike.is_serve`,
+    """Windows' rally strikes (`strike.is_strike_across`: struck in a frame's step, or in a
+    step that barely moves and sent back by the next; `serves`: the serves, `strike.is_serve`,
     read as `serve_labels`) whose three next frames are in the window and whose flight crosses
     the net and lands: (B, T) bool, and their bins (B, T, 4) (0 elsewhere). Positions
     (B, T, 3, 3), `has_next` (B, T)."""
-    found = strike.is_serve if serves else strike.is_strike
     edges = strike.serve_edges() if serves else None
     b, t = has_next.shape
     mask = torch.zeros(b, t, dtype=torch.bool, device=has_next.device)
@@ -72,8 +72,9 @@ def strike_targets(pos_m: torch.Tensor, vel_mps: torch.Tensor, next_pos_m: torch
     vel = vel_mps[..., BALL, :].detach().double().cpu().numpy()
     ok = has_next.bool().cpu().numpy()
     cand = np.zeros((b, t), dtype=bool)
-    cand[:, :-2] = ok[:, :-2] & ok[:, 1:-1] & ok[:, 2:] & found(
-        ball[:, :-2], vel[:, :-2], nxt[:, :-2], fps)
+    found = (strike.is_serve(ball[:, :-2], vel[:, :-2], nxt[:, :-2], fps) if serves else
+             strike.is_strike_across(ball[:, :-2], vel[:, :-2], nxt[:, :-2], nxt[:, 1:-1], fps))
+    cand[:, :-2] = ok[:, :-2] & ok[:, 1:-1] & ok[:, 2:] & found
     rb, rt = np.nonzero(cand)
     if len(rb) == 0:
         return mask, bins
