@@ -24,8 +24,7 @@ from sportsngen.model import strike_bias
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.train.finetune import with_flag
 from sportsngen.train.head_fit import HeadStates, head_inputs
-from sportsngen.train.serve_bias import matched_shift
-from sportsngen.train.strike_bias import KINDS, head_draws
+from sportsngen.train.strike_bias import head_draws, match_cell
 
 
 def with_return_surface(model: SportsNGEN) -> SportsNGEN:
@@ -103,20 +102,14 @@ def fit_return_surface(model: SportsNGEN, states: HeadStates, returns: np.ndarra
                 if len(g) < min_strikes:
                     continue
                 j = torch.as_tensor(g.index.to_numpy(copy=True))
+                fitted_shifts, fitted = match_cell(
+                    logits, record, masks, j, lambda kind, j=j, name=name: shifts(name, kind)[j],
+                    prior_strikes)
+                cell = (model.strike_return[int(cid)] if name == "receiver"
+                        else model.strike_return_surface[int(cid), int(sv)])
+                cell[:] = torch.as_tensor(fitted_shifts, dtype=cell.dtype)
                 row = {"table": name, "id": int(cid), "serve": int(sv),
-                       "n": len(j) // max(draws, 1)}
-                for kind, kname in enumerate(KINDS):
-                    mask = masks[kind].expand(len(j), -1)
-                    weight = mask.to(x.dtype)
-                    base = logits[kind][j] + shifts(name, kind)[j][:, None] * weight
-                    fit = matched_shift(base, mask, weight, float(record[kind][j].mean()),
-                                        prior_strikes)
-                    if name == "receiver":
-                        model.strike_return[int(cid), kind] = fit["shift"]
-                    else:
-                        model.strike_return_surface[int(cid), int(sv), kind] = fit["shift"]
-                    row.update({f"{kname}_{k}": fit[k] for k in ("record", "head", "after",
-                                                                  "shift")})
+                       "n": len(j) // max(draws, 1), **fitted}
                 if r == rounds - 1:
                     out.append(row)
     return pd.DataFrame(out)

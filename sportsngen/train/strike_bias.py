@@ -253,6 +253,23 @@ def _check_rounds(states: HeadStates, returns: np.ndarray, rounds: int, prior_st
                          f"{rounds}, {min_strikes} and {prior_strikes}")
 
 
+def match_cell(logits: list[torch.Tensor], record: list[torch.Tensor], masks: torch.Tensor,
+               j: torch.Tensor, offset, prior_strikes: float) -> tuple[list[float], dict]:
+    """One cell's rows `j` of an in-turn table fit: per kind (`KINDS`) the shift that matches
+    their odds (`logits[kind][j]`, with `offset(kind)` (len(j),) the other tables' shifts on
+    the kind's bins) to the record's share there (`matched_shift`). -> (the shifts, the row's
+    record / head / after / shift columns)."""
+    shifts, row = [], {}
+    for kind, kname in enumerate(KINDS):
+        mask = masks[kind].expand(len(j), -1)
+        weight = mask.to(logits[kind].dtype)
+        base = logits[kind][j] + offset(kind)[:, None] * weight
+        fit = matched_shift(base, mask, weight, float(record[kind][j].mean()), prior_strikes)
+        shifts.append(fit["shift"])
+        row.update({f"{kname}_{k}": fit[k] for k in ("record", "head", "after", "shift")})
+    return shifts, row
+
+
 @torch.no_grad()
 def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarray,
                         rounds: int = 4, prior_strikes: float = 200.0,
@@ -360,17 +377,13 @@ def fit_strike_pressure(model: SportsNGEN, states: HeadStates, returns: np.ndarr
                 if len(g) < min_strikes:
                     continue
                 j = torch.as_tensor(g.index.to_numpy(copy=True))
+                shifts, fitted = match_cell(
+                    logits, record, masks, j,
+                    lambda kind, j=j, rcv=int(rcv), name=name: others(name, j, rcv, kind),
+                    prior_strikes)
+                table[int(cid), int(rcv)] = torch.as_tensor(shifts, dtype=table.dtype)
                 row = {"table": name, "id": int(cid), "receiver": bool(rcv),
-                       "n": len(j) // max(draws, 1)}
-                for kind, kname in enumerate(KINDS):
-                    mask = masks[kind].expand(len(j), -1)
-                    weight = mask.to(x.dtype)
-                    base = logits[kind][j] + others(name, j, int(rcv), kind)[:, None] * weight
-                    fit = matched_shift(base, mask, weight, float(record[kind][j].mean()),
-                                        prior_strikes)
-                    table[int(cid), int(rcv), kind] = fit["shift"]
-                    row.update({f"{kname}_{k}": fit[k] for k in ("record", "head", "after",
-                                                                  "shift")})
+                       "n": len(j) // max(draws, 1), **fitted}
                 if r == rounds - 1:
                     out.append(row)
     if depth_only:
