@@ -131,7 +131,8 @@ def test_recovery_curves_read_the_record_exactly_and_branch_the_model(tiny_model
     from sportsngen.eval.rules import analyse_rally_data
     from sportsngen.sim import Simulator
 
-    sim = Simulator.from_pretrained(tiny_model_file, max_retries=0)
+    # No physical limits: redrawing the untrained model's frames would double the time.
+    sim = Simulator.from_pretrained(tiny_model_file, max_retries=0, physical_limits=False)
     truth = truth_points(DiagnosticsSetup(n_points=30, seed=3))
     rules = analyse_rally_data(truth)
     tf = teacher_forced_recovery(sim.model, sim.vocab, truth, shot=2, frames=10, draws=2,
@@ -174,7 +175,8 @@ def test_chase_curves_read_the_run_to_the_strike_from_the_record(tiny_model_file
     from sportsngen.eval.rules import analyse_rally_data
     from sportsngen.sim import Simulator
 
-    sim = Simulator.from_pretrained(tiny_model_file, max_retries=0)
+    # No physical limits: redrawing the untrained model's frames would double the time.
+    sim = Simulator.from_pretrained(tiny_model_file, max_retries=0, physical_limits=False)
     truth = truth_points(DiagnosticsSetup(n_points=40, seed=3))
     rules = analyse_rally_data(truth)
     # Along a fixed direction, the record's change of speed is the next frame's speed less

@@ -36,7 +36,9 @@ class FakeSim:
 
 @pytest.fixture(scope="module")
 def tiny_match(tiny_model_file):
-    sim = Simulator.from_pretrained(tiny_model_file, max_duration_s=1.2, max_retries=0)
+    # No physical limits: redrawing the untrained model's frames would be most of the time.
+    sim = Simulator.from_pretrained(tiny_model_file, max_duration_s=1.2, max_retries=0,
+                                    physical_limits=False)
     res = sim.simulate_match("Toy Alpha", "Toy Beta", "hard", fmt=SHORT, seed=0,
                              progress=False)
     odds, tl = simulated_timeline(res.points, res.players, SHORT)

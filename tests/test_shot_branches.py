@@ -65,7 +65,8 @@ def test_answer_share_on_known_branches():
 
 
 def test_return_branches_keep_the_record_up_to_three_frames_after_the_return(tiny_model_file):
-    sim = Simulator.from_pretrained(tiny_model_file, max_retries=0)
+    # (no physical limits: redrawing the untrained model's frames would be most of the time)
+    sim = Simulator.from_pretrained(tiny_model_file, max_retries=0, physical_limits=False)
     truth = truth_points(DiagnosticsSetup(n_points=40, seed=4))
     out = shot_outcomes(truth)
     with pytest.warns(UserWarning, match="unknown player"):
@@ -113,12 +114,13 @@ def test_strike_shares_of_a_replay_are_the_records():
     # A "model" that plays the record again keeps exactly the record's shares, shot by shot,
     # and every branch starts at its own recorded contact (the frames before it only).
     truth = truth_points(DiagnosticsSetup(n_points=60, seed=2))
+    rules = analyse_rally_data(truth)       # read once: the rules are most of this test's time
     sim = _Replay(truth)
-    table = strike_shares(sim, truth, shots=(1, 2, 3), seed=0)
+    table = strike_shares(sim, truth, shots=(1, 2, 3), seed=0, rules=rules)
     assert table["shot"].tolist() == [1, 2, 3]
     assert table["hitter"].tolist() == ["receiver", "server", "receiver"]
     for row in table.itertuples():
-        rec = shot_outcomes(truth, row.shot)
+        rec = shot_outcomes(truth, row.shot, rules)
         rec = rec[rec["struck"]]
         assert row.n == len(rec) > 0
         assert row.recorded_in_play == pytest.approx(rec["in_play"].mean())
@@ -129,7 +131,7 @@ def test_strike_shares_of_a_replay_are_the_records():
         in_bounds = rec.loc[rec["in_play"], "bounce_y_m"].abs().dropna()
         assert row.recorded_side_m == pytest.approx(in_bounds.median())
         assert 0.0 < row.recorded_side_m < 4.115   # inside a singles half-width
-    first_return = shot_outcomes(truth, 1)
+    first_return = shot_outcomes(truth, 1, rules)
     first_return = first_return[first_return["struck"]]
     assert min(sim.calls) == first_return["contact_frame"].min()
     assert table.loc[0, "recorded_in_play"] < 1.0   # some returns are errors: the test can tell

@@ -218,9 +218,11 @@ def test_simulate_py_learned_engine_writes_outputs(tiny_model_file, tmp_path, ca
             "format.games_per_set=2", "format.tiebreak_at=1", "format.no_ad=true", "top_p=0.9"]
     with initialize_config_dir(config_dir=str(REPO / "conf"), version_base=None):
         cfg = compose("simulate", overrides=over)
-    with pytest.MonkeyPatch.context() as mp:   # keep the CLI quick: short, unretried rallies
+    # Keep the CLI quick: short, unretried rallies, no physical limits (redrawing the untrained
+    # model's frames would be most of its time; the limits are tested above).
+    with pytest.MonkeyPatch.context() as mp:
         mp.setattr(Simulator, "from_pretrained", classmethod(
-            lambda cls, path, **kw: _sim(path, **kw)))
+            lambda cls, path, **kw: _sim(path, **{"physical_limits": False, **kw})))
         points = run_simulation(cfg)
     assert len(points) > 0 and set(points["winner"]) <= {"Toy Alpha", "Toy Beta"}
     for name in ("points.parquet", "rallies/rallies.parquet", "rally_1.png", "point.gif",
@@ -821,8 +823,9 @@ def test_pooled_rally_win_probabilities_do_not_depend_on_the_workers(tiny_model_
 
     data = make_toy_rallies(4, seed=3)
     items = [(int(r), f) for r in data.rallies["rally_id"].iloc[:3] for f in (5, 10)]
-    kw = dict(n=4, seed=2, chunk_items=4, sim_kwargs={"max_duration_s": 1.2},
-              progress=False)
+    # (no physical limits: redrawing the untrained model's frames is most of a rollout's time)
+    sim_kw = {"max_duration_s": 1.2, "physical_limits": False}
+    kw = dict(n=4, seed=2, chunk_items=4, sim_kwargs=sim_kw, progress=False)
     one = pooled_rally_win_probabilities(str(tiny_model_file), data, items, workers=1, **kw)
     two = pooled_rally_win_probabilities(str(tiny_model_file), data, items, workers=2, **kw)
     assert list(zip(one["rally_id"], one["frame"])) == items
@@ -830,7 +833,7 @@ def test_pooled_rally_win_probabilities_do_not_depend_on_the_workers(tiny_model_
     # Chunk k is one direct call with seed + 7919 k: 6 items in chunks of 4 and 2.
     jobs = chunk_jobs(items, 4, 2, 4)
     assert [(len(j[0]), j[2]) for j in jobs] == [(4, 2), (2, 2 + 7919)]
-    sim = _LOAD(str(tiny_model_file), max_duration_s=1.2)
+    sim = _LOAD(str(tiny_model_file), **sim_kw)
     direct = rally_win_probabilities(sim, data, jobs[1][0], n=4, seed=jobs[1][2])
     pd.testing.assert_frame_equal(one.iloc[4:].reset_index(drop=True), direct)
     # Chunks of 0: one call of all the items with the seed itself.

@@ -250,6 +250,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     ap.add_argument("--max-retries", type=int, default=None)
     ap.add_argument("--top-p", type=float, default=None, help="nucleus for players and ball")
     ap.add_argument("--batch-size", type=int, default=None, help="rallies per rollout batch")
+    ap.add_argument("--no-physical-limits", action="store_true",
+                    help="accept every sampled frame (no reach, jolt or net rules)")
     a = ap.parse_args(argv)
     fmt = MatchFormat(best_of=a.best_of, games_per_set=a.games_per_set,
                       tiebreak_at=a.tiebreak_at, tiebreak_points=a.tiebreak_points,
@@ -259,6 +261,8 @@ def main(argv: Sequence[str] | None = None) -> None:
                                     ("max_retries", a.max_retries),
                                     ("top_p_player", a.top_p), ("top_p_ball", a.top_p),
                                     ("batch_size", a.batch_size)) if v is not None}
+    if a.no_physical_limits:
+        sim_kwargs["physical_limits"] = False
     season = [p for p in parse_matchups(a.matchups) for _ in range(a.matches_per_pair)]
     pts = simulate_season(a.model, season, a.surface, fmt=fmt, seed=a.seed,
                           chunk_size=a.chunk_size, devices=a.devices, out_dir=a.out,
