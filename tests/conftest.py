@@ -25,6 +25,15 @@ def load_script():
     return load
 
 
+def tiny_sim(path, **kw):
+    """The tiny model's Simulator for tests whose subject is not the physical limits: unretried
+    rallies and no limits. The model is trained three steps, so most frames it draws fail a
+    limit and are drawn again up to 40 times: most of a rollout's time (docs/architecture.md)."""
+    from sportsngen.sim import Simulator
+
+    return Simulator.from_pretrained(path, **{"max_retries": 0, "physical_limits": False, **kw})
+
+
 @pytest.fixture(scope="session")
 def tiny_model_file(tmp_path_factory) -> Path:
     """A tiny decoder + event classifier trained a few steps on toy rallies, exported (with

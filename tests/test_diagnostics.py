@@ -31,6 +31,7 @@ from sportsngen.model.centre import flight_acceleration_mps2
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.sim import Simulator
+from tests.conftest import tiny_sim
 
 FPS = 25.0
 
@@ -163,8 +164,7 @@ def test_paired_return_gap_on_known_serves():
 
 
 def test_run_diagnostics_on_the_tiny_model(tiny_model_file):
-    # No physical limits: redrawing the untrained model's frames would be most of the time.
-    sim = Simulator.from_pretrained(tiny_model_file, max_retries=0, physical_limits=False)
+    sim = tiny_sim(tiny_model_file)
     with pytest.warns(UserWarning, match="unknown player"):
         table = run_diagnostics(sim, DiagnosticsSetup(n_points=24, seed=1, leak_boot=5))
     signals = list(table["signal"])
@@ -208,7 +208,7 @@ def test_run_diagnostics_on_the_tiny_model(tiny_model_file):
 
 
 def test_strike_branches_count_every_serve_at_every_branch_point(tiny_model_file):
-    sim = Simulator.from_pretrained(tiny_model_file, max_retries=0, physical_limits=False)
+    sim = tiny_sim(tiny_model_file)
     truth = truth_points(DiagnosticsSetup(n_points=24, seed=1))
     with pytest.warns(UserWarning, match="unknown player"):
         table = strike_branches(sim, truth, after_frames=(-1, 3))

@@ -19,6 +19,7 @@ from sportsngen.synth import physics
 from sportsngen.synth.profiles import get_profile
 from sportsngen.synth.rally import play_rally
 from sportsngen.train.expert import rally_state
+from tests.conftest import tiny_sim
 
 FPS = 25.0
 
@@ -129,10 +130,7 @@ def test_simulated_expert_arrays_keep_the_point_up_to_the_hand_over(generated):
 def test_recovery_curves_read_the_record_exactly_and_branch_the_model(tiny_model_file):
     from sportsngen.eval.movement import _hitter_tracks, recovery_curves, teacher_forced_recovery
     from sportsngen.eval.rules import analyse_rally_data
-    from sportsngen.sim import Simulator
-
-    # No physical limits: redrawing the untrained model's frames would double the time.
-    sim = Simulator.from_pretrained(tiny_model_file, max_retries=0, physical_limits=False)
+    sim = tiny_sim(tiny_model_file)
     truth = truth_points(DiagnosticsSetup(n_points=30, seed=3))
     rules = analyse_rally_data(truth)
     tf = teacher_forced_recovery(sim.model, sim.vocab, truth, shot=2, frames=10, draws=2,
@@ -173,10 +171,7 @@ def test_chase_curves_read_the_run_to_the_strike_from_the_record(tiny_model_file
         chase_curves,
     )
     from sportsngen.eval.rules import analyse_rally_data
-    from sportsngen.sim import Simulator
-
-    # No physical limits: redrawing the untrained model's frames would double the time.
-    sim = Simulator.from_pretrained(tiny_model_file, max_retries=0, physical_limits=False)
+    sim = tiny_sim(tiny_model_file)
     truth = truth_points(DiagnosticsSetup(n_points=40, seed=3))
     rules = analyse_rally_data(truth)
     # Along a fixed direction, the record's change of speed is the next frame's speed less

@@ -17,8 +17,8 @@ from sportsngen.report.simulated import (
     simulated_timeline,
     whatif_entries,
 )
-from sportsngen.sim import Simulator
 from sportsngen.tennis.scoring import MatchFormat
+from tests.conftest import tiny_sim
 
 SHORT = MatchFormat(best_of=1, games_per_set=2, tiebreak_at=1, no_ad=True)
 NO_CHROMIUM = "no Chromium on the PATH (Debian: apt-get install chromium)"
@@ -36,9 +36,7 @@ class FakeSim:
 
 @pytest.fixture(scope="module")
 def tiny_match(tiny_model_file):
-    # No physical limits: redrawing the untrained model's frames would be most of the time.
-    sim = Simulator.from_pretrained(tiny_model_file, max_duration_s=1.2, max_retries=0,
-                                    physical_limits=False)
+    sim = tiny_sim(tiny_model_file, max_duration_s=1.2)
     res = sim.simulate_match("Toy Alpha", "Toy Beta", "hard", fmt=SHORT, seed=0,
                              progress=False)
     odds, tl = simulated_timeline(res.points, res.players, SHORT)

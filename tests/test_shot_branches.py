@@ -17,8 +17,8 @@ from sportsngen.eval.shot_branches import (
     shot_outcomes,
     strike_shares,
 )
-from sportsngen.sim import Simulator
 from sportsngen.tennis.court import is_in_singles
+from tests.conftest import tiny_sim
 
 
 def test_shot_outcomes_agree_with_the_generators_shots_table():
@@ -65,8 +65,7 @@ def test_answer_share_on_known_branches():
 
 
 def test_return_branches_keep_the_record_up_to_three_frames_after_the_return(tiny_model_file):
-    # (no physical limits: redrawing the untrained model's frames would be most of the time)
-    sim = Simulator.from_pretrained(tiny_model_file, max_retries=0, physical_limits=False)
+    sim = tiny_sim(tiny_model_file)
     truth = truth_points(DiagnosticsSetup(n_points=40, seed=4))
     out = shot_outcomes(truth)
     with pytest.warns(UserWarning, match="unknown player"):
