@@ -17,7 +17,7 @@ import json
 
 import pandas as pd
 
-from sportsngen.eval.check_noise import CHECK_COLUMNS, CHECK_SCALE, CHECK_TOLERANCE, pool_gaps
+from sportsngen.eval.check_noise import format_pooled, pool_gaps
 
 
 def main() -> None:
@@ -34,19 +34,7 @@ def main() -> None:
     pooled = pool_gaps(noises)
     print(f"{len(args.runs)} runs; mean gap (sim - truth) ± its standard error, z; "
           "* outside tolerance, ! a bias (|z| over 3) outside tolerance")
-    print(f"{'server':<17}{'runs':>5} " + " ".join(f"{h:>21}" for _, h, _ in CHECK_COLUMNS))
-    for server, rows in pooled.groupby("server", sort=False):
-        cells = rows.set_index("statistic")
-        line = f"{server:<17}{int(cells['runs'].max()):>5} "
-        for c, _, _ in CHECK_COLUMNS:
-            if c not in cells.index:
-                line += f"{'-':>21} "
-                continue
-            f = CHECK_SCALE[c]
-            gap, se, z = cells.at[c, "gap"] * f, cells.at[c, "se"] * f, cells.at[c, "z"]
-            mark = (" " if abs(gap) <= CHECK_TOLERANCE[c] else "!" if abs(z) > 3 else "*")
-            line += f"{gap:>+7.2f}±{se:<5.2f} z{z:>+5.1f}{mark} "
-        print(line.rstrip())
+    print(format_pooled(pooled))
 
 
 if __name__ == "__main__":

@@ -6,7 +6,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from sportsngen.eval.check_noise import chance_outside, expected_within, gap_noise, pool_gaps
+from sportsngen.eval.check_noise import (
+    chance_outside,
+    concat_runs,
+    expected_within,
+    format_pooled,
+    gap_noise,
+    pool_gaps,
+)
 
 
 def _points(server: str, first_in: list[int], won: list[bool], rally: list[int]) -> pd.DataFrame:
@@ -88,3 +95,37 @@ def test_each_sides_error_and_pooling():
     assert pooled.at["rally_mean", "z"] == pytest.approx(2.0)
     with pytest.raises(ValueError, match="no checks"):
         pool_gaps([])
+
+
+def test_runs_concatenated_read_as_one_sample_against_a_shared_truth():
+    a = _points("A", [1, 1, 0, 1], [True] * 4, [1, 3, 5, 7])
+    b = _points("A", [0, 0], [True] * 2, [2, 2])
+    truth = _points("A", [1, 0] * 50, [True] * 100, [4] * 100)
+    key = ("sim", "A", "first_serve_kmh_median")
+    pts, vals = concat_runs([a, b], [{key: [150.0, 160.0]}, {key: np.array([170.0])}])
+    assert len(pts) == 6 and pts.index.is_unique
+    np.testing.assert_array_equal(vals[key], [150.0, 160.0, 170.0])
+    vals[("truth", "A", "first_serve_kmh_median")] = np.array([150.0, 150.0])
+    n = gap_noise(pts, truth, ["A"], ["first_serve_in", "rally_mean", "first_serve_kmh_median"],
+                  values=vals, n_boot=200).set_index("statistic")
+    # The pooled points' share (3 of 6) and mean rally (20 / 6), not the runs' mean of means.
+    assert n.at["first_serve_in", "gap"] == pytest.approx(0.0)
+    assert n.at["rally_mean", "gap"] == pytest.approx(20 / 6 - 4)
+    assert n.at["first_serve_kmh_median", "gap"] == pytest.approx(10.0)
+    assert n.at["rally_mean", "n_sim"] == 6
+    with pytest.raises(ValueError, match="no runs"):
+        concat_runs([])
+
+
+def test_the_pooled_table_marks_gaps_outside_and_biases():
+    rows = pd.DataFrame({"server": "A", "runs": 3,
+                         "statistic": ["first_serve_in", "ace", "rally_mean"],
+                         "gap": [0.02, 0.06, -0.6], "se": [0.01, 0.03, 0.1]})
+    rows["z"] = rows["gap"] / rows["se"]
+    line = format_pooled(rows).splitlines()[1]
+    assert line.startswith("A") and " 3 " in line
+    # 2 points inside the tolerance; 6 points outside with z 2 (*); -0.6 shots with z -6 (!).
+    assert "+2.00±1.00  z +2.0 " in line
+    assert "+6.00±3.00  z +2.0*" in line
+    assert "-0.60±0.10  z -6.0!" in line
+    assert line.split().count("-") == 3  # double faults, serve points won, km/h: absent

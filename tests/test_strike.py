@@ -64,6 +64,31 @@ def test_a_solved_launch_lands_where_it_was_asked_and_reads_back_the_same():
     assert speed[0] > 25 and v0[2, 2] > 8
 
 
+def test_a_ball_into_the_nets_foot_is_read_as_a_net_error_not_dropped():
+    from sportsngen.eval.strike_draws import strike_errors
+
+    # From the +x baseline: a drive (read the same either way), a low ball driven down into
+    # the ground 2.5 m in front of the hitter, and a dying ball that never reaches the net.
+    contact = np.array([[11.0, 1.0, 1.0], [11.0, 0.5, 0.6], [11.0, 0.0, 0.5]])
+    v0 = np.array([[-28.0, -1.0, 3.0], [-15.0, 0.5, -3.0], [-0.5, 0.0, -1.0]])
+    side = np.ones(3)
+    frames = S.launch_frames(contact, v0, np.array([-0.1, 0.0, 0.0]), FPS)
+    new, old = S.strike_labels(frames, side, FPS), S.strike_labels(frames, side, FPS, False)
+    np.testing.assert_array_equal(new[0], old[0])
+    assert np.isfinite(new[0]).all() and not strike_errors(new[0])
+    assert np.isnan(old[1, :3]).all() and old[1, 3] == new[1, 3]
+    depth, lateral, over_net = new[1, :3]
+    # Landed on its own half (x about 8.5 m: depth beyond the net about -8.5), crossing the
+    # net's plane under the ground; the lateral is the hitter's view (-side * y).
+    assert -9.0 < depth < -8.0 and over_net < 0.0
+    assert lateral == pytest.approx(-0.6, abs=0.05)
+    assert strike_errors(new[1]) and S.strike_bin_index(new[1:2])[0, [0, 2]].tolist() == [0, 0]
+    assert np.isnan(new[2, :3]).all() and np.isnan(old[2, :3]).all()
+    # Serves keep the old reading: one into the ground before the net stays unread.
+    serve = S.serve_labels(frames[1:2], side[:1], FPS, contact_m=contact[1:2])
+    assert np.isnan(serve[0, :3]).all()
+
+
 def test_an_impossible_strike_is_reported_not_found():
     contact = np.array([[11.0, 0.0, 1.0]])
     # 11 m beyond the net, crossing it 5 cm above the ground: no flight does that.

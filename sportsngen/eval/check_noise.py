@@ -144,3 +144,39 @@ def pool_gaps(noises: list[pd.DataFrame]) -> pd.DataFrame:
                         "se": np.sqrt(g["se"].apply(lambda s: float((s ** 2).sum()))) / g.size()})
     out["z"] = out["gap"] / out["se"]
     return out.reset_index().loc[:, list(POOLED_COLUMNS)]
+
+
+def concat_runs(points: list[pd.DataFrame],
+                values: list[dict[tuple[str, str, str], np.ndarray]] | None = None
+                ) -> tuple[pd.DataFrame, dict[tuple[str, str, str], np.ndarray]]:
+    """Several simulated runs' points tables (and their per-serve readings, keyed as
+    `gap_noise`'s `values`) as one sample. Against one shared large truth this, passed to
+    `gap_noise`, is the runs' pooled gap with its right error: `pool_gaps` takes each run's
+    truth as an independent draw, which a shared truth is not."""
+    if not points:
+        raise ValueError("no runs to concatenate")
+    merged: dict[tuple[str, str, str], list[np.ndarray]] = {}
+    for run in values or []:
+        for key, v in run.items():
+            merged.setdefault(key, []).append(np.asarray(v, dtype=float))
+    return (pd.concat(points, ignore_index=True),
+            {key: np.concatenate(vs) for key, vs in merged.items()})
+
+
+def format_pooled(pooled: pd.DataFrame) -> str:
+    """A table of `pool_gaps`' rows (or `gap_noise`'s with a `runs` column) in the checks'
+    units, one line a server: gap ± standard error and z per statistic; `*` outside its
+    tolerance, `!` outside it with |z| over 3 (a bias, not the draw)."""
+    lines = [f"{'server':<17}{'runs':>5} " + " ".join(f"{h:>21}" for _, h, _ in CHECK_COLUMNS)]
+    for server, rows in pooled.groupby("server", sort=False):
+        cells = rows.set_index("statistic")
+        line = f"{server:<17}{int(cells['runs'].max()):>5} "
+        for c, _, f in CHECK_COLUMNS:
+            if c not in cells.index:
+                line += f"{'-':>21} "
+                continue
+            gap, se, z = cells.at[c, "gap"] * f, cells.at[c, "se"] * f, cells.at[c, "z"]
+            mark = " " if abs(gap) <= CHECK_TOLERANCE[c] else "!" if abs(z) > 3 else "*"
+            line += f"{gap:>+7.2f}±{se:<5.2f} z{z:>+5.1f}{mark} "
+        lines.append(line.rstrip())
+    return "\n".join(lines)

@@ -59,7 +59,8 @@ def strike_targets(pos_m: torch.Tensor, vel_mps: torch.Tensor, next_pos_m: torch
     """Windows' rally strikes (`strike.is_strike_across`: struck in a frame's step, or in a
     step that barely moves and sent back by the next; `serves`: the serves, `strike.is_serve`,
     read as `serve_labels`) whose three next frames are in the window and whose flight crosses
-    the net and lands: (B, T) bool, and their bins (B, T, 4) (0 elsewhere). Positions
+    the net and lands (a rally ball also where it comes down before the net: an error into the
+    net, `strike.strike_labels`): (B, T) bool, and their bins (B, T, 4) (0 elsewhere). Positions
     (B, T, 3, 3), `has_next` (B, T)."""
     edges = strike.serve_edges() if serves else None
     b, t = has_next.shape
