@@ -182,10 +182,14 @@ def fly_on(frames_m: np.ndarray, fps: float, n_frames: int = MAX_FLIGHT_FRAMES) 
     return out
 
 
-def flight_outcome(track_m: np.ndarray, side: np.ndarray) -> np.ndarray:
+def flight_outcome(track_m: np.ndarray, side: np.ndarray,
+                   short_of_net: bool = False) -> np.ndarray:
     """(N, T, 3) flights of balls struck from the `side` (N,) +-1 half -> (N, 3) depth beyond
     the net, lateral and height at the net (NaN where the flight does not cross the net or
-    land within T frames). The landing is where the ball's centre comes down to its radius."""
+    land within T frames). The landing is where the ball's centre comes down to its radius.
+    `short_of_net`: a flight (the ground ignored) that comes down on the hitter's own half and
+    then crosses the net's plane under the ground is read too: where it landed (a negative
+    depth) and its height at the net (negative)."""
     n = len(track_m)
     out = np.full((n, 3), np.nan)
     s = np.asarray(side, dtype=float)[:, None]
@@ -201,35 +205,10 @@ def flight_outcome(track_m: np.ndarray, side: np.ndarray) -> np.ndarray:
     a, b = track_m[rows, k_land], track_m[rows, k_land + 1]
     f = (a[:, 2] - BALL_RADIUS_M) / np.where(a[:, 2] == b[:, 2], 1.0, a[:, 2] - b[:, 2])
     land = a[:, :2] + f[:, None] * (b[:, :2] - a[:, :2])
-    ok = has_land & has_net & (k_land >= k_net)
+    ok = has_land & has_net & ((k_land >= k_net) | short_of_net)
     out[:, 0] = np.where(ok, -s[:, 0] * land[:, 0], np.nan)
     out[:, 1] = np.where(ok, -s[:, 0] * land[:, 1], np.nan)
     out[:, 2] = np.where(ok, out[:, 2], np.nan)
-    return out
-
-
-def _short_of_net(track_m: np.ndarray, side: np.ndarray) -> np.ndarray:
-    """(N, T, 3) flights struck from `side` (N,), the ground ignored -> (N, 3) for a ball that
-    comes down on the hitter's own half before the net: its landing as `flight_outcome` reads
-    one (depth beyond the net, negative here; lateral) and its height as it crosses the net's
-    plane under the ground. NaN for any other flight, or one not reaching the net's plane."""
-    n = len(track_m)
-    out = np.full((n, 3), np.nan)
-    s = np.asarray(side, dtype=float)[:, None]
-    x_rel = track_m[..., 0] * s
-    crossed = (x_rel[:, :-1] > 0) & (x_rel[:, 1:] <= 0)
-    down = (track_m[:, :-1, 2] >= BALL_RADIUS_M) & (track_m[:, 1:, 2] < BALL_RADIUS_M)
-    k_net, k_land = crossed.argmax(1), down.argmax(1)
-    short = crossed.any(1) & down.any(1) & (k_land < k_net)
-    rows = np.nonzero(short)[0]
-    a, b = track_m[rows, k_land[rows]], track_m[rows, k_land[rows] + 1]
-    f = (a[:, 2] - BALL_RADIUS_M) / np.where(a[:, 2] == b[:, 2], 1.0, a[:, 2] - b[:, 2])
-    land = a[:, :2] + f[:, None] * (b[:, :2] - a[:, :2])
-    out[rows, 0] = -s[rows, 0] * land[:, 0]
-    out[rows, 1] = -s[rows, 0] * land[:, 1]
-    a, b = track_m[rows, k_net[rows]], track_m[rows, k_net[rows] + 1]
-    f = a[:, 0] / np.where(a[:, 0] == b[:, 0], 1.0, a[:, 0] - b[:, 0])
-    out[rows, 2] = a[:, 2] + f * (b[:, 2] - a[:, 2])
     return out
 
 
@@ -252,11 +231,7 @@ def strike_labels(after_m: np.ndarray, side: np.ndarray, fps: float,
     lift = (v3 - v2) * fps - _gravity_drag(v2)
     across = (lift * _lift_direction(v2)).sum(-1) / np.maximum((v2 * v2).sum(-1), 1e-6)
     track = np.concatenate([after_m, fly_on(after_m, fps)], axis=1)
-    out = np.concatenate([flight_outcome(track, side), across[:, None]], axis=1)
-    if short_of_net:
-        short = _short_of_net(track, side)
-        fill = np.isnan(out[:, 0]) & np.isfinite(short).all(-1)
-        out[fill, :3] = short[fill]
+    out = np.concatenate([flight_outcome(track, side, short_of_net), across[:, None]], axis=1)
     out[q1[:, 0] * np.asarray(side) <= 0] = np.nan
     return out
 
