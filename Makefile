@@ -21,8 +21,11 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)
 	$(BIN)/python simulate.py
 
+# Bytecode is written even where the environment says not to (PYTHONDONTWRITEBYTECODE): the
+# suite starts a dozen Python processes (xdist workers, DDP ranks, spawned pools, CLIs) that
+# would each compile the library and re-run pytest's assertion rewriting from source.
 test: $(STAMP)
-	$(BIN)/python -m pytest
+	PYTHONDONTWRITEBYTECODE= $(BIN)/python -m pytest
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

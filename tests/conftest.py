@@ -35,18 +35,27 @@ def tiny_sim(path, **kw):
 
 
 @pytest.fixture(scope="session")
-def tiny_model_file(tmp_path_factory) -> Path:
+def tiny_model_file(tmp_path_factory, worker_id) -> Path:
     """A tiny decoder + event classifier trained a few steps on toy rallies, exported (with
-    serve starts), for simulator tests."""
+    serve starts), for simulator tests. Trained once a run: under xdist the first worker to
+    need it trains it in the run's shared temporary folder and the others wait for the file."""
+    from filelock import FileLock
+
     from sportsngen.train.run import train_from_config
 
-    out = tmp_path_factory.mktemp("tiny_run")
-    overrides = ["experiment=tiny", "data=toy", "data.n_rallies=16", "trainer.max_steps=3",
-                 "trainer.val_check_interval=3", "trainer.limit_val_batches=1",
-                 "trainer.enable_progress_bar=false", "events.max_steps=2"]
-    with initialize_config_dir(config_dir=str(REPO / "conf"), version_base=None):
-        cfg = compose(config_name="train", overrides=overrides)
-    train_from_config(cfg, out)
+    if worker_id == "master":
+        out = tmp_path_factory.mktemp("tiny_run")
+    else:
+        out = tmp_path_factory.getbasetemp().parent / "tiny_run"
+    with FileLock(str(out) + ".lock"):
+        if not (out / "model.pt").exists():
+            overrides = ["experiment=tiny", "data=toy", "data.n_rallies=16",
+                         "trainer.max_steps=3", "trainer.val_check_interval=3",
+                         "trainer.limit_val_batches=1", "trainer.enable_progress_bar=false",
+                         "events.max_steps=2"]
+            with initialize_config_dir(config_dir=str(REPO / "conf"), version_base=None):
+                cfg = compose(config_name="train", overrides=overrides)
+            train_from_config(cfg, out)
     return out / "model.pt"
 
 

@@ -58,8 +58,8 @@ def test_the_path_flown_on_follows_a_recorded_flight(federer_points_and_head_mod
 
 def test_players_on_the_record_rows_and_tables(federer_points_and_head_model):
     data, model, sim = federer_points_and_head_model
-    rows = players_on_the_record(model, sim.vocab, data, seed=3, max_rallies=12)
-    assert rows["rally_id"].nunique() == 12
+    rows = players_on_the_record(model, sim.vocab, data, seed=3, max_rallies=6)
+    assert rows["rally_id"].nunique() == 6
     assert rows["shot"].min() == 1
     assert set(rows["role"]) == {"server", "receiver"}
     assert (rows.loc[rows["shot"] % 2 == 1, "role"] == "receiver").all()
@@ -68,7 +68,7 @@ def test_players_on_the_record_rows_and_tables(federer_points_and_head_model):
     assert np.allclose(rows["along_m_0"].dropna(), 0.0)
     assert np.allclose(rows["along_record_m_0"].dropna(), 0.0)
     # The record's own columns do not depend on the model's draws; the model's do.
-    again = players_on_the_record(model, sim.vocab, data, seed=4, max_rallies=12)
+    again = players_on_the_record(model, sim.vocab, data, seed=4, max_rallies=6)
     assert np.array_equal(rows["gap_record_m"], again["gap_record_m"], equal_nan=True)
     assert not np.array_equal(rows["gap_m"], again["gap_m"], equal_nan=True)
     table = chase_table(rows)
@@ -80,7 +80,7 @@ def test_players_on_the_record_rows_and_tables(federer_points_and_head_model):
     along = along_table(rows, min_run_m=0.0)
     assert list(along.columns[1:]) == list(ALONG_FRAMES) and len(along) == 2
     # Under the rule for late players the record's side is the same, the model's its own.
-    ruled = players_on_the_record(model, sim.vocab, data, seed=3, max_rallies=12,
+    ruled = players_on_the_record(model, sim.vocab, data, seed=3, max_rallies=6,
                                   keep_chasing=True)
     assert np.array_equal(rows["gap_record_m"], ruled["gap_record_m"], equal_nan=True)
     assert not np.array_equal(rows["gap_m"], ruled["gap_m"], equal_nan=True)

@@ -1,7 +1,6 @@
 """Decoder f, mask, KV cache, bins, heads, top-p sampling, event classifier, export."""
 
 import math
-import shutil
 
 import pytest
 import torch
@@ -176,15 +175,20 @@ def test_ring_cache_equals_band_recompute_beyond_the_window(prefill):
     assert cache.n_frames == t and cache.n_keys == 4 + 3 * w
 
 
-@pytest.mark.skipif(shutil.which("c++") is None and shutil.which("g++") is None,
-                    reason="torch.compile on CPU needs a C++ compiler")
 def test_compiled_step_equals_the_eager_step_past_the_window():
     """`compile_step` changes how the cached step runs, not what it computes: through the ring's
-    wrap-around and a batch compaction, the compiled states equal the eager ones."""
+    wrap-around and a batch compaction, the traced step's states equal the eager ones. The
+    graphs are run as traced (a backend that counts them), not through inductor: its C++ code
+    generation is torch's to test and took a minute of this suite on a cold cache."""
     model = make_model()
     w = model.cfg.window_frames
     feats, ident, ctx = inputs(model.cfg, b=3, t=w + 4)
     c = model.context_tokens(*ctx)
+    graphs = []
+
+    def traced(gm, example_inputs):
+        graphs.append(gm)
+        return gm.forward
 
     def run():
         _, cache = model(feats[:, :2], ident, c, return_cache=True)
@@ -199,9 +203,9 @@ def test_compiled_step_equals_the_eager_step_past_the_window():
 
     with torch.no_grad():
         eager, eager_cache = run()
-        model.compile_step()
+        model.compile_step(backend=traced)
         compiled, compiled_cache = run()
-    assert model._compiled_step is not None
+    assert model._compiled_step is not None and len(graphs) >= 1, graphs
     assert max((a - b).abs().max().item() for a, b in zip(eager, compiled)) < 1e-5
     assert all(torch.allclose(a, b, atol=1e-5) for a, b in zip(eager_cache.k, compiled_cache.k))
     model.compile_step(False)

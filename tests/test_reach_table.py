@@ -151,8 +151,8 @@ def test_a_simulator_draws_each_serves_reach_from_the_files_table(tiny_model_fil
     assert off.return_reach == table and off._return_reaches(plan, 3, 0) is None
     assert Simulator.from_pretrained(tiny_model_file, return_reach_draw=True)._return_reaches(
         plan, 3, 0) is None                       # no table in the file: the fixed reaches
-    sim = Simulator.from_pretrained(path, max_duration_s=1.5, strike_in_reach=True,
-                                    return_reach_draw=True)
+    sim = Simulator.from_pretrained(path, max_duration_s=1.5, physical_limits=False,
+                                    strike_in_reach=True, return_reach_draw=True)
     got = sim._return_reaches(plan, 3, 0)
     want = table.draw(plan["receiver"].to_numpy(),
                       np.random.default_rng((3, 0, RETURN_REACH_STREAM)))
@@ -246,8 +246,8 @@ def test_a_simulator_draws_each_rally_balls_reach_from_the_player_due(tiny_model
     update_extra(path, rally_reach=table.to_dict())
     plan = points_plan("Toy Alpha", "Toy Gamma", "hard", 6, seed=0)
     assert Simulator.from_pretrained(path)._rally_reaches(plan, 3, 0) is None    # off
-    sim = Simulator.from_pretrained(path, max_duration_s=1.5, strike_in_reach=True,
-                                    rally_reach_draw=True)
+    sim = Simulator.from_pretrained(path, max_duration_s=1.5, physical_limits=False,
+                                    strike_in_reach=True, rally_reach_draw=True)
     assert sim.rally_reach == table
     got = sim._rally_reaches(plan, 3, 0)
     assert got.shape == (6, RALLY_REACH_DRAWS)

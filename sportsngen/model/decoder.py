@@ -400,7 +400,7 @@ class SportsNGEN(nn.Module):
             x = blk.step(x, k_ring, v_ring, lo, n_keys)
         return _layer_norm(self.ln_f, x)
 
-    def compile_step(self, enable: bool = True) -> SportsNGEN:
+    def compile_step(self, enable: bool = True, backend="inductor") -> SportsNGEN:
         """Run the cached step through `torch.compile` (or back to eager with enable=False).
 
         On CPU, inductor fuses the layer norms, GELUs, residual adds and softmax between the
@@ -409,8 +409,10 @@ class SportsNGEN(nn.Module):
         (docs/architecture.md, docs/benchmarks.md). The first steps compile (~10 s; then cached
         on disk, ~2 s), and a new batch size or cache length may recompile once. Needs a C++
         compiler on CPU. Inference only: the compiled step reads the weights as they are when
-        it runs."""
-        self._compiled_step = torch.compile(self.step_tokens) if enable else None
+        it runs. `backend`: torch.compile's (a name or a callable); the tests trace the same
+        graphs through a backend that runs them as traced (seconds, where inductor's first
+        compile on a cold cache took a minute on 2 cores)."""
+        self._compiled_step = torch.compile(self.step_tokens, backend=backend) if enable else None
         return self
 
     # --- targets and sampling ------------------------------------------------------------

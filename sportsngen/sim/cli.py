@@ -115,7 +115,8 @@ def run_simulation(cfg: DictConfig) -> pd.DataFrame:
     points.to_parquet(out_dir / "points.parquet", index=False)
     print(f"\nwrote {out_dir}/: points.parquet"
           + (", win_probability.png" if cfg.engine == "markov" else
-             ", rallies/, rally_*.png, point.gif")
+             ", rallies/, rally_*.png"
+             + (", point.gif" if cfg.get("animation_max_frames", 150) else ""))
           + (", report.html" if cfg.get("report", True) else ""))
     return points
 
@@ -177,7 +178,7 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
     first.rallies.save(out_dir / "rallies")
     if first.discarded is not None:       # set-aside rallies are kept, for the record
         first.discarded.save(out_dir / "discarded")
-    _rally_figures(first, out_dir)
+    _rally_figures(first, out_dir, max_gif_frames=int(cfg.get("animation_max_frames", 150)))
     if cfg.get("report", True):
         from sportsngen.report.simulated import learned_match_report
 
@@ -191,8 +192,10 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
     return pd.concat([r.points for r in results], ignore_index=True)
 
 
-def _rally_figures(res, out_dir: Path, n_plots: int = 3) -> None:
-    """Plots of the longest rallies of the match and an animation of the longest one."""
+def _rally_figures(res, out_dir: Path, n_plots: int = 3, max_gif_frames: int = 150) -> None:
+    """Plots of the longest rallies of the match and an animation of the longest one, of at
+    most `max_gif_frames` frames (so that a long rally does not take minutes to render; 0: no
+    animation)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -204,8 +207,8 @@ def _rally_figures(res, out_dir: Path, n_plots: int = 3) -> None:
     for k, rid in enumerate(r["rally_id"].head(n_plots)):
         fig = plot_rally(res.rallies, int(rid), out_dir / f"rally_{k + 1}.png")
         plt.close(fig)
-    if len(r):
+    if len(r) and max_gif_frames > 0:
         rid = int(r["rally_id"].iat[0])
         n = int((res.rallies.frames["rally_id"] == rid).sum() // 3)
-        # At most ~150 GIF frames, so that a long rally does not take minutes to render.
-        animate_rally(res.rallies, rid, out_dir / "point.gif", every=max(2, -(-n // 150)))
+        every = max(2, -(-n // max_gif_frames))
+        animate_rally(res.rallies, rid, out_dir / "point.gif", every=every)

@@ -90,6 +90,10 @@ def forehand_side_sign(end, handedness):
     A right-hander's forehand is on his right: -y at the -x end, +y at the +x end, so the
     sign is `end`; a left-hander's is the opposite, -`end`. Vectorised over `end` and `handedness`.
     """
+    if (isinstance(handedness, str) and isinstance(end, (int, float, np.number))
+            and end in (1, -1) and handedness in HANDEDNESS):
+        # one player's sign, asked once a shot by the generator: a tenth of its time in numpy
+        return int(end) if handedness == "right" else -int(end)
     e = _check_end(end)
     h = _check_choice(handedness, HANDEDNESS, "handedness")
     return _out(np.where(h == "right", e, -e))
