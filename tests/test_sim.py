@@ -851,7 +851,8 @@ def test_pooled_rally_win_probabilities_do_not_depend_on_the_workers(tiny_model_
     sim = _LOAD(str(tiny_model_file), **sim_kw)
     direct = rally_win_probabilities(sim, data, jobs[1][0], n=4, seed=jobs[1][2])
     pd.testing.assert_frame_equal(one.iloc[4:].reset_index(drop=True), direct)
-    # Chunks of 0: one call of all the items with the seed itself.
-    whole = pooled_rally_win_probabilities(str(tiny_model_file), data, items,
+    # Chunks of 0: one call of all the items with the seed itself (in this process: a pool of
+    # one spawned worker would cost a start-up and test nothing the two workers did not).
+    whole = pooled_rally_win_probabilities(str(tiny_model_file), data, items, workers=1,
                                            **{**kw, "chunk_items": 0})
     pd.testing.assert_frame_equal(whole, rally_win_probabilities(sim, data, items, n=4, seed=2))
