@@ -18,6 +18,7 @@ nothing before them) once a rally outgrows the window; `sportsngen.sim.rollout` 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import torch
@@ -400,7 +401,8 @@ class SportsNGEN(nn.Module):
             x = blk.step(x, k_ring, v_ring, lo, n_keys)
         return _layer_norm(self.ln_f, x)
 
-    def compile_step(self, enable: bool = True, backend="inductor") -> SportsNGEN:
+    def compile_step(self, enable: bool = True,
+                     backend: str | Callable = "inductor") -> SportsNGEN:
         """Run the cached step through `torch.compile` (or back to eager with enable=False).
 
         On CPU, inductor fuses the layer norms, GELUs, residual adds and softmax between the

@@ -21,9 +21,9 @@ from sportsngen.model.event_classifier import EventClassifier
 
 FORMAT = "sportsngen-model"
 VERSION = 1
-# Files read lately, by (path, inode, size, mtime, device): the bundled file's 42,000 small
-# objects of initial conditions take 0.27 s to unpickle with weights_only and 0.03 s to copy,
-# and a study or a test run reads the same file dozens of times.
+# Files read lately, by (path, inode, size, modification time, map_location): the bundled
+# file's 42,000 small objects of initial conditions take 0.27 s to unpickle with weights_only
+# and 0.02 s to copy, and a study or a test run reads the same file dozens of times.
 _READ_CACHE: OrderedDict[tuple, dict] = OrderedDict()
 _READ_CACHE_FILES = 4
 
