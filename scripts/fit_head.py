@@ -24,7 +24,6 @@ import time
 import torch
 
 from sportsngen.data.tokens import rally_arrays
-from sportsngen.model import strike
 from sportsngen.model.export import load_model, read_extra, save_model
 from sportsngen.sim.simulator import Simulator, model_path
 from sportsngen.train.datamodule import load_rally_data, split_rallies
@@ -126,8 +125,6 @@ def main() -> None:
         key["more_data"] = args.more_data
     if args.own_serves:       # (caches written before the option keep their key)
         key.update(own_serves=True, seed=args.seed)
-    if args.head == "strike":  # states read with an older reading of the labels are refused
-        key["strike_labels"] = strike.STRIKE_LABELS_VERSION
     try:
         states, cached = cached_states(args.states, key, lambda: dict(zip(
             ("train", "val"), _read_states(model, vocab, split, args))))

@@ -51,7 +51,6 @@ from __future__ import annotations
 import time
 
 from sportsngen.data.tokens import N_SPECIAL_IDS
-from sportsngen.model import strike
 from sportsngen.train.head_fit import HeadStates, cached_states, collect_head_states
 from sportsngen.train.return_surface import fit_return_surface, with_return_surface
 from sportsngen.train.strike_bias import (
@@ -89,8 +88,7 @@ def _read_states(model, run, args) -> HeadStates:
         arrays = run.arrays[1:] if args.more_data_only else run.arrays
         got, cached = cached_states(
             args.states, f"{run.path.resolve()}|{args.more_data}"
-            f"{'|only' if args.more_data_only else ''}{view}"
-            f"|labels{strike.STRIKE_LABELS_VERSION}",
+            f"{'|only' if args.more_data_only else ''}{view}",
             lambda: {"states": HeadStates.concat([collect_head_states(
                 model, a, "strike", lead_frames=args.view) for a in arrays])})
     except ValueError as exc:

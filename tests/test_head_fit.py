@@ -205,6 +205,11 @@ def test_states_are_read_once_and_kept_under_the_key_they_were_read_with(tmp_pat
     assert again["train"].tolist() == [0, 1, 2] and again["val"].tolist() == [0, 1]
     with pytest.raises(ValueError, match="remove it"):
         cached_states(path, {"model": "b"}, read)
+    # States read under another reading of the strike labels are refused too.
+    old = torch.load(path, weights_only=False)
+    torch.save({**old, "labels": old["labels"] - 1}, path)
+    with pytest.raises(ValueError, match="strike labels version"):
+        cached_states(path, {"model": "a"}, read)
     none, cached = cached_states(None, "k", read)          # no path: read every time
     assert not cached and len(calls) == 2 and set(none) == {"train", "val"}
 

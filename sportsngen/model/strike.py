@@ -40,8 +40,9 @@ from sportsngen.tennis.contact_speed import speed_frame_after_contact_mps
 from sportsngen.tennis.court import BALL_RADIUS_M, BASELINE_X_M, SINGLES_HALF_WIDTH_M
 
 STRIKE_DIMS = ("depth_m", "lateral_m", "net_height_m", "lift_per_s")
-# Bumped when `strike_labels` reads recorded strikes otherwise, so that states cached with the
-# old reading (`train.head_fit.cached_states`) are refused: 2, a ball down before the net read.
+# Bumped when `strike_labels` reads recorded strikes otherwise, so that states cached with an
+# older reading are refused (`train.head_fit.cached_states`, for every caller): 2, a ball down
+# before the net read.
 STRIKE_LABELS_VERSION = 2
 STRIKE_BINS = 96
 # Each dimension's range, split into STRIKE_BINS equal bins. Depth and lateral edges fall on

@@ -116,7 +116,7 @@ def run_simulation(cfg: DictConfig) -> pd.DataFrame:
     print(f"\nwrote {out_dir}/: points.parquet"
           + (", win_probability.png" if cfg.engine == "markov" else
              ", rallies/, rally_*.png"
-             + (", point.gif" if cfg.get("animation_max_frames", 150) else ""))
+             + (", point.gif" if _gif_frames(cfg) else ""))
           + (", report.html" if cfg.get("report", True) else ""))
     return points
 
@@ -178,7 +178,7 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
     first.rallies.save(out_dir / "rallies")
     if first.discarded is not None:       # set-aside rallies are kept, for the record
         first.discarded.save(out_dir / "discarded")
-    _rally_figures(first, out_dir, max_gif_frames=int(cfg.get("animation_max_frames", 150)))
+    _rally_figures(first, out_dir, max_gif_frames=_gif_frames(cfg))
     if cfg.get("report", True):
         from sportsngen.report.simulated import learned_match_report
 
@@ -190,6 +190,11 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
             model_name=str(cfg.get("model_file") or "bundled sportsngen-small"))
         print(f"report: {path} ({time.perf_counter() - t0:.1f} s)")
     return pd.concat([r.points for r in results], ignore_index=True)
+
+
+def _gif_frames(cfg: DictConfig) -> int:
+    """`animation_max_frames`: point.gif's most frames (0: no GIF)."""
+    return int(cfg.get("animation_max_frames", 150))
 
 
 def _rally_figures(res, out_dir: Path, n_plots: int = 3, max_gif_frames: int = 150) -> None:

@@ -26,7 +26,7 @@ from torch.utils.data import DataLoader, Subset, default_collate
 from tqdm.auto import tqdm
 
 from sportsngen.data.tokens import BALL, RallyArrays, WindowDataset, flip_xy
-from sportsngen.model import strike_heads
+from sportsngen.model import strike, strike_heads
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.train.metrics import window_states
 
@@ -167,20 +167,23 @@ def cut_batch(batch: dict, t: int) -> dict:
 
 def cached_states(path: str | Path | None, key, read: Callable[[], dict]) -> tuple[dict, bool]:
     """`read()`'s states (a dict of `HeadStates` and the like), kept in `path` with `key`
-    (what they were read with): read from `path` where it holds them for `key` (a file read
-    with another key is refused: `ValueError`), else read and, with a `path`, kept there.
-    The decoder's states take minutes to read and seconds to fit on. -> (the states, whether
-    they came from `path`)."""
+    (what they were read with) and the version of the strike labels
+    (`strike.STRIKE_LABELS_VERSION`): read from `path` where it holds them for both (a file
+    read with another key or labels is refused: `ValueError`), else read and, with a `path`,
+    kept there. The decoder's states take minutes to read and seconds to fit on. -> (the
+    states, whether they came from `path`)."""
     if path is not None and Path(path).exists():
         cached = torch.load(path, weights_only=False)
-        if cached.get("key") != key:
-            raise ValueError(f"{path} holds states read with {cached.get('key')}, not {key}: "
+        got = (cached.get("key"), cached.get("labels"))
+        if got != (key, strike.STRIKE_LABELS_VERSION):
+            raise ValueError(f"{path} holds states read with {got[0]} (strike labels version "
+                             f"{got[1]}), not {key} (version {strike.STRIKE_LABELS_VERSION}): "
                              "remove it or name another file")
-        return {k: v for k, v in cached.items() if k != "key"}, True
+        return {k: v for k, v in cached.items() if k not in ("key", "labels")}, True
     states = read()
     if path is not None:
         Path(path).parent.mkdir(parents=True, exist_ok=True)
-        torch.save({"key": key, **states}, path)
+        torch.save({"key": key, "labels": strike.STRIKE_LABELS_VERSION, **states}, path)
     return states, False
 
 
