@@ -25,7 +25,9 @@ from sportsngen.sim.distributed import (
 from sportsngen.tennis.scoring import MatchFormat, MatchState
 
 REPO = Path(__file__).resolve().parents[1]
-SHORT = MatchFormat(best_of=1, games_per_set=2, tiebreak_at=1, no_ad=True)
+# One no-ad game a match (4-7 points): the chunks, seeds and ids are what is tested, and the
+# season is simulated three times (one process, rebuilt without Lightning, two processes).
+SHORT = MatchFormat(best_of=1, games_per_set=1, tiebreak_at=1, no_ad=True)
 # The untrained tiny model's frames mostly fail the physical limits, and redrawing them is most
 # of a rollout's time; what is tested here is the cut into chunks, not the limits.
 SIM_KW = {"max_duration_s": 1.2, "max_retries": 0, "physical_limits": False}
@@ -114,7 +116,7 @@ def test_ddp_two_processes_same_points_table_slow(season, tiny_model_file, tmp_p
     cmd = [sys.executable, "-m", "sportsngen.sim.distributed", "--model", str(tiny_model_file),
            "--matchups", matchups, "--surface", "hard", "--matches-per-pair", "1",
            "--seed", str(SEED), "--chunk-size", str(CHUNK), "--devices", "2",
-           "--out", str(tmp_path), "--best-of", "1", "--games-per-set", "2",
+           "--out", str(tmp_path), "--best-of", "1", "--games-per-set", "1",
            "--tiebreak-at", "1", "--no-ad", "--max-duration-s", "1.2", "--max-retries", "0",
            "--no-physical-limits"]
     res = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, timeout=240)

@@ -14,7 +14,7 @@ import pytest
 from hydra import compose, initialize_config_dir
 
 from sportsngen.data.toy import make_toy_rallies
-from sportsngen.data.tracking import RallyData
+from sportsngen.data.tracking import FRAME_COLUMNS, RALLY_COLUMNS, SHOT_COLUMNS, RallyData
 from sportsngen.errors import ArgumentError, ModelFileError, SportsNGENError, TrackingDataError
 from sportsngen.model.export import load_model
 from sportsngen.sim import Simulator
@@ -120,6 +120,29 @@ def test_bad_tracking_tables_are_named(toy, case):
     f, r, s = edit(*_tables(toy))
     with pytest.raises(TrackingDataError, match=msg):
         RallyData.from_tables(f, r, s, toy.fps)
+
+
+def test_tables_are_cast_reindexed_and_copied(toy):
+    """Columns come out in the schema's dtypes whatever they came in as (object names,
+    "str" text, floats holding integers), on a fresh 0..n-1 index, and own their memory: the
+    caller's tables edited afterwards change nothing. Extra rallies columns are kept."""
+    f, r, s = _tables(toy)
+    f = f.astype({"object": object, "frame": float}).set_axis(np.arange(len(f)) * 3 + 7)
+    r = r.assign(note=1.5).astype({"server": "str"})
+    d = RallyData.from_tables(f, r, s, toy.fps)
+    for table, cols in ((d.frames, FRAME_COLUMNS), (d.rallies, RALLY_COLUMNS),
+                        (d.shots, SHOT_COLUMNS)):
+        assert {c: str(table[c].dtype) for c in cols} == {
+            c: "string" if t == "string" else t for c, t in cols.items()}
+    assert list(d.rallies.columns) == list(RALLY_COLUMNS) + ["note"]
+    assert d.frames.index.equals(pd.RangeIndex(len(f)))
+    assert d.frames["frame"].tolist() == f["frame"].astype(int).tolist()
+    x0, server0, note0 = d.frames["x"].iat[0], d.rallies["server"].iat[0], d.rallies["note"].iat[0]
+    f.iloc[0, f.columns.get_loc("x")] = 99.0
+    r.iloc[0, r.columns.get_loc("server")] = "Somebody Else"
+    r.iloc[0, r.columns.get_loc("note")] = -1.0
+    assert (d.frames["x"].iat[0], d.rallies["server"].iat[0], d.rallies["note"].iat[0]) == \
+        (x0, server0, note0)
 
 
 def test_one_broken_rally_among_good_ones_is_all_that_repair_drops(toy):

@@ -298,6 +298,8 @@ class RallyTracker:
         self.flags[mask] |= _C[check]
 
     def _end(self, mask: np.ndarray, winner, reason, detail, frame) -> None:
+        if not mask.any():      # most frames end nothing: skip the five selections
+            return
         self.ended |= mask
         self.winner = np.where(mask, winner, self.winner)
         self._reason = np.where(mask, reason, self._reason)
@@ -305,6 +307,8 @@ class RallyTracker:
         self.end_frame = np.where(mask, frame, self.end_frame)
 
     def _hitter_loses(self, mask: np.ndarray, detail: str, frame) -> None:
+        if not mask.any():
+            return
         serve = self.n_shots == 1
         second = self.serve_number == 2
         reason = np.where(serve, np.where(second, _R["double_fault"], _R["fault"]), _R["error"])
@@ -312,6 +316,8 @@ class RallyTracker:
         self._end(mask, winner, reason, _D[detail], frame)
 
     def _hitter_wins(self, mask: np.ndarray, frame) -> None:
+        if not mask.any():
+            return
         reason = np.where(self.n_shots == 1, _R["ace"], _R["winner"])
         self._end(mask, self.hitter, reason, _D["unreached"], frame)
 
