@@ -111,6 +111,11 @@ TABLE_CASES = {
                                r"rallies row 0 \(rally 0\): server and receiver are the same"),
     "missing server name": (_one("rallies", "server", 5, None), r"rallies row 5 .*missing server"),
     "frames not a table": (lambda f, r, s: ([1, 2], r, s), r"frames must be a pandas DataFrame"),
+    "a column twice": (lambda f, r, s: (pd.concat([f, f[["x"]]], axis=1), r, s),
+                       r"frames: columns named more than once: \['x'\]"),
+    "an extra rallies column twice": (
+        lambda f, r, s: (f, pd.concat([r.assign(note=1), r.assign(note=2)[["note"]]], axis=1),
+                         s), r"rallies: columns named more than once: \['note'\]"),
 }
 
 

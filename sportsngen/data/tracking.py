@@ -150,6 +150,9 @@ def _cast(df: pd.DataFrame, columns: dict[str, str], table: str, keep_extra: boo
     missing = [c for c in columns if c not in df.columns]
     if missing:
         raise TrackingDataError(f"{where}: missing columns {missing}")
+    twice = sorted({str(c) for c in df.columns[df.columns.duplicated()]})
+    if twice:
+        raise TrackingDataError(f"{where}: columns named more than once: {twice}")
     extra = [c for c in df.columns if c not in columns] if keep_extra else []
     # One frame built from its columns' arrays: setting them one by one on a copy took 13 ms
     # for a simulated rally's three tables, most of the tiny model's per-rally assembly.
