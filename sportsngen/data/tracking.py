@@ -119,7 +119,7 @@ def _cast_column(s: pd.Series, dtype: str, where: str, col: str) -> pd.Series:
         return s
     if (dtype == "int64" and pd.api.types.is_integer_dtype(s) and not s.isna().any()) or \
             (dtype == "float64" and pd.api.types.is_float_dtype(s)):
-        return s.astype(dtype)          # already right: the common case, kept cheap
+        return s.astype(dtype)          # another width of the same kind: no values to check
     if dtype == "bool":
         if pd.api.types.is_bool_dtype(s) and not s.isna().any():
             return s.astype(bool)
