@@ -111,7 +111,8 @@ def learned_match_document(result, odds: ServeOdds, tl: pd.DataFrame,
     players = tuple(result.players)
     notes = [f"Simulated by the learned engine{f' ({model_name})' if model_name else ''}; "
              f"{result.n_discarded} rallies set aside as non-realistic or undecided and "
-             f"replayed, {result.forced_decisions} points decided without a realistic rally.",
+             f"replayed; {result.forced_decisions} rallies counted without a realistic "
+             "replay (the rules' verdict, else a coin toss).",
              "Rallies: the simulated tracks; bounces and contacts as the rally-end rules found "
              "them; shot labels from the event classifier."]
     return match_document(

@@ -173,7 +173,7 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
     for i, res in enumerate(results):
         print(f"match {i + 1}: {res.score_line}  ({len(res.points)} points, "
               f"{res.n_discarded} rallies set aside as non-realistic or undecided, "
-              f"{res.forced_decisions} points decided without a realistic rally)")
+              f"{res.forced_decisions} counted without a realistic replay)")
     first = results[0]
     first.rallies.save(out_dir / "rallies")
     if first.discarded is not None:       # set-aside rallies are kept, for the record
