@@ -327,7 +327,7 @@ def bench_simulation(quick: bool, model: Path = BUNDLED, threads: int = 2,
                   f"- one best-of-3 match: {e2e['match_s']:.1f} s, {e2e['score']}, "
                   f"{e2e['points']} points, {e2e['rallies_simulated']} rallies simulated "
                   f"({e2e['discarded']} set aside as non-realistic or undecided, "
-                  f"{e2e['forced']} points decided without a realistic rally); peak RSS "
+                  f"{e2e['forced']} counted without a realistic replay); peak RSS "
                   f"{e2e['peak_rss_mb']:.0f} MB"]
     return lines, {"steps": steps, "rollouts": rolls, "compiled_rollout": compiled_roll,
                    "end_to_end": e2e, "peak_gflops": peak,
