@@ -33,7 +33,7 @@ class MatchResult:
     points: pd.DataFrame          # the points table (`sportsngen.data.points`), one row a point
     rallies: RallyData            # the rallies that count (realistic, decided)
     discarded: RallyData | None   # rallies set aside (non-realistic or undecided)
-    forced_decisions: int         # rallies (not points: a fault is one) counted unreplayed
+    forced_decisions: int         # rallies (a fault is one) counted with no realistic replay
 
     @property
     def n_discarded(self) -> int:
