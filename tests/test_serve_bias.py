@@ -13,15 +13,43 @@ from sportsngen.model.heads import FactorisedHead
 from sportsngen.tennis.court import SERVICE_LINE_X_M
 from sportsngen.train.head_fit import HeadStates
 from sportsngen.train.serve_bias import (
+    MAX_SHIFT,
+    binary_mask_odds,
+    bisect_shift,
     fit_serve_bias,
     fit_serve_lateral,
     fit_serve_short,
+    mean_odds,
+    solve_shift,
     with_serve_bias,
     with_serve_lateral,
     with_serve_short,
 )
 
 FPS = 25.0
+
+
+def test_a_binary_masks_odds_are_read_from_four_sums_as_the_softmax_gives_them():
+    g = torch.Generator().manual_seed(3)
+    logits = torch.randn(300, 11, generator=g, dtype=torch.float64) * 2.0
+    mask = (torch.arange(11) % 3 == 0).expand(300, -1)
+    speed = torch.linspace(100.0, 200.0, 11, dtype=torch.float64).expand(300, -1)
+    odds = binary_mask_odds(logits, mask, speed)
+    for s in (-4.0, -0.7, 0.0, 0.3, 2.5, 4.0):
+        full = float(mean_odds(logits, mask, speed, torch.tensor([s], dtype=torch.float64))[0])
+        assert odds(s) == pytest.approx(full, rel=1e-13)
+    # The same root as the bisection over the whole softmax; a tilt (not 0 / 1) takes that way.
+    w = mask.to(torch.float64)
+    target = float(mean_odds(logits, mask, w, torch.zeros(1, dtype=torch.float64))[0]) + 0.1
+    whole = bisect_shift(lambda s: float(mean_odds(logits, mask, w, torch.tensor(
+        [s], dtype=torch.float64))[0]), target, MAX_SHIFT)
+    assert solve_shift(logits, mask, w, target) == pytest.approx(whole, abs=1e-9)
+    assert 0.0 < whole < MAX_SHIFT
+    tilt = torch.linspace(-1.0, 1.0, 11, dtype=torch.float64).expand(300, -1)
+    mean_speed = float(mean_odds(logits, tilt, speed, torch.zeros(1, dtype=torch.float64))[0])
+    shift = solve_shift(logits, tilt, speed, mean_speed + 5.0)
+    assert float(mean_odds(logits, tilt, speed, torch.tensor([shift], dtype=torch.float64))[0]) \
+        == pytest.approx(mean_speed + 5.0, abs=1e-6)
 
 
 def small_model(**kw) -> SportsNGEN:
