@@ -10,8 +10,10 @@ the +x end serving from the deuce court (y > 0) into the box x in [-6.4, 0], y i
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 
+import sportsngen.tennis.rally as rally_module
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.synth import generate_matches
 from sportsngen.tennis.court import BALL_RADIUS_M, BASELINE_X_M, net_height_m
@@ -374,9 +376,19 @@ def test_end_class():
 
 # --- agreement with the generator -----------------------------------------------------------
 
-def test_agreement_with_the_generator():
+def test_agreement_with_the_generator(monkeypatch):
     data = generate_matches(["Roger Federer", "Rafael Nadal"], "hard", 80, seed=1, workers=1)
+    selects = []
+    select = RallyTracker.select
+    monkeypatch.setattr(RallyTracker, "select",
+                        lambda self, idx: selects.append(len(idx)) or select(self, idx))
     res = analyse_rally_data(data)
+    # The batch was compacted as its rallies ended, and reads exactly as stepped whole.
+    assert len(selects) >= 3 and selects == sorted(selects, reverse=True)
+    n_selects = len(selects)
+    monkeypatch.setattr(rally_module, "MIN_COMPACT_RALLIES", 10 ** 9)
+    pd.testing.assert_frame_equal(analyse_rally_data(data), res, check_exact=True)
+    assert len(selects) == n_selects
     r = data.rallies.set_index("rally_id").loc[res.index]
     assert len(res) >= 100
     winner = np.where(r["winner"] == "", -1, np.where(r["winner"] == r["server"], 0, 1))
