@@ -336,11 +336,16 @@ class MatchState:
         fmt = self.fmt
         pts = [self.points[0], self.points[1]]
         pts[by] += 1
-        set_no = len(self.sets) + 1
-        tb_at, tb_target, match_tb = fmt.set_rule(set_no)
-        games = [self.games[0], self.games[1]]
         n = self.points_played + 1
         sets, tbs = self.sets, self.tiebreaks
+        # Most points end no game: they need neither the set's rule nor the games played.
+        if not self.in_tiebreak and not _game_won(pts, by, fmt.no_ad):
+            return MatchState(
+                fmt, self.first_server, self.server, sets, tbs, self.games, (pts[0], pts[1]),
+                False, None, n,
+            )  # fmt: skip
+        tb_at, tb_target, match_tb = fmt.set_rule(len(sets) + 1)
+        games = [self.games[0], self.games[1]]
         games_before = sum(a + b for a, b in sets) + games[0] + games[1]
 
         if self.in_tiebreak:
@@ -355,11 +360,6 @@ class MatchState:
             games[by] += 1
             return self._set_over(games, (pts[0], pts[1]), by, n)
 
-        if not _game_won(pts, by, fmt.no_ad):
-            return MatchState(
-                fmt, self.first_server, self.server, sets, tbs, self.games, (pts[0], pts[1]),
-                False, None, n,
-            )  # fmt: skip
         games[by] += 1
         if _race_won(games, by, fmt.games_per_set):
             return self._set_over(games, None, by, n)
