@@ -31,7 +31,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
-from scipy.optimize import minimize
 
 # The reaches a draw may give (m): inside the truth's nearest unanswered balls and beyond the
 # farthest answered one (the generator's bodies reach 1.7-1.95 m plus a 0.15 m run).
@@ -98,6 +97,10 @@ def fit_logistic(gap_m: np.ndarray, answered: np.ndarray) -> tuple[float, float]
         z = (gap - c) / np.exp(log_s)
         # -log sigmoid(-z) for answered, -log sigmoid(z) otherwise
         return float(np.sum(np.logaddexp(0.0, np.where(y, z, -z))))
+
+    # Imported here: scipy.optimize is 0.5 s of every simulator process's start-up, and
+    # only a table's fit needs it.
+    from scipy.optimize import minimize
 
     start = np.array([float(np.median(gap[~y])), np.log(0.1)])
     res = minimize(nll, start, method="Nelder-Mead",
