@@ -122,8 +122,9 @@ class _BadRows:
 
 def _ints(df: pd.DataFrame, col: str) -> np.ndarray:
     """Column as float (NaN where blank or not a number); integrality is checked by callers.
-    Arrow's cast reads a column of numbers (blanks as missing) about twenty times faster than
-    `pd.to_numeric`, which remains the reading wherever a value is not a number."""
+    Arrow's cast reads a column of numbers (blanks as missing) far faster than `pd.to_numeric`
+    on these text columns (every event read: 8.2 -> 4.9 s), which remains the reading wherever
+    a value is not a number."""
     values = pa.array(df[col].to_numpy(object), type=pa.string())
     try:
         blank = pc.equal(values, "")

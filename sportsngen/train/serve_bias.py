@@ -15,6 +15,8 @@ it.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import pandas as pd
 import torch
@@ -68,7 +70,8 @@ def solve_shift(logits: torch.Tensor, mask: torch.Tensor, weight: torch.Tensor,
                         target, MAX_SHIFT)
 
 
-def binary_mask_odds(logits: torch.Tensor, mask: torch.Tensor, weight: torch.Tensor):
+def binary_mask_odds(logits: torch.Tensor, mask: torch.Tensor,
+                     weight: torch.Tensor) -> Callable[[float], float]:
     """`mean_odds` as a function of one shift, for a `mask` of zeros and ones: a shift s
     multiplies the masked bins' probabilities by e^s before the softmax's normalisation, so
     each row needs only four sums (the probability and the weighted probability on and off
