@@ -6,7 +6,6 @@ thousands of rallies; the figures keep them from slowing down unseen."""
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 REPEATS = 2
 
@@ -20,22 +19,12 @@ def _best(fn, repeats: int = REPEATS) -> tuple[float, object]:
     return best, out
 
 
-def _slam_files() -> list[tuple[Path, Path]]:
-    from sportsngen.data.paths import slam_dir
-
-    folder = slam_dir()
-    if folder is None:
-        return []
-    return [(p, p.with_name(p.name.replace("-points", "-matches")))
-            for p in sorted(folder.glob("*-points.csv"))
-            if p.with_name(p.name.replace("-points", "-matches")).exists()]
-
-
 def bench_analysis(quick: bool) -> tuple[list[str], list[dict]]:
     """Rules, reach, slam reading and the shift solver on fixed inputs."""
     import torch
 
-    from sportsngen.data.slam import read_slam_raw
+    from sportsngen.data.paths import slam_dir
+    from sportsngen.data.slam import list_slam_events, read_slam_events
     from sportsngen.eval.reach import contact_rows, reach_rows
     from sportsngen.eval.rules import analyse_rally_data
     from sportsngen.synth import generate_matches
@@ -59,13 +48,12 @@ def bench_analysis(quick: bool) -> tuple[list[str], list[dict]]:
     t, _ = _best(lambda: contact_rows(data))
     add("`eval.reach.contact_rows`", size, t, n_rallies / t, "rallies/s")
 
-    files = _slam_files()[: 2 if quick else None]
-    if files:
+    events = list_slam_events()[: 2 if quick else None] if slam_dir() is not None else []
+    if events:
         # repair=True: a few rows of the 2012 files break the rules and are dropped, as users do
-        t, n = _best(lambda: sum(len(read_slam_raw(p, m, repair=True)) for p, m in files),
-                     repeats=1)
-        add("real slam reader, `data.slam.read_slam_raw(repair=True)`",
-            f"{len(files)} events, {n} points", t, n / t, "points/s")
+        t, pts = _best(lambda: read_slam_events(events=events, repair=True), repeats=1)
+        add("real slam reader, `data.slam.read_slam_events(repair=True)`",
+            f"{len(events)} events, {len(pts)} points", t, len(pts) / t, "points/s")
 
     g = torch.Generator().manual_seed(0)
     n_rows, n_bins, n_solves = (2000, 40, 20) if quick else (20000, 64, 20)
@@ -91,6 +79,6 @@ def bench_analysis(quick: bool) -> tuple[list[str], list[dict]]:
     for r in rows:
         lines.append(f"| {r['what']} | {r['size']} | {r['wall_s']:.2f} | "
                      f"{r['rate']:,.0f} {r['unit']} |")
-    if not files:
+    if not events:
         lines += ["", "The slam reader was not timed: no data folder was found."]
     return lines, rows

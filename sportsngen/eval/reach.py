@@ -31,11 +31,13 @@ import numpy as np
 import pandas as pd
 
 from sportsngen.data.tracking import RallyData
+from sportsngen.eval.physical import iter_tracks
 from sportsngen.tennis.court import (
     BASELINE_X_M,
     SINGLES_HALF_WIDTH_M,
     is_in_service_box,
 )
+from sportsngen.tennis.rally import BALL, RECEIVER, SERVER
 
 REACH_MAX_Z_M = 2.2          # a ball above this is not yet playable (the rules' reach: 2.3 m)
 BIN_FRAMES = 5
@@ -51,28 +53,22 @@ SHOTS = {"rally": lambda shot: shot >= 1, "serve": lambda shot: shot == 0}
 
 def _xy_tracks(tracks: dict, names: tuple[str, str]):
     """A rally's tracks (`_realistic`) -> the ball (T, 3) and each named player's (T, 2)."""
-    ball = tracks.get("ball", np.empty((0, 3)))
-    players = {n: tracks.get(n, np.empty((0, 3)))[:, :2] for n in names}
-    return ball, players
+    return tracks["ball"], {n: tracks[n][:, :2] for n in names}
 
 
 def _realistic(data: RallyData) -> tuple[pd.DataFrame, dict, pd.DataFrame]:
     """The rallies not flagged unrealistic (a simulation's flag; all of a recording's):
-    their table by rally_id, their tracks by rally (object -> (T, 3) in frame order, cut from
-    one sort of the frames: filtering each rally's frames took about a millisecond a rally),
-    and their shots in order."""
+    their table by rally_id, their tracks by rally (object -> (T, 3) from the rally's first
+    frame, `eval.physical.iter_tracks`), and their shots in order."""
     r = data.rallies.set_index("rally_id")
     if "realistic" in r:
         r = r[r["realistic"].astype(bool)]
-    f = data.frames[data.frames["rally_id"].isin(r.index)].sort_values(
-        ["rally_id", "object", "frame"], kind="stable")
-    rid, obj = f["rally_id"].to_numpy(), f["object"].to_numpy(str)
-    cut = np.flatnonzero((rid[1:] != rid[:-1]) | (obj[1:] != obj[:-1])) + 1
-    starts = np.concatenate([[0], cut]) if len(f) else np.empty(0, dtype=int)
-    xyz = f[["x", "y", "z"]].to_numpy(float)
     frames: dict = {}
-    for lo, track in zip(starts, np.split(xyz, cut)):
-        frames.setdefault(rid[lo].item(), {})[obj[lo]] = track
+    for tr in iter_tracks(data, r.index):
+        for b, row in enumerate(tr.rallies.itertuples(index=False)):
+            pos = tr.pos_m[b, :tr.length[b]]
+            frames[row.rally_id] = {"ball": pos[:, BALL], str(row.server): pos[:, SERVER],
+                                    str(row.receiver): pos[:, RECEIVER]}
     shots = data.shots[data.shots["rally_id"].isin(r.index)].sort_values(
         ["rally_id", "shot_index"])
     return r, frames, shots
