@@ -109,7 +109,8 @@ def test_other_seed_changes_the_season(season, tiny_model_file, tmp_path):
 
 @pytest.mark.skipif(sys.platform == "win32", reason="gloo DDP test on POSIX only")
 def test_ddp_two_processes_same_points_table_slow(season, tiny_model_file, tmp_path):
-    """SLOW (~30-60 s): the CLI on 2 CPU processes (DDP, gloo) gives the one-process table."""
+    """SLOW (~10-20 s): the CLI on 2 CPU processes (DDP, gloo, the ranks forked) gives the
+    one-process table."""
     pts, _ = season
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     matchups = ";".join(",".join(p) for p in PAIRS)
@@ -129,3 +130,13 @@ def test_ddp_two_processes_same_points_table_slow(season, tiny_model_file, tmp_p
     assert (tmp_path / "chunk_00001.parquet").exists()
     two = as_points_table(pd.read_parquet(tmp_path / "points.parquet"))
     pd.testing.assert_frame_equal(two, pts, check_exact=True)
+
+
+def test_season_strategy_forks_only_single_threaded_ranks():
+    """A forked child hangs if it starts an OpenMP pool its parent already ran, so ranks are
+    forked only at one thread each; more threads re-launch the script."""
+    from sportsngen.sim.distributed import season_strategy
+
+    assert season_strategy(1, None) == "auto" and season_strategy(1, 4) == "auto"
+    assert season_strategy(2, None) == "ddp_fork" and season_strategy(3, 1) == "ddp_fork"
+    assert season_strategy(2, 2) == "ddp"
