@@ -60,17 +60,44 @@ def tiny_model_file(tmp_path_factory, worker_id) -> Path:
 
 
 @pytest.fixture(scope="session")
-def federer_points_and_head_model():
+def federer_points_and_head_model(truth_data):
     """80 generated points of Federer serving to Nadal, a small untrained model with serve and
     strike heads, and a stand-in for a Simulator (its `vocab`, `model` and serve nucleus): what
     the teacher-forced head tables read."""
     from types import SimpleNamespace
 
     from sportsngen.data.tokens import Vocab
-    from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
     from tests.test_head_fit import small_model
 
-    data = truth_points(DiagnosticsSetup(n_points=80, seed=5))
+    data = truth_data(80, 5)
     model = small_model()
     return data, model, SimpleNamespace(vocab=Vocab.from_data(data), model=model,
                                         top_p_serve=1.0)
+
+
+@pytest.fixture(scope="session")
+def truth_data(tmp_path_factory, worker_id):
+    """`truth_data(n_points, seed)`: `truth_points(DiagnosticsSetup(n_points, seed))`, the
+    generator's Federer-serving points, generated once a run. Several test files read the same
+    points; the first worker to ask writes them to the run's shared temporary folder (as
+    `tiny_model_file` does) and every call reads a fresh copy, exact to the bit, which a test
+    may change freely."""
+    from filelock import FileLock
+
+    from sportsngen.data.tracking import RallyData
+    from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
+
+    if worker_id == "master":
+        root = tmp_path_factory.mktemp("truth")
+    else:
+        root = tmp_path_factory.getbasetemp().parent / "truth"
+
+    def read(n_points: int, seed: int) -> RallyData:
+        folder = root / f"n{n_points}-s{seed}"
+        with FileLock(str(folder) + ".lock"):
+            if not (folder / "meta.json").exists():
+                truth_points(DiagnosticsSetup(n_points=n_points, seed=seed)).save(folder)
+        return RallyData.load(folder, validate=False)
+
+    root.mkdir(parents=True, exist_ok=True)
+    return read

@@ -3,7 +3,6 @@
 import pytest
 
 from sportsngen.eval.bin_resolution import centre_noise_drift, serves_redrawn_in_bins
-from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
 
 
 def test_centre_bin_noise_is_integrated_three_times_by_the_track_acceleration():
@@ -21,8 +20,8 @@ def test_centre_bin_noise_is_integrated_three_times_by_the_track_acceleration():
 
 
 @pytest.fixture(scope="module")
-def truth():
-    return truth_points(DiagnosticsSetup(n_points=80, seed=2))
+def truth(truth_data):
+    return truth_data(80, 2)
 
 
 def test_serves_redrawn_in_their_bins_land_in_the_box_less_often(truth):

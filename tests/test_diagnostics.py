@@ -76,8 +76,8 @@ def test_residuals_of_a_straight_track_are_zero_for_velocity_and_physics():
     assert centre_bin_share(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.01]]), cfg) == 0.5
 
 
-def test_generated_truth_follows_the_physics_step():
-    truth = truth_points(DiagnosticsSetup(n_points=30, seed=3))
+def test_generated_truth_follows_the_physics_step(truth_data):
+    truth = truth_data(30, 3)
     assert set(truth.rallies["server"]) == {"Roger Federer"}
     from sportsngen.data.tokens import Vocab, rally_arrays
     from sportsngen.eval.flight import rally_tracks
@@ -92,8 +92,8 @@ def test_generated_truth_follows_the_physics_step():
     assert vel.summary()["median_z_mm"] > 10.0        # gravity alone: 16 mm a frame
 
 
-def test_serve_outcomes_agree_with_the_shots_table():
-    truth = truth_points(DiagnosticsSetup(n_points=40, seed=4))
+def test_serve_outcomes_agree_with_the_shots_table(truth_data):
+    truth = truth_data(40, 4)
     out = serve_outcomes(truth)
     shots = truth.shots
     returned = set(shots.loc[shots["shot_index"] == 1, "rally_id"])
@@ -111,9 +111,9 @@ def test_serve_outcomes_agree_with_the_shots_table():
     assert len(both) > 10 and gap.max() < 0.05
 
 
-def test_rules_serve_outcomes_replace_a_classifier_that_mislabels_serves():
+def test_rules_serve_outcomes_replace_a_classifier_that_mislabels_serves(truth_data):
     # A rollout's shot outcomes are its event classifier's; the leak check needs the rules'.
-    truth = truth_points(DiagnosticsSetup(n_points=40, seed=4))
+    truth = truth_data(40, 4)
     out = serve_outcomes(truth)
     shots = truth.shots.copy()
     serve = shots["shot_index"] == 0

@@ -87,8 +87,8 @@ def test_a_flight_handed_over_early_is_read_after_its_contact_frame():
 
 
 @pytest.fixture(scope="module")
-def generated():
-    return truth_points(DiagnosticsSetup(n_points=80, seed=2))
+def generated(truth_data):
+    return truth_data(80, 2)
 
 
 def test_expert_shots_on_the_record_agree_with_it(generated):
@@ -127,11 +127,12 @@ def test_simulated_expert_arrays_keep_the_point_up_to_the_hand_over(generated):
         assert matches
 
 
-def test_recovery_curves_read_the_record_exactly_and_branch_the_model(tiny_model_file):
+def test_recovery_curves_read_the_record_exactly_and_branch_the_model(tiny_model_file,
+                                                                     truth_data):
     from sportsngen.eval.movement import _hitter_tracks, recovery_curves, teacher_forced_recovery
     from sportsngen.eval.rules import analyse_rally_data
     sim = tiny_sim(tiny_model_file)
-    truth = truth_points(DiagnosticsSetup(n_points=30, seed=3))
+    truth = truth_data(30, 3)
     rules = analyse_rally_data(truth)
     tf = teacher_forced_recovery(sim.model, sim.vocab, truth, shot=2, frames=10, draws=2,
                                  rules=rules)

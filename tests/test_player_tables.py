@@ -18,10 +18,8 @@ TABLES = ("serve_bias", "serve_short", "strike_bias", "strike_return")
 
 
 @pytest.fixture(scope="module")
-def data():
-    from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
-
-    return truth_points(DiagnosticsSetup(n_points=80, seed=5))
+def data(truth_data):
+    return truth_data(80, 5)
 
 
 def model_for(vocab: Vocab) -> SportsNGEN:

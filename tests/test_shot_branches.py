@@ -64,9 +64,10 @@ def test_answer_share_on_known_branches():
     assert got["n"] == 2 and got["model"] == 0.0 and got["in_play"] == 0.5
 
 
-def test_return_branches_keep_the_record_up_to_three_frames_after_the_return(tiny_model_file):
+def test_return_branches_keep_the_record_up_to_three_frames_after_the_return(tiny_model_file,
+                                                                             truth_data):
     sim = tiny_sim(tiny_model_file)
-    truth = truth_points(DiagnosticsSetup(n_points=40, seed=4))
+    truth = truth_data(40, 4)
     out = shot_outcomes(truth)
     with pytest.warns(UserWarning, match="unknown player"):
         branches, order = shot_branches(sim, truth, after_frames=3, seed=0, truth_out=out)

@@ -3,7 +3,6 @@
 import numpy as np
 import pytest
 
-from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.eval.shot_branches import shot_outcomes
 from sportsngen.eval.shot_profile import (
@@ -16,8 +15,8 @@ from sportsngen.eval.shot_profile import (
 
 
 @pytest.fixture(scope="module")
-def truth():
-    data = truth_points(DiagnosticsSetup(n_points=80, seed=5))
+def truth(truth_data):
+    data = truth_data(80, 5)
     return data, analyse_rally_data(data)
 
 

@@ -187,11 +187,10 @@ def test_a_serve_is_solved_for_its_landing_and_speed_and_read_back():
 
 
 @pytest.fixture(scope="module")
-def recorded_strikes():
+def recorded_strikes(truth_data):
     from sportsngen.data.tokens import Vocab, rally_arrays
-    from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
 
-    data = truth_points(DiagnosticsSetup(n_points=60, seed=3))
+    data = truth_data(60, 3)
     arr = rally_arrays(data, Vocab.from_data(data))
     shots = data.shots
     rows = []
@@ -229,10 +228,8 @@ def test_recorded_strikes_read_where_the_generator_bounced_them(recorded_strikes
     assert 4.0 < np.median(labels[ok, 0]) < BASELINE_X_M
 
 
-def test_every_recorded_rally_strike_is_found_once_where_single_steps_miss_some():
-    from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
-
-    data = truth_points(DiagnosticsSetup(n_points=60, seed=3))
+def test_every_recorded_rally_strike_is_found_once_where_single_steps_miss_some(truth_data):
+    data = truth_data(60, 3)
     balls = data.frames[data.frames["object"] == "ball"].sort_values(["rally_id", "frame"])
     tracks = {rid: (int(g["frame"].min()), g[["x", "y", "z"]].to_numpy(float))
               for rid, g in balls.groupby("rally_id")}
@@ -394,10 +391,8 @@ def test_a_forced_strike_whose_launch_is_not_found_is_drawn_again(monkeypatch):
     assert strike_heads.FORCED_DRAWS == 8
 
 
-def test_recorded_serves_are_found_once_and_read_where_they_bounced():
-    from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
-
-    data = truth_points(DiagnosticsSetup(n_points=40, seed=4))
+def test_recorded_serves_are_found_once_and_read_where_they_bounced(truth_data):
+    data = truth_data(40, 4)
     ball = data.frames[data.frames["object"] == "ball"].sort_values(["rally_id", "frame"])
     serves = data.shots[data.shots["shot_index"] == 0].set_index("rally_id")
     err, after, contact = [], [], []
