@@ -110,6 +110,9 @@ TABLE_CASES = {
     "server is the receiver": (_one("rallies", "receiver", 0, "Toy Gamma"),
                                r"rallies row 0 \(rally 0\): server and receiver are the same"),
     "missing server name": (_one("rallies", "server", 5, None), r"rallies row 5 .*missing server"),
+    # (ordering the frames compared the names row by row: a missing one raised a TypeError)
+    "missing object name": (_one("frames", "object", 40, None),
+                            r"frames row 40 \(rally 0\): missing object"),
     "frames not a table": (lambda f, r, s: ([1, 2], r, s), r"frames must be a pandas DataFrame"),
     "a column twice": (lambda f, r, s: (pd.concat([f, f[["x"]]], axis=1), r, s),
                        r"frames: columns named more than once: \['x'\]"),

@@ -61,6 +61,8 @@ def _out(a):
 
 
 def _check_end(end, name: str = "end") -> np.ndarray:
+    if type(end) is int and (end == 1 or end == -1):
+        return np.asarray(end)      # the usual call: np.isin took 42 us of it, this 0.5 us
     e = np.asarray(end)
     if not np.all(np.isin(e, (-1, 1))):
         raise ValueError(f"{name} must be +1 or -1 (sign of x of the baseline), got {end!r}")
