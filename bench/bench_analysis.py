@@ -1,10 +1,11 @@
-"""Analysis benchmarks: the rally-end rules over recorded tracks, the reach tables, the real
-slam reader and the table fits' shift solver, each on fixed inputs (wall seconds, best of
-`REPEATS`). These are the library's paths that a check, a report or a table fit runs over
-thousands of rallies; the figures keep them from slowing down unseen."""
+"""Analysis benchmarks: the rally-end rules over recorded tracks, the reach tables, a saved
+dataset's validated read, the real slam reader and the table fits' shift solver, each on fixed
+inputs (wall seconds, best of `REPEATS`). These are the library's paths that a check, a report
+or a table fit runs over thousands of rallies; the figures keep them from slowing down unseen."""
 
 from __future__ import annotations
 
+import tempfile
 import time
 
 REPEATS = 2
@@ -25,6 +26,7 @@ def bench_analysis(quick: bool) -> tuple[list[str], list[dict]]:
 
     from sportsngen.data.paths import slam_dir
     from sportsngen.data.slam import list_slam_events, read_slam_events
+    from sportsngen.data.tracking import RallyData
     from sportsngen.eval.reach import contact_rows, reach_rows
     from sportsngen.eval.rules import analyse_rally_data
     from sportsngen.synth import generate_matches
@@ -47,6 +49,11 @@ def bench_analysis(quick: bool) -> tuple[list[str], list[dict]]:
     add("`eval.reach.reach_rows`", size, t, n_rallies / t, "rallies/s")
     t, _ = _best(lambda: contact_rows(data))
     add("`eval.reach.contact_rows`", size, t, n_rallies / t, "rallies/s")
+    with tempfile.TemporaryDirectory() as folder:
+        data.save(folder)   # read back and validated: the schema, the order check, the tracks
+        t, _ = _best(lambda: RallyData.load(folder))
+    add("a saved dataset read and validated, `data.tracking.RallyData.load`", size, t,
+        n_rallies / t, "rallies/s")
 
     events = list_slam_events()[: 2 if quick else None] if slam_dir() is not None else []
     if events:
