@@ -34,6 +34,14 @@ def tiny_sim(path, **kw):
     return Simulator.from_pretrained(path, **{"max_retries": 0, "physical_limits": False, **kw})
 
 
+def run_folder(tmp_path_factory, worker_id: str, name: str) -> Path:
+    """A folder all of a run's workers share (xdist's base temporary folder's parent), or a
+    fresh one without xdist."""
+    if worker_id == "master":
+        return tmp_path_factory.mktemp(name)
+    return tmp_path_factory.getbasetemp().parent / name
+
+
 @pytest.fixture(scope="session")
 def tiny_model_file(tmp_path_factory, worker_id) -> Path:
     """A tiny decoder + event classifier trained a few steps on toy rallies, exported (with
@@ -43,10 +51,7 @@ def tiny_model_file(tmp_path_factory, worker_id) -> Path:
 
     from sportsngen.train.run import train_from_config
 
-    if worker_id == "master":
-        out = tmp_path_factory.mktemp("tiny_run")
-    else:
-        out = tmp_path_factory.getbasetemp().parent / "tiny_run"
+    out = run_folder(tmp_path_factory, worker_id, "tiny_run")
     with FileLock(str(out) + ".lock"):
         if not (out / "model.pt").exists():
             overrides = ["experiment=tiny", "data=toy", "data.n_rallies=16",
@@ -87,10 +92,7 @@ def truth_data(tmp_path_factory, worker_id):
     from sportsngen.data.tracking import RallyData
     from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
 
-    if worker_id == "master":
-        root = tmp_path_factory.mktemp("truth")
-    else:
-        root = tmp_path_factory.getbasetemp().parent / "truth"
+    root = run_folder(tmp_path_factory, worker_id, "truth")
 
     def read(n_points: int, seed: int) -> RallyData:
         folder = root / f"n{n_points}-s{seed}"

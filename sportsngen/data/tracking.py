@@ -224,11 +224,11 @@ def _problems(frames: pd.DataFrame, rallies: pd.DataFrame, shots: pd.DataFrame,
     # strings row by row (half of the check's time).
     obj, names = pd.factorize(frames["object"], sort=True)
     obj = np.where(obj < 0, len(names), obj)
-    rid = frames["rally_id"].to_numpy()
-    order = np.lexsort((frames["frame"].to_numpy(), obj, rid))
+    rid, frame = frames["rally_id"].to_numpy(), frames["frame"].to_numpy()
+    order = np.lexsort((frame, obj, rid))
     rid, obj = rid[order], obj[order]
     same = (rid[1:] == rid[:-1]) & (obj[1:] == obj[:-1])
-    dframe = np.diff(frames["frame"].to_numpy()[order])
+    dframe = np.diff(frame[order])
     dt = np.diff(frames["t"].to_numpy()[order])
     step = same & (dframe == 1) & np.isfinite(dt)
     if step.any():
