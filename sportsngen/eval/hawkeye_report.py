@@ -58,9 +58,9 @@ def generated_strikes(n_points: int, seed: int,
                   flush=True)
         jobs.append((k, pair, surface, n_points, seed + k, progress and workers == 1))
     if workers > 1:
-        from multiprocessing import get_context
+        from sportsngen.workers import pool_context
 
-        with get_context("spawn").Pool(min(workers, len(jobs))) as pool:
+        with pool_context(__name__).Pool(min(workers, len(jobs))) as pool:
             parts = pool.map(_matchup_strikes, jobs)
     else:
         parts = [_matchup_strikes(j) for j in jobs]

@@ -13,7 +13,6 @@ model file once (`Simulator.from_pretrained`) and holds the recorded rallies it 
 
 from __future__ import annotations
 
-import multiprocessing as mp
 from concurrent.futures import ProcessPoolExecutor
 
 import pandas as pd
@@ -22,6 +21,7 @@ from tqdm.auto import tqdm
 
 from sportsngen.data.tracking import RallyData
 from sportsngen.errors import check_int
+from sportsngen.workers import pool_context
 
 CHUNK_SEED_STEP = 7919
 
@@ -73,7 +73,7 @@ def pooled_rally_win_probabilities(model: str | None, data: RallyData, items, n:
             parts.append(_run_chunk(job))
             bar.update(1)
     else:
-        with ProcessPoolExecutor(min(workers, len(jobs)), mp_context=mp.get_context("spawn"),
+        with ProcessPoolExecutor(min(workers, len(jobs)), mp_context=pool_context(__name__),
                                  initializer=_start_worker,
                                  initargs=(model, kwargs, data, threads)) as pool:
             parts = []

@@ -32,7 +32,6 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import replace
-from multiprocessing import get_context
 from pathlib import Path
 
 import numpy as np
@@ -41,6 +40,7 @@ import pandas as pd
 from sportsngen.synth import profiles as prof
 from sportsngen.synth.profiles import PlayerProfile, sample_population
 from sportsngen.synth.rally import play_rally
+from sportsngen.workers import pool_context
 
 DATA = Path(__file__).with_name("data")
 TARGETS_CSV = DATA / "slam2011_targets.csv"
@@ -222,7 +222,7 @@ def measure_2011(named: dict[str, PlayerProfile], n_points: int, seed: int, work
     jobs = [(p, population_opponents(p, named, n_opponents, seed + 1000 + i), n_points, seed + i)
             for i, p in enumerate(named.values())]
     if workers > 1:
-        with get_context("spawn").Pool(workers) as pool:
+        with pool_context(__name__).Pool(workers) as pool:
             results = pool.map(_measure, jobs)
     else:
         results = [_measure(j) for j in jobs]

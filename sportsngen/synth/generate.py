@@ -13,7 +13,6 @@ concatenated in order and the last one is cut at `n_points` points.
 from __future__ import annotations
 
 import itertools
-import multiprocessing as mp
 import os
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
@@ -33,6 +32,7 @@ from sportsngen.data.tracking import (
 from sportsngen.synth.profiles import PlayerProfile, get_profile
 from sportsngen.synth.rally import RallyResult, play_rally
 from sportsngen.tennis.scoring import MatchFormat, MatchState
+from sportsngen.workers import pool_context
 
 TOURNAMENT = "synthetic"
 PlayersArg = Sequence["str | PlayerProfile | tuple[str | PlayerProfile, str | PlayerProfile]"]
@@ -229,7 +229,7 @@ def iter_match_tables(specs: Iterator[MatchSpec], n_points: int, workers: int = 
         from tqdm.auto import tqdm
         bar = tqdm(total=n_points, unit="pt", desc="synthetic points")
     total = offset = 0
-    pool = mp.get_context("spawn").Pool(workers) if workers > 1 else None
+    pool = pool_context(__name__).Pool(workers) if workers > 1 else None
     try:
         results = pool.imap(play_match, specs) if pool is not None else map(play_match, specs)
         for tables in results:
