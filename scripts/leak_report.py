@@ -3,13 +3,16 @@ clay, `--points` each, `sportsngen.eval.leaks.check_leaks` at k = 6 and 12 frame
 path-matched fault check (`sportsngen.eval.leak_paths`).
 
     python scripts/leak_report.py [--points 800] [--seed 1] [--boot 1000] [--out /tmp/leaks]
-        [--before /tmp/leaks_v5]
+        [--before /tmp/leaks_v5] [--data /tmp/v5data/p800 | --save-data /tmp/v5data/p800]
 
 Matchup k is generated from seed + k. Writes ``<out>_<matchup>.csv``,
 ``<out>_<matchup>_paths.csv`` and ``<out>.md`` (the tables) and prints how many AUCs lie outside
 [0.4, 0.6]. Run it from another revision's tree (PYTHONPATH) to measure that generator with the
 same check; ``--before`` names such a run's ``--out`` and adds ``<out>_compare.md``, one table
-of both (before -> now, bold outside).
+of both (before -> now, bold outside). Where today's check has changed since a generator version
+was replaced, ``--save-data PREFIX`` run from that version's tree (PYTHONPATH) only generates
+the points and saves them in ``<PREFIX>_<matchup>`` folders (`RallyData.save`), and ``--data
+PREFIX`` here reads them instead of generating.
 """
 
 from __future__ import annotations
@@ -19,10 +22,14 @@ from pathlib import Path
 
 import pandas as pd
 
-from sportsngen.eval.leaks import check_leaks, outside_band, render_leaks
+from sportsngen.data.tracking import RallyData
 from sportsngen.synth import generate_matches
 from sportsngen.synth.dataset import GENERATOR_VERSION
 
+try:  # absent from trees older than the check (a --save-data run)
+    from sportsngen.eval.leaks import check_leaks, outside_band, render_leaks
+except ImportError:
+    check_leaks = None
 try:  # absent from trees older than the path-matched check (a --before run)
     from sportsngen.eval.leak_paths import check_fault_paths
 except ImportError:
@@ -40,14 +47,29 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=Path("/tmp/leaks"))
     ap.add_argument("--before", type=Path, default=None,
                     help="--out of a run on another revision: also write a comparison table")
+    ap.add_argument("--data", type=Path, default=None,
+                    help="read the points from <DATA>_<matchup> folders (module doc)")
+    ap.add_argument("--save-data", type=Path, default=None,
+                    help="only generate the points and save them in <SAVE_DATA>_<matchup>")
     args = ap.parse_args()
+    if check_leaks is None and args.save_data is None:
+        raise SystemExit("this tree has no sportsngen.eval.leaks: only --save-data runs here")
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    parts = [f"# Leak check, generator version {GENERATOR_VERSION}: {args.points} points a "
-             f"matchup, seed {args.seed} + k, {args.boot} bootstrap resamples\n"]
+    source = (f"points read from {args.data}_*" if args.data is not None else
+              f"generator version {GENERATOR_VERSION}: {args.points} points a matchup, seed "
+              f"{args.seed} + k")
+    parts = [f"# Leak check, {source}, {args.boot} bootstrap resamples\n"]
     for k, ((a, b), surface) in enumerate(MATCHUPS):
-        data = generate_matches([(a, b)], surface, args.points, seed=args.seed + k)
-        table = check_leaks(data, ks=(6, 12), n_boot=args.boot, seed=0)
         name = f"{a.split()[-1]}_{b.split()[-1]}_{surface}".lower()
+        if args.data is not None:
+            data = RallyData.load(args.data.parent / f"{args.data.name}_{name}")
+        else:
+            data = generate_matches([(a, b)], surface, args.points, seed=args.seed + k)
+        if args.save_data is not None:
+            data.save(args.save_data.parent / f"{args.save_data.name}_{name}")
+            print(f"saved {args.save_data}_{name} (generator version {GENERATOR_VERSION})")
+            continue
+        table = check_leaks(data, ks=(6, 12), n_boot=args.boot, seed=0)
         table.to_csv(args.out.parent / f"{args.out.name}_{name}.csv", index=False)
         parts += [f"## {a} v {b}, {surface}\n", render_leaks(table), ""]
         print(f"{a} v {b} ({surface}): {int(outside_band(table).sum())} of {len(table)} AUCs "
@@ -59,6 +81,8 @@ def main() -> None:
                       render_leaks(paths), ""]
             print(f"  path-matched faults: {int(outside_band(paths).sum())} of {len(paths)} "
                   "outside", flush=True)
+    if args.save_data is not None:
+        return
     args.out.with_suffix(".md").write_text("\n".join(parts))
     print(f"wrote {args.out.with_suffix('.md')}")
     if args.before is not None:

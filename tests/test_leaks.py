@@ -24,6 +24,7 @@ from sportsngen.data.tracking import RallyData
 from sportsngen.eval.__main__ import main
 from sportsngen.eval.leaks import (
     CONTACT_SPEED_COLUMNS,
+    OPPONENT_STRATA_COLUMNS,
     PAIRS,
     SEEN_NET,
     SEEN_NONE,
@@ -36,7 +37,9 @@ from sportsngen.eval.leaks import (
     leak_auc,
     outside_band,
     render_leaks,
+    seen_ball,
     seen_flight,
+    seen_reach,
     weighted_auc,
 )
 from sportsngen.tennis.court import BALL_RADIUS_M
@@ -81,8 +84,9 @@ def _table(rows) -> pd.DataFrame:
                    hitter_acc_mps2=0.0, opponent_speed_mps=0.0, opponent_acc_mps2=0.0,
                    hitter="A", opponent="B", serve_number=1, direction="middle",
                    hitter_speed0_mps=0.0, opponent_speed0_mps=0.0, seen_flight=-1,
-                   contact_depth=0)
-    return df[list(TABLE_COLUMNS + STRATA_COLUMNS + CONTACT_SPEED_COLUMNS)]
+                   seen_reach=-1, contact_depth=0)
+    return df[list(TABLE_COLUMNS + STRATA_COLUMNS + OPPONENT_STRATA_COLUMNS
+                   + CONTACT_SPEED_COLUMNS)]
 
 
 def test_stratified_auc_compares_only_alike_contacts():
@@ -105,6 +109,29 @@ def test_stratified_auc_compares_only_alike_contacts():
     assert strat.set_index(["pair", "role", "feature"]).loc[key, "auc"] == 0.5
     with pytest.raises(ValueError, match="stratify=False"):
         leak_auc(kin.drop(columns="direction"))
+    with pytest.raises(ValueError, match="seen_reach"):
+        leak_auc(kin.drop(columns="seen_reach"))
+
+
+def test_the_seen_reach_strata_only_the_opponents_cells():
+    # Balls seen passing far from the opponent (reach bin 3) are mostly not returned and he
+    # runs at them at 4 m/s; near ones (bin 0) mostly returned, at 2 m/s. The hitter moves the
+    # same way with them (it is not his reach).
+    rows = [(i, 30, 40, int(i % 4 != 0), 0.0) for i in range(20)] + \
+           [(20 + i, 30, 40, int(i % 4 == 0), 0.0) for i in range(20)]
+    speed = [4.0] * 20 + [2.0] * 20
+    kin = _table(rows).assign(opponent_speed_mps=speed, hitter_speed_mps=speed,
+                              seen_reach=[3] * 20 + [0] * 20)
+    t = leak_auc(kin, n_boot=0).set_index(["pair", "role", "feature"])
+    # Opponent: within each reach bin the classes move alike; 15 x 5 + 5 x 15 pairs.
+    assert t.loc[("error_vs_in", "opponent", "speed_mps"), "auc"] == 0.5
+    assert t.loc[("error_vs_in", "opponent", "speed_mps"), "n_pairs"] == 150
+    # Hitter: all 20 x 20 pairs; 15 fast positives beat 15 slow negatives, the rest tie:
+    # (15 * 15 + 0.5 * (15 * 5 + 5 * 15 + 5 * 5 ... )) worked out as P(pos > neg) + P(=) / 2.
+    pos = np.array([4.0] * 15 + [2.0] * 5)
+    neg = np.array([4.0] * 5 + [2.0] * 15)
+    assert t.loc[("error_vs_in", "hitter", "speed_mps"), "auc"] == pytest.approx(auc(pos, neg))
+    assert t.loc[("error_vs_in", "hitter", "speed_mps"), "n_pairs"] == 400
 
 
 def test_visibility_rule_leaves_out_contacts_seen_by_then():
@@ -153,6 +180,24 @@ def test_seen_flight_bins_the_extrapolated_bounce():
                        np.array([40.0]), np.array([False]), FPS).tolist() == [SEEN_NET]
 
 
+def test_seen_reach_bins_how_far_sideways_the_seen_ball_passes_the_opponent():
+    # A rally ball from (11, 0) bouncing at (-8, 2) after 1 s: its line goes on 2 / 19 m
+    # sideways a metre deeper, y = 2 + (2 / 19) * (-8 - x_opp) at the opponent's depth.
+    ball = _flight((11.0, 0.0, 1.0), (-8.0, 2.0), 1.0)
+    n = 6
+    balls = np.concatenate([ball] * n)
+    contact, seen = np.zeros(n, np.int64), np.array([7] * 5 + [1])
+    row0, end = np.arange(n) * 40, np.full(n, 40.0)
+    seen_b = seen_ball(balls, contact, seen, row0, end, FPS)
+    codes = seen_flight(balls, contact, seen, row0, end, np.zeros(n, bool), FPS, ball=seen_b)
+    assert codes[:5].tolist() == [3] * 5 and codes[5] == SEEN_NONE
+    line_y = 2.0 + 2.0 / 19.0 * (-8.0 + 12.0)           # at x = -12: 2.421 m
+    opp = np.array([[-12.0, line_y + d] for d in (0.3, -1.5, 2.5, -3.2, 0.0)] + [[-12.0, 0.0]])
+    assert seen_reach(seen_b, codes, opp).tolist() == [0, 1, 2, 3, 0, SEEN_NONE]
+    # A ball seen into the net has no reach.
+    assert seen_reach(seen_b, np.full(n, SEEN_NET), opp).tolist() == [SEEN_NONE] * n
+
+
 def test_bootstrap_resamples_rallies_with_a_fixed_seed():
     kin = _table([(i // 2, 30, 40, i % 2, float(i % 5)) for i in range(40)])
     a = leak_auc(kin, n_boot=200, seed=3)
@@ -187,12 +232,15 @@ def _ball(contacts: list[tuple[float, tuple[float, float], float]], end_s: float
 
 def _player(start_y: float, speed: float, contact_frames: list[int], n: int,
             stop_after_last: bool) -> np.ndarray:
-    """y along the track: still until the serve, then `speed` along +-y, turning at contacts."""
+    """y along the track: still until the serve, then `speed` along +-y, turning at contacts
+    (already at the contact frame, so that his speed at the contact is the rally's: a stratum
+    of the check holds one speed)."""
     vel = np.zeros(n)
     bounds = list(contact_frames) + [n]
     for i, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
-        if not (stop_after_last and i == len(contact_frames) - 1):
-            vel[a + 1:b] = speed * (1 if i % 2 == 0 else -1) / FPS
+        vel[a:b] = speed * (1 if i % 2 == 0 else -1) / FPS
+        if stop_after_last and i == len(contact_frames) - 1:
+            vel[a + 1:b] = 0.0
     return start_y + np.cumsum(vel)
 
 
