@@ -18,6 +18,7 @@ from sportsngen.eval.diagnostics import (
     run_diagnostics,
     serve_outcomes,
     strike_branches,
+    truth_leak_aucs,
     truth_points,
     with_rules_serve_outcomes,
 )
@@ -203,8 +204,26 @@ def test_run_diagnostics_on_the_tiny_model(tiny_model_file):
     leak = table[table["signal"].str.startswith("leak")]
     assert {"lo", "hi"} <= set(table.columns)
     assert leak.loc[leak["n"] < 30, "model"].isna().all()
+    assert leak["data"].dropna().between(0.4, 0.6).all()   # the record's own cells
     ok = leak[leak["n"] >= 30]
     assert ((ok["lo"] <= ok["model"]) & (ok["model"] <= ok["hi"])).all()
+
+
+def test_the_records_leak_cells_stand_beside_the_rollouts(truth_data):
+    """`truth_leak_aucs` reads each cell of a table (in its order) on the recorded points: the
+    check's own AUC where 30 pairs or more, else blank; the causal generator's serve cells
+    within 0.4-0.6."""
+    from sportsngen.eval.leaks import check_leaks
+
+    truth = truth_data(80, 5)
+    rec = check_leaks(truth, n_boot=0)
+    cells = rec[rec["pair"].isin(diagnostics.SERVE_PAIRS)].iloc[::-1].reset_index(drop=True)
+    got = truth_leak_aucs(truth, cells)
+    enough = cells["n_pairs"].to_numpy() >= diagnostics.MIN_LEAK_PAIRS
+    assert 0 < enough.sum() < len(cells)
+    np.testing.assert_array_equal(got[enough], cells["auc"].to_numpy()[enough])
+    assert np.isnan(got[~enough]).all()
+    assert ((got[enough] >= 0.4) & (got[enough] <= 0.6)).all()
 
 
 def test_strike_branches_count_every_serve_at_every_branch_point(tiny_model_file):

@@ -49,7 +49,8 @@ Federer serving to Rafael Nadal on hard) and compare the model with that truth:
   in a training window's;
 - **leak check on rollouts** (`sportsngen.eval.leaks`, the serve pairs, with bootstrap
   intervals; cells on fewer than `MIN_LEAK_PAIRS` comparable pairs left blank): whether the
-  model's players, after the branch point, move as if they knew the serve's outcome.
+  model's players, after the branch point, move as if they knew the serve's outcome; beside
+  each, the same cell on the recorded points (`truth_leak_aucs`).
 
 `run_diagnostics` computes them all (well under two minutes on two cores for the defaults);
 ``python -m sportsngen.eval diagnose`` prints them for any model file.
@@ -414,6 +415,16 @@ def own_serve_rows(own: RallyData, truth_out: pd.DataFrame) -> list[tuple]:
     return rows
 
 
+def truth_leak_aucs(truth: RallyData, cells: pd.DataFrame) -> np.ndarray:
+    """The leak check's AUC on the recorded points themselves for each (pair, role, feature, k)
+    row of `cells` (NaN where the record has fewer than `MIN_LEAK_PAIRS` comparable pairs): what
+    a rollout cell is to be read against (the generator's players tie within a stratum, 0.5)."""
+    rec = check_leaks(truth, n_boot=0)
+    rec = rec.assign(auc=rec["auc"].where(rec["n_pairs"] >= MIN_LEAK_PAIRS))
+    key = ["pair", "role", "feature", "k"]
+    return cells[key].merge(rec[key + ["auc"]], on=key, how="left")["auc"].to_numpy(float)
+
+
 def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.DataFrame:
     """Every diagnostic of the module doc -> a table: signal, model, data (NaN where the
     signal has no data side), n (serves, frames or, for a leak AUC, comparable pairs) and, for
@@ -497,7 +508,8 @@ def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.Dat
     leak_rows = pd.DataFrame({
         "signal": [f"leak AUC {r.pair} {r.role} {r.feature} k={int(r.k)}"
                    for r in leaks.itertuples()],
-        "model": leaks["auc"].where(~few).to_numpy(float), "data": np.nan,
+        "model": leaks["auc"].where(~few).to_numpy(float),
+        "data": truth_leak_aucs(truth, leaks),
         "n": leaks["n_pairs"].to_numpy(int),
         "lo": leaks["lo"].where(~few).to_numpy(float),
         "hi": leaks["hi"].where(~few).to_numpy(float)})
