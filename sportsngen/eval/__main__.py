@@ -418,8 +418,9 @@ def build_parser() -> argparse.ArgumentParser:
     leaks.add_argument("--seed", type=int, default=0, help="seed of the bootstrap")
     leaks.add_argument("--csv", type=Path, default=None, help="write the table as CSV here")
     leaks.add_argument("--raw", action="store_true",
-                       help="raw AUCs, not stratified by what the players could see at the "
-                            "contact (pairing, serve number, direction, speed)")
+                       help="raw AUCs, not stratified by what the players could see (pairing, "
+                            "serve number, direction, depth, speed, the seen flight and, for "
+                            "the opponent, how far aside it passes him)")
     leaks.add_argument("--paths", action="store_true",
                        help="also the path-matched check of faults: is the movement before a "
                             "fault explained by the ball's path and the player's position?")
