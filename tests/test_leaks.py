@@ -1,5 +1,6 @@
-"""The leak check (`sportsngen.eval.leaks`): exact AUCs, planted tracks, the visibility rule,
-the command line, and a pin of generator version 5's leaks (a committed kinematics table).
+"""The leak check (`sportsngen.eval.leaks`, `sportsngen.eval.seen`): exact AUCs, planted
+tracks, the visibility rule, the command line, and a pin of generator version 5's leaks (a
+committed kinematics table).
 
 Planted tracks are built here: the server at the +x end serves from the deuce court at 0.8 s
 (frame 20) into the box at (-5, -2), bouncing at 1.4 s (frame 35); returns at 1.72 s (frame 43),
@@ -26,9 +27,6 @@ from sportsngen.eval.leaks import (
     CONTACT_SPEED_COLUMNS,
     OPPONENT_STRATA_COLUMNS,
     PAIRS,
-    SEEN_NET,
-    SEEN_NONE,
-    SEEN_ON_LINE,
     STRATA_COLUMNS,
     TABLE_COLUMNS,
     auc,
@@ -37,10 +35,15 @@ from sportsngen.eval.leaks import (
     leak_auc,
     outside_band,
     render_leaks,
+    weighted_auc,
+)
+from sportsngen.eval.seen import (
+    SEEN_NET,
+    SEEN_NONE,
+    SEEN_ON_LINE,
     seen_ball,
     seen_flight,
     seen_reach,
-    weighted_auc,
 )
 from sportsngen.tennis.court import BALL_RADIUS_M
 
