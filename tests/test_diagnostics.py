@@ -174,6 +174,12 @@ def test_run_diagnostics_on_the_tiny_model(tiny_model_file):
     assert "contact probability within reach (returned serves)" in signals
     assert "expected / recorded contacts (ball tokens)" in signals
     assert any(s.startswith("leak AUC ace_vs_returned") for s in signals)
+    # The same cells on the model's own serves, in the same order.
+    branch_cells = [s[len("leak AUC "):] for s in signals if s.startswith("leak AUC ")
+                    and not s.startswith("leak AUC (own serves)")]
+    own_cells = [s[len("leak AUC (own serves) "):] for s in signals
+                 if s.startswith("leak AUC (own serves)")]
+    assert own_cells == branch_cells and len(own_cells) == 16
     data_side = table.set_index("signal")["data"]
     assert data_side["free-flight residual p90 z (mm)"] < 0.5
     assert 0.5 < data_side["branch return share (serves in the box)"] <= 1.0
@@ -218,7 +224,7 @@ def test_the_records_leak_cells_stand_beside_the_rollouts(truth_data):
     truth = truth_data(80, 5)
     rec = check_leaks(truth, n_boot=0)
     cells = rec[rec["pair"].isin(diagnostics.SERVE_PAIRS)].iloc[::-1].reset_index(drop=True)
-    got = truth_leak_aucs(truth, cells)
+    got = truth_leak_aucs(rec, cells)
     enough = cells["n_pairs"].to_numpy() >= diagnostics.MIN_LEAK_PAIRS
     assert 0 < enough.sum() < len(cells)
     np.testing.assert_array_equal(got[enough], cells["auc"].to_numpy()[enough])

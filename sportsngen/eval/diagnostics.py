@@ -49,8 +49,10 @@ Federer serving to Rafael Nadal on hard) and compare the model with that truth:
   in a training window's;
 - **leak check on rollouts** (`sportsngen.eval.leaks`, the serve pairs, with bootstrap
   intervals; cells on fewer than `MIN_LEAK_PAIRS` comparable pairs left blank): whether the
-  model's players, after the branch point, move as if they knew the serve's outcome; beside
-  each, the same cell on the recorded points (`truth_leak_aucs`).
+  model's players, after the branch point, move as if they knew the serve's outcome; the same
+  on its own serves, played from the toss ("(own serves)": the serve's outcome is the model's
+  too, a second sample of as many serves); beside each, the same cell on the recorded points
+  (`truth_leak_aucs`).
 
 `run_diagnostics` computes them all (well under two minutes on two cores for the defaults);
 ``python -m sportsngen.eval diagnose`` prints them for any model file.
@@ -415,14 +417,32 @@ def own_serve_rows(own: RallyData, truth_out: pd.DataFrame) -> list[tuple]:
     return rows
 
 
-def truth_leak_aucs(truth: RallyData, cells: pd.DataFrame) -> np.ndarray:
-    """The leak check's AUC on the recorded points themselves for each (pair, role, feature, k)
-    row of `cells` (NaN where the record has fewer than `MIN_LEAK_PAIRS` comparable pairs): what
-    a rollout cell is to be read against (the generator's players tie within a stratum, 0.5)."""
-    rec = check_leaks(truth, n_boot=0)
-    rec = rec.assign(auc=rec["auc"].where(rec["n_pairs"] >= MIN_LEAK_PAIRS))
+def truth_leak_aucs(record: pd.DataFrame, cells: pd.DataFrame) -> np.ndarray:
+    """The leak check's AUC on the recorded points (`record`, `check_leaks` of them) for each
+    (pair, role, feature, k) row of `cells` (NaN where the record has fewer than
+    `MIN_LEAK_PAIRS` comparable pairs): what a rollout cell is to be read against (the
+    generator's players tie within a stratum, 0.5)."""
+    rec = record.assign(auc=record["auc"].where(record["n_pairs"] >= MIN_LEAK_PAIRS))
     key = ["pair", "role", "feature", "k"]
     return cells[key].merge(rec[key + ["auc"]], on=key, how="left")["auc"].to_numpy(float)
+
+
+def leak_table_rows(rollouts: RallyData, record: pd.DataFrame, setup: DiagnosticsSetup,
+                    label: str = "") -> pd.DataFrame:
+    """The serve pairs' leak cells of `rollouts` (serve outcomes from the rules) as rows of the
+    diagnostics table, each beside the record's cell (`truth_leak_aucs`); cells on fewer than
+    `MIN_LEAK_PAIRS` pairs blank."""
+    leaks = check_leaks(rollouts, n_boot=setup.leak_boot, seed=setup.seed)
+    leaks = leaks[leaks["pair"].isin(SERVE_PAIRS)]
+    few = leaks["n_pairs"] < MIN_LEAK_PAIRS
+    return pd.DataFrame({
+        "signal": [f"leak AUC{label} {r.pair} {r.role} {r.feature} k={int(r.k)}"
+                   for r in leaks.itertuples()],
+        "model": leaks["auc"].where(~few).to_numpy(float),
+        "data": truth_leak_aucs(record, leaks),
+        "n": leaks["n_pairs"].to_numpy(int),
+        "lo": leaks["lo"].where(~few).to_numpy(float),
+        "hi": leaks["hi"].where(~few).to_numpy(float)})
 
 
 def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.DataFrame:
@@ -483,7 +503,8 @@ def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.Dat
               late["band"], 1.0, late["shots"]),
              ("contact probability over the approach, shots after the window (training's "
               "window)", late["window"], 1.0, late["shots"])]
-    rows += own_serve_rows(own_serves(sim, truth, seed=setup.seed), truth_out)
+    own = own_serves(sim, truth, seed=setup.seed)
+    rows += own_serve_rows(own, truth_out)
     returns = shot_outcomes(truth, RETURN_SHOT, truth_rules)
     ret_branches, ret_order = shot_branches(sim, truth, RETURN_SHOT, BRANCH_AFTER_FRAMES,
                                             setup.seed, truth_out=returns)
@@ -501,16 +522,9 @@ def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.Dat
     gap_row = pd.DataFrame([{"signal": "branch return share minus recorded (paired)",
                              "model": gap, "data": np.nan, "n": len(order), "lo": lo, "hi": hi}])
     table = pd.concat([table.iloc[:1], gap_row, table.iloc[1:]], ignore_index=True)
-    leaks = check_leaks(with_rules_serve_outcomes(branches, branch_out), n_boot=setup.leak_boot,
-                        seed=setup.seed)
-    leaks = leaks[leaks["pair"].isin(SERVE_PAIRS)]
-    few = leaks["n_pairs"] < MIN_LEAK_PAIRS
-    leak_rows = pd.DataFrame({
-        "signal": [f"leak AUC {r.pair} {r.role} {r.feature} k={int(r.k)}"
-                   for r in leaks.itertuples()],
-        "model": leaks["auc"].where(~few).to_numpy(float),
-        "data": truth_leak_aucs(truth, leaks),
-        "n": leaks["n_pairs"].to_numpy(int),
-        "lo": leaks["lo"].where(~few).to_numpy(float),
-        "hi": leaks["hi"].where(~few).to_numpy(float)})
-    return pd.concat([table, leak_rows], ignore_index=True)
+    record = check_leaks(truth, n_boot=0)
+    leak_rows = [leak_table_rows(with_rules_serve_outcomes(branches, branch_out), record, setup),
+                 leak_table_rows(with_rules_serve_outcomes(own, serve_outcomes(own)), record,
+                                 setup, " (own serves)")]
+    return pd.concat([table, *leak_rows], ignore_index=True)
+
