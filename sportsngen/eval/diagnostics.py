@@ -387,13 +387,15 @@ def own_serves(sim, truth: RallyData, seed: int = 0) -> RallyData:
     return sim.simulate_rallies(plan, seed=seed, max_duration_s=OWN_SERVE_S)
 
 
-def own_serve_rows(own: RallyData, truth_out: pd.DataFrame) -> list[tuple]:
+def own_serve_rows(own: RallyData, truth_out: pd.DataFrame,
+                   out: pd.DataFrame | None = None) -> list[tuple]:
     """Rows of the diagnostics table for `own_serves`: struck, struck from the right place, in
     the box (all, first and second serves), wide (of those in the box, bouncing in the box's
     outer third) and returned (of those in the box), beside the recorded serves (the same
-    rally ids, so the same serve numbers)."""
+    rally ids, so the same serve numbers). `out`: the own serves' `serve_outcomes`, when
+    already read."""
     failed = own.rallies.set_index("rally_id")["failed_checks"].astype(str)
-    out = serve_outcomes(own)
+    out = serve_outcomes(own) if out is None else out
     n = len(failed)
     rows = [("own serves struck", float((~failed.str.contains("no_serve")).mean()), 1.0, n),
             ("own serves struck from the server's place",
@@ -504,7 +506,8 @@ def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.Dat
              ("contact probability over the approach, shots after the window (training's "
               "window)", late["window"], 1.0, late["shots"])]
     own = own_serves(sim, truth, seed=setup.seed)
-    rows += own_serve_rows(own, truth_out)
+    own_out = serve_outcomes(own)
+    rows += own_serve_rows(own, truth_out, own_out)
     returns = shot_outcomes(truth, RETURN_SHOT, truth_rules)
     ret_branches, ret_order = shot_branches(sim, truth, RETURN_SHOT, BRANCH_AFTER_FRAMES,
                                             setup.seed, truth_out=returns)
@@ -524,7 +527,7 @@ def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.Dat
     table = pd.concat([table.iloc[:1], gap_row, table.iloc[1:]], ignore_index=True)
     record = check_leaks(truth, n_boot=0)
     leak_rows = [leak_table_rows(with_rules_serve_outcomes(branches, branch_out), record, setup),
-                 leak_table_rows(with_rules_serve_outcomes(own, serve_outcomes(own)), record,
-                                 setup, " (own serves)")]
+                 leak_table_rows(with_rules_serve_outcomes(own, own_out), record, setup,
+                                 " (own serves)")]
     return pd.concat([table, *leak_rows], ignore_index=True)
 
