@@ -108,9 +108,10 @@ def seen_ball(ball_m: np.ndarray, contact: np.ndarray, seen: np.ndarray, row0: n
     """The ball's flight as seen at frame `seen` of each contact (module doc): ``ok`` (three
     tracked frames between the contact and the seen frame), ``vel_mps`` (N, 3) at the seen
     frame, ``land_m`` (N, 2; NaN where not seen or not landing within the horizon), ``clear_m``
-    (N; over the cord, +inf where not crossing) and ``contact_m`` (N, 3), the ball at the
-    contact. `ball_m` (rows, 3) is the ball's track, frame t of a contact's rally at row
-    ``row0 + t``; `track_end` one past the rally's last frame."""
+    (N; over the cord, +inf where not crossing), ``contact_m`` (N, 3), the ball at the
+    contact, and ``end`` (N), the hitter's end of the court (+-1). `ball_m` (rows, 3) is the
+    ball's track, frame t of a contact's rally at row ``row0 + t``; `track_end` one past the
+    rally's last frame."""
     spacing = np.minimum((seen - contact) // 2, SEEN_MAX_SPACING_FRAMES)
     ok = (spacing >= 1) & (seen < track_end)
     h = np.maximum(spacing, 1)
@@ -123,7 +124,8 @@ def seen_ball(ball_m: np.ndarray, contact: np.ndarray, seen: np.ndarray, row0: n
     end = np.where(at_contact[:, 0] >= 0, 1.0, -1.0)  # the hitter's end of the court
     land, clear = np.full((len(ok), 2), np.nan), np.full(len(ok), np.inf)
     land[ok], clear[ok] = predict_flight(p0[ok], vel[ok], acc[ok], end[ok])
-    return {"ok": ok, "vel_mps": vel, "land_m": land, "clear_m": clear, "contact_m": at_contact}
+    return {"ok": ok, "vel_mps": vel, "land_m": land, "clear_m": clear, "contact_m": at_contact,
+            "end": end}
 
 
 def seen_flight(ball_m: np.ndarray, contact: np.ndarray, seen: np.ndarray, row0: np.ndarray,
@@ -133,8 +135,7 @@ def seen_flight(ball_m: np.ndarray, contact: np.ndarray, seen: np.ndarray, row0:
     may be passed as `ball`), `serve` flags serves."""
     if ball is None:
         ball = seen_ball(ball_m, contact, seen, row0, track_end, fps)
-    land, clear, at_contact = ball["land_m"], ball["clear_m"], ball["contact_m"]
-    end = np.where(at_contact[:, 0] >= 0, 1.0, -1.0)
+    land, clear, at_contact, end = ball["land_m"], ball["clear_m"], ball["contact_m"], ball["end"]
     far_x = -end * land[:, 0]                        # > 0 beyond the net
     box_side = -np.sign(at_contact[:, 1])            # a serve goes to the diagonal box
     inside = np.where(
