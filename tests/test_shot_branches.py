@@ -97,7 +97,7 @@ class _Replay:
                        for r, s, n in zip(arr.rally_id, arr.start, arr.length)}
         self.calls = []
 
-    def simulate_rallies(self, plan, seed, init_pos_m, max_duration_s):
+    def simulate_rallies(self, plan, seed, init_pos_m, max_duration_s, forced_pos_m=None):
         k = init_pos_m.shape[1]
         self.calls.append(k)
         parts = []

@@ -14,6 +14,8 @@
     python -m sportsngen.eval movement [--model PATH] [--shot 2] [--chase] [--points 600]
         [--server NAME] [--seed 0] [--csv PATH] [sampling options as diagnose]
     python -m sportsngen.eval chase [--model PATH] [--points 400] [--seed 0] [--csv PATH]
+    python -m sportsngen.eval interventions [--model PATH] [--points 400] [--own]
+        [--arms free recorded still swapped] [--boot 1000] [--seed 0] [--csv PATH]
     python -m sportsngen.eval expert [FOLDER] [--shot 3] [--after 8] [--unplayed]
         [--points 1000] [--seed 0] [--csv PATH]
 
@@ -30,7 +32,10 @@ teacher-forced at recorded rally strikes, its errors by shot and serve beside th
 teacher-forced and rolled out against the record, or with `--chase` the answering player's run
 to the ball, teacher-forced against the record (`sportsngen.eval.movement`); `chase` the
 model's players rolled out on the record's ball, how often it passes beyond their reach
-(`sportsngen.eval.chase`); `expert` the
+(`sportsngen.eval.chase`); `interventions` the serves branched with the server's track
+forced by hand (recorded, stopped, another serve's run), the return share of each arm against
+the recorded track's (`sportsngen.eval.interventions`; `--own`: the model's own serves);
+`expert` the
 generator's players on a folder's own rally states, their next shot beside the folder's
 (`sportsngen.eval.expert_answers`; without a folder, on generated points: the kernel's own
 fidelity). `leaks` prints the AUC table of
@@ -299,6 +304,29 @@ def run_chase(args: argparse.Namespace) -> int:
     return _run_model_table(args, "chase", compute)
 
 
+def run_interventions(args: argparse.Namespace) -> int:
+    """Serves branched with the server's track forced in each arm: prints the return shares."""
+    from sportsngen.eval.diagnostics import own_serves, truth_points
+    from sportsngen.eval.interventions import ARMS, intervention_outcomes, intervention_table
+
+    arms = tuple(dict.fromkeys(args.arms or ARMS))
+    if set(arms) - set(ARMS):
+        raise UsageError(f"--arms: unknown {sorted(set(arms) - set(ARMS))}, choose from {ARMS}")
+    if "recorded" not in arms:
+        raise UsageError(f"--arms must include 'recorded' (the arm the others are read "
+                         f"against), got {list(arms)}")
+    if args.boot < 0:
+        raise UsageError(f"--boot must be >= 0, got {args.boot}")
+
+    def compute(sim, setup):
+        truth = truth_points(setup)
+        data = own_serves(sim, truth, seed=setup.seed) if args.own else truth
+        out = intervention_outcomes(sim, data, arms, setup.seed)
+        return intervention_table(out, n_boot=args.boot, seed=setup.seed)
+
+    return _run_model_table(args, "interventions", compute)
+
+
 def run_expert(args: argparse.Namespace) -> int:
     """The kernel's next shot on a folder's (or generated points') own states: prints it."""
     import time
@@ -487,6 +515,19 @@ def build_parser() -> argparse.ArgumentParser:
     generated.add_argument("--server", default="Roger Federer")
     generated.add_argument("--receiver", default="Rafael Nadal")
     generated.add_argument("--surface", default="hard", choices=["hard", "clay", "grass"])
+    inter = sub.add_parser("interventions", parents=[model_opts],
+                           help="does the serve's outcome depend on how the server moves after "
+                                "it? serves branched with his track forced, arm by arm")
+    inter.add_argument("--points", type=int, default=400,
+                       help="ground-truth points generated to branch from (default 400)")
+    inter.add_argument("--arms", nargs="+", default=None,
+                       help="the server's track in each arm, of free, recorded, still and "
+                            "swapped (default all four; 'recorded' needed)")
+    inter.add_argument("--own", action="store_true",
+                       help="branch the model's own serves, played from the toss, not the "
+                            "recorded ones")
+    inter.add_argument("--boot", type=int, default=1000,
+                       help="bootstrap resamples of the paired differences")
     expert = sub.add_parser("expert", parents=[generated],
                             help="the generator's players on a folder's own rally states: "
                                  "their next shot beside the folder's")
@@ -518,7 +559,7 @@ def main(argv: list[str] | None = None) -> int:
     runners = {"leaks": run_leaks, "diagnose": run_diagnose, "strikes": run_strikes,
                "movement": run_movement, "serves": run_serves, "expert": run_expert,
                "reach": run_reach, "strike-draws": run_strike_draws,
-               "chase": run_chase}
+               "chase": run_chase, "interventions": run_interventions}
     try:
         if args.command in runners:
             return runners[args.command](args)

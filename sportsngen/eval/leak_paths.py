@@ -89,7 +89,8 @@ def _neighbour_means(cov: np.ndarray, neg: np.ndarray, x: np.ndarray,
 
 
 def path_matched_auc(table: pd.DataFrame, n_neighbours: int = 10, n_boot: int = 500,
-                     seed: int = 0, level: float = 0.95) -> pd.DataFrame:
+                     seed: int = 0, level: float = 0.95,
+                     pairs: tuple[str, ...] = PATH_PAIRS) -> pd.DataFrame:
     """AUC of residuals per (pair, role, feature, k) of a `serve_paths` table (module doc), with
     n_pos / n_neg and the classes' mean feature (mean_pos / mean_neg); serves of a (server,
     receiver, serve number) with no more negatives than `n_neighbours` are left out."""
@@ -98,7 +99,7 @@ def path_matched_auc(table: pd.DataFrame, n_neighbours: int = 10, n_boot: int = 
                          f"{n_neighbours}, {n_boot}, {level}")
     q = 50 * (1 - level), 50 * (1 + level)
     out = []
-    for pi, pair in enumerate(PATH_PAIRS):
+    for pi, pair in enumerate(pairs):
         visible = PAIRS[pair]
         for k in sorted(int(v) for v in table["k"].unique()):
             sub = table[(table["k"] == k) & (table[pair] >= 0)

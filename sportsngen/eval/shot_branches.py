@@ -30,11 +30,13 @@ SHOT_HORIZON_S = 2.5       # the shot's flight, the answer and its first frames
 
 
 def branch_rallies(sim, truth: RallyData, keep_frames: pd.Series, seed: int,
-                   horizon_s: float) -> tuple[RallyData, pd.Series]:
+                   horizon_s: float, forced_pos_m: dict[int, np.ndarray] | None = None
+                   ) -> tuple[RallyData, pd.Series]:
     """Each recorded rally of `keep_frames` (rally id -> frames kept from its start) rolled
     out once from its own frame, `horizon_s` beyond it -> (the branches, a Series: branch
     rally id -> the recorded rally id). Rallies whose kept frames are not shorter than their
-    track are left out."""
+    track are left out. `forced_pos_m`: recorded rally id -> (T, 3, 3) players' positions from
+    the rally's start, NaN where free, that replace the sampled ones (`rollout`'s)."""
     arr = rally_arrays(truth, sim.vocab, unknown="generic")
     rallies = truth.rallies.set_index("rally_id")
     groups: dict[int, list[int]] = {}
@@ -52,10 +54,22 @@ def branch_rallies(sim, truth: RallyData, keep_frames: pd.Series, seed: int,
         plan["rally_id"] = np.arange(len(plan)) + 100_000 * g
         plan["match_id"] = "branch"
         init = np.stack([arr.pos_m[arr.start[i]:arr.start[i] + k] for i in idx])
+        forced = None if forced_pos_m is None else _stack_padded(
+            [forced_pos_m.get(int(r), np.full((0, 3, 3), np.nan)) for r in rids])
         parts.append(sim.simulate_rallies(plan, seed=seed + g, init_pos_m=init,
-                                          max_duration_s=k / sim.fps + horizon_s))
+                                          max_duration_s=k / sim.fps + horizon_s,
+                                          forced_pos_m=forced))
         order.append(pd.Series(rids, index=plan["rally_id"].to_numpy()))
     return RallyData.concat(parts), pd.concat(order)
+
+
+def _stack_padded(tracks: list[np.ndarray]) -> np.ndarray:
+    """(T_i, 3, 3) arrays -> (n, max T_i, 3, 3), NaN after each one's end."""
+    out = np.full((len(tracks), max(1, max(len(t) for t in tracks)), 3, 3), np.nan,
+                  dtype=np.float32)
+    for i, t in enumerate(tracks):
+        out[i, :len(t)] = t
+    return out
 
 
 def shot_outcomes(data: RallyData, shot: int = RETURN_SHOT,

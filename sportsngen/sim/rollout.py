@@ -220,6 +220,22 @@ class _NoTracker:
         return np.zeros(len(pos_m), dtype=bool)
 
 
+def _check_forced(forced_pos_m: np.ndarray, b: int, dev: torch.device) -> torch.Tensor:
+    """`rollout`'s `forced_pos_m` checked -> a float32 tensor, each object's three coordinates
+    all NaN (free) or all finite (forced)."""
+    f = np.asarray(forced_pos_m, dtype=np.float32)
+    if f.ndim != 4 or f.shape[0] != b or f.shape[2:] != (3, 3):
+        raise ValueError(f"forced_pos_m must be ({b}, T, 3, 3), got {f.shape}")
+    free = np.isnan(f)
+    if (free.any(axis=3) != free.all(axis=3)).any():
+        raise ValueError("forced_pos_m: an object's x, y and z must be all NaN or all finite")
+    if not np.isfinite(f[~free]).all():
+        raise ValueError("forced_pos_m holds infinite positions")
+    if (~free[:, :, BALL]).any():
+        raise ValueError("forced_pos_m forces players only: the ball's column must be NaN")
+    return torch.as_tensor(f, device=dev)
+
+
 def step_features(hist: torch.Tensor, n: int, fps: float) -> torch.Tensor:
     """Object tokens of frame n-1 given positions hist[:, :n] -> (B, 3, F)."""
     pos = hist[:, n - 1]
@@ -249,7 +265,8 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             refresh_frames: int | None = None, top_p_serve: float = 1.0,
             bounce_surfaces: np.ndarray | None = None,
             player_accel_mps2: float | None = None,
-            player_top_speed_mps: np.ndarray | None = None) -> Rollout:
+            player_top_speed_mps: np.ndarray | None = None,
+            forced_pos_m: np.ndarray | None = None) -> Rollout:
     """Roll `inputs` forward until the tracker ends each rally or it has `max_frames` frames.
 
     The tracker sees every frame of every rally in order, the initial ones included, and
@@ -268,8 +285,12 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
     ball's bounces are the surface's physics, not the model's draw (`sim.bounce`).
     `player_accel_mps2`: every sampled frame changes a player's velocity by at most this
     acceleration (`sim.kinematics`); `player_top_speed_mps` (B, 2): the server's and the
-    receiver's top speed, which no frame of theirs exceeds (`sim.top_speed`). Cached rollouts
-    of up to `SINGLE_THREAD_ROWS` rallies run on one CPU thread.
+    receiver's top speed, which no frame of theirs exceeds (`sim.top_speed`).
+    `forced_pos_m` (B, T, 3, 3), NaN where free: a player's finite position at frame n (counted
+    as `init_pos_m`'s) replaces his sampled one, after every rule, so the others react to a
+    track chosen by hand (an intervention: does the receiver read the server?). Players only:
+    the ball's flight stays the model's and the physics'. Cached rollouts of up to
+    `SINGLE_THREAD_ROWS` rallies run on one CPU thread.
     """
     small = (mode == "cache" and len(inputs.init_pos_m) <= SINGLE_THREAD_ROWS
              and next(model.parameters()).device.type == "cpu")
@@ -315,6 +336,7 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                 raise ValueError(f"player_top_speed_mps must be ({b}, 2), got "
                                  f"{tuple(top_all.shape)}")
 
+        forced_all = None if forced_pos_m is None else _check_forced(forced_pos_m, b, dev)
         done = np.zeros(b, dtype=bool)
         # The receivers' waits for the serve (`model.receiver_start`), counted over the initial
         # frames but the last, which the loop's first step counts.
@@ -399,6 +421,9 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             if bounce_surfaces is not None and n >= 3:
                 nxt, plan = place_bounces(nxt, plan, pos, vel, prev_vel, fps, bounce_surfaces,
                                           alive, planned)
+            if forced_all is not None and n < forced_all.shape[1]:
+                f = forced_all[torch.as_tensor(alive, device=dev), n]
+                nxt = torch.where(torch.isnan(f), nxt, f)
             hist[:, n] = nxt
             nxt_np = nxt.cpu().numpy()
             out[alive, n] = nxt_np

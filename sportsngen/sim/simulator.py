@@ -342,7 +342,8 @@ class Simulator:
     def simulate_rallies(self, plan: pd.DataFrame, seed: int = 0, progress: bool = False,
                          init_pos_m: np.ndarray | None = None,
                          constraint: Constraint | None = None,
-                         max_duration_s: float | None = None) -> RallyData:
+                         max_duration_s: float | None = None,
+                         forced_pos_m: np.ndarray | None = None) -> RallyData:
         """One rally for each row of `plan` (columns `PLAN_COLUMNS`), in batches of
         `batch_size` -> RallyData with the simulator's columns (see `sportsngen.sim.assemble`).
 
@@ -350,8 +351,13 @@ class Simulator:
         (len(plan), T0, 3, 3) (branching from a real rally); `constraint` restricts sampling
         (`sportsngen.sim.rollout.Constraint`; row indices are plan positions).
         `max_duration_s` (default the simulator's) cuts rallies that last longer: they end
-        undecided (diagnostics that only need a rally's first shots)."""
+        undecided (diagnostics that only need a rally's first shots). `forced_pos_m`
+        (len(plan), T, 3, 3), NaN where free: players' positions that replace the sampled ones
+        frame by frame (`rollout`'s; frames counted as `init_pos_m`'s)."""
         check_plan(plan)
+        if forced_pos_m is not None and len(forced_pos_m) != len(plan):
+            raise ArgumentError(f"forced_pos_m has {len(forced_pos_m)} rows, the plan "
+                                f"{len(plan)}")
         rng = np.random.default_rng(check_int("seed", seed, 0))
         parts = []
         duration_s = self.max_duration_s if max_duration_s is None else float(max_duration_s)
@@ -399,7 +405,9 @@ class Simulator:
                            bounce_surfaces=part["surface"].astype(str).to_numpy()
                            if self.physical_bounce else None,
                            player_accel_mps2=self.player_accel_mps2,
-                           player_top_speed_mps=top)
+                           player_top_speed_mps=top,
+                           forced_pos_m=None if forced_pos_m is None else
+                           forced_pos_m[lo:lo + self.batch_size])
             labels = None if self.event_model is None else frame_labels(
                 self.event_model, roll.pos_m, roll.length, self.fps, self.model.cfg.window_frames)
             data = assemble(part, roll.pos_m, roll.length, tracker.results(), labels, self.fps)
