@@ -94,3 +94,16 @@ def _kinematics(data):
     from sportsngen.eval.leaks import contact_kinematics
 
     return contact_kinematics(data, (6, 12))
+
+
+def test_other_pairs_are_matched_on_the_path_when_asked():
+    # The same serves read as aces (the faults) against returned serves (the ins), the serve
+    # becoming an ace visible at the land frame: a server slower after aces is flagged.
+    table = _serves(fault_receiver_speed=0.0).rename(columns={"fault_vs_in": "ace_vs_returned"})
+    table["hitter_speed_mps"] = np.where(table["ace_vs_returned"] == 1, 0.5, 1.0)
+    table["outcome_frame"] = 45
+    got = path_matched_auc(table, n_neighbours=5, n_boot=0, pairs=("ace_vs_returned",))
+    assert set(got["pair"]) == {"ace_vs_returned"}
+    row = got.set_index(["role", "feature"])
+    assert row.loc[("hitter", "speed_mps"), "auc"] == 0.0
+    assert row.loc[("hitter", "acc_mps2"), "auc"] == 0.5
