@@ -151,8 +151,17 @@ class KVCache:
         return self.n_ctx + N_OBJECTS * min(self.n_frames, self.max_frames)
 
     def select(self, idx: torch.Tensor) -> KVCache:
-        """The cache of the batch rows `idx` (the rollout compacts finished rallies away)."""
-        return KVCache([k[idx] for k in self.k], [v[idx] for v in self.v], self.ident[idx],
+        """The cache of the batch rows `idx` (the rollout compacts finished rallies away). Only
+        the filled slots are copied: attention reads no others, and a rollout compacts at every
+        finished rally, so copying whole rings was a sixth of the diagnostics' rollout time."""
+        n = self.n_keys
+
+        def rows(ring: torch.Tensor) -> torch.Tensor:
+            out = ring.new_empty((len(idx), *ring.shape[1:]))
+            out[:, :, :n] = ring[idx, :, :n]
+            return out
+
+        return KVCache([rows(k) for k in self.k], [rows(v) for v in self.v], self.ident[idx],
                        self.n_ctx, self.n_frames, self.max_frames,
                        None if self.last_feats is None else self.last_feats[idx])
 
