@@ -171,6 +171,12 @@ def test_run_diagnostics_on_the_tiny_model(tiny_model_file):
     signals = list(table["signal"])
     assert signals[0] == "branch return share (serves in the box)"
     assert signals[1] == "branch return share minus recorded (paired)"
+    assert signals[2] == "branch return share, server stopped, minus free (paired)"
+    stopped = table.iloc[2]
+    # Paired on the serves in the box in both arms: no more than were branched.
+    assert stopped["n"] <= table.iloc[1]["n"] and stopped["data"] == 0.0
+    if stopped["n"]:
+        assert -1.0 <= stopped["lo"] <= stopped["model"] <= stopped["hi"] <= 1.0
     assert "contact probability within reach (returned serves)" in signals
     assert "expected / recorded contacts (ball tokens)" in signals
     assert any(s.startswith("leak AUC ace_vs_returned") for s in signals)

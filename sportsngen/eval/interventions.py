@@ -148,13 +148,36 @@ def intervention_outcomes(sim, data: RallyData, arms: tuple[str, ...] = ARMS, se
         forced = server_forcing(data, arm, horizon_s, after_frames, seed)
         branches, order = branch_rallies(sim, data, keep, seed, horizon_s,
                                          forced_pos_m=forced if forced else None)
-        out = serve_outcomes(branches).loc[order.index]
-        parts.append(pd.DataFrame({
-            "arm": arm, "rally_id": order.to_numpy(),
-            "in_box": out["in_box"].to_numpy(bool), "returned": out["returned"].to_numpy(bool),
-            "server_speed_mps": _server_speed_mps(branches, order, strike)
-            .reindex(order.index).to_numpy()}))
+        parts.append(_arm_rows(arm, branches, order, strike))
     return pd.concat(parts, ignore_index=True)
+
+
+def _arm_rows(arm: str, branches: RallyData, order: pd.Series, strike: pd.Series,
+              out: pd.DataFrame | None = None) -> pd.DataFrame:
+    """One arm's rows of `intervention_outcomes` from its branches (`out`: their
+    `serve_outcomes`, when already read)."""
+    out = (serve_outcomes(branches) if out is None else out).loc[order.index]
+    return pd.DataFrame({
+        "arm": arm, "rally_id": order.to_numpy(),
+        "in_box": out["in_box"].to_numpy(bool), "returned": out["returned"].to_numpy(bool),
+        "server_speed_mps": _server_speed_mps(branches, order, strike)
+        .reindex(order.index).to_numpy()})
+
+
+def stopped_server_gap(sim, data: RallyData, free: RallyData, free_order: pd.Series,
+                       free_out: pd.DataFrame, seed: int, n_boot: int) -> pd.Series:
+    """The diagnostics' intervention: the serves of `data` branched again with the server
+    stopped (``still``), the same seed as their free branches (`free`, `free_order`, as
+    `diagnostics.serve_branches` gave them, and their `serve_outcomes` `free_out`) -> the
+    ``still`` row of `intervention_table` read against ``free``: diff, lo, hi, n_pairs."""
+    strike = serve_strike_frames(data)
+    forced = server_forcing(data, "still", seed=seed)
+    still, order = branch_rallies(sim, data, strike + BRANCH_AFTER_FRAMES + 1, seed, HORIZON_S,
+                                  forced_pos_m=forced)
+    rows = pd.concat([_arm_rows("free", free, free_order, strike, free_out),
+                      _arm_rows("still", still, order, strike)], ignore_index=True)
+    table = intervention_table(rows, base="free", n_boot=n_boot, seed=seed)
+    return table.set_index("arm").loc["still", ["diff", "lo", "hi", "n_pairs"]]
 
 
 def intervention_table(outcomes: pd.DataFrame, base: str = "recorded", n_boot: int = 1000,
