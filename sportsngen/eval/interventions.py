@@ -41,10 +41,11 @@ from sportsngen.eval.diagnostics import (
     serve_strike_frames,
 )
 from sportsngen.eval.shot_branches import branch_rallies
+from sportsngen.synth.profiles import PlayerProfile
 
 ARMS = ("free", "recorded", "still", "swapped")
 SERVER_SLOT = OBJECTS.index("server")
-STOP_ACCEL_MPS2 = 6.0      # the generator's players' acceleration cap
+STOP_ACCEL_MPS2 = PlayerProfile.max_accel_mps2    # the generator's players' acceleration cap
 SPEED_AFTER_FRAMES = 12    # the leak check's k: the server's speed this many frames on
 
 
@@ -153,15 +154,15 @@ def intervention_outcomes(sim, data: RallyData, arms: tuple[str, ...] = ARMS, se
 
 
 def _arm_rows(arm: str, branches: RallyData, order: pd.Series, strike: pd.Series,
-              out: pd.DataFrame | None = None) -> pd.DataFrame:
+              out: pd.DataFrame | None = None, speed: bool = True) -> pd.DataFrame:
     """One arm's rows of `intervention_outcomes` from its branches (`out`: their
-    `serve_outcomes`, when already read)."""
+    `serve_outcomes`, when already read; `speed` False: the server's speed left NaN)."""
     out = (serve_outcomes(branches) if out is None else out).loc[order.index]
     return pd.DataFrame({
         "arm": arm, "rally_id": order.to_numpy(),
         "in_box": out["in_box"].to_numpy(bool), "returned": out["returned"].to_numpy(bool),
         "server_speed_mps": _server_speed_mps(branches, order, strike)
-        .reindex(order.index).to_numpy()})
+        .reindex(order.index).to_numpy() if speed else np.nan})
 
 
 def stopped_server_gap(sim, data: RallyData, free: RallyData, free_order: pd.Series,
@@ -174,8 +175,10 @@ def stopped_server_gap(sim, data: RallyData, free: RallyData, free_order: pd.Ser
     forced = server_forcing(data, "still", seed=seed)
     still, order = branch_rallies(sim, data, strike + BRANCH_AFTER_FRAMES + 1, seed, HORIZON_S,
                                   forced_pos_m=forced)
-    rows = pd.concat([_arm_rows("free", free, free_order, strike, free_out),
-                      _arm_rows("still", still, order, strike)], ignore_index=True)
+    # The row reads the returns only: the server's speeds are not read.
+    rows = pd.concat([_arm_rows("free", free, free_order, strike, free_out, speed=False),
+                      _arm_rows("still", still, order, strike, speed=False)],
+                     ignore_index=True)
     table = intervention_table(rows, base="free", n_boot=n_boot, seed=seed)
     return table.set_index("arm").loc["still", ["diff", "lo", "hi", "n_pairs"]]
 
@@ -201,7 +204,7 @@ def intervention_table(outcomes: pd.DataFrame, base: str = "recorded", n_boot: i
         rows.append({"arm": arm, "n_in_box": int(box.sum()),
                      "returned": float(wide["returned"][arm][box].mean()) if box.any()
                      else np.nan,
-                     "server_speed_mps": float(np.nanmedian(wide["server_speed_mps"][arm])),
+                     "server_speed_mps": float(wide["server_speed_mps"][arm].median()),
                      "diff": float(d.mean()) if len(d) else np.nan,
                      "lo": float(lo), "hi": float(hi), "n_pairs": int(len(d))})
     return pd.DataFrame(rows)
