@@ -97,12 +97,14 @@ class _Replay:
                        for r, s, n in zip(arr.rally_id, arr.start, arr.length)}
         self.calls = []
 
-    def simulate_rallies(self, plan, seed, init_pos_m, max_duration_s, forced_pos_m=None):
-        k = init_pos_m.shape[1]
-        self.calls.append(k)
+    def simulate_rallies(self, plan, seed, init_pos_m, max_duration_s, forced_pos_m=None,
+                         init_frames=None):
+        kept = np.full(len(plan), init_pos_m.shape[1]) if init_frames is None else init_frames
+        self.calls.extend(int(k) for k in kept)
         parts = []
-        for new_id, init in zip(plan["rally_id"], init_pos_m):
-            rid, = [r for r, t in self.tracks.items() if len(t) > k and np.array_equal(t[:k], init)]
+        for new_id, init, k in zip(plan["rally_id"], init_pos_m, kept):
+            rid, = [r for r, t in self.tracks.items()
+                    if len(t) > k and np.array_equal(t[:k], init[:k])]
             one = self.truth.subset([rid])
             tables = {name: getattr(one, name).assign(rally_id=int(new_id))
                       for name in ("frames", "rallies", "shots")}

@@ -39,28 +39,28 @@ def branch_rallies(sim, truth: RallyData, keep_frames: pd.Series, seed: int,
     the rally's start, NaN where free, that replace the sampled ones (`rollout`'s)."""
     arr = rally_arrays(truth, sim.vocab, unknown="generic")
     rallies = truth.rallies.set_index("rally_id")
-    groups: dict[int, list[int]] = {}
+    idx, kept = [], []
     for ri, rid in enumerate(arr.rally_id):
         if rid in keep_frames.index:
             k = int(keep_frames[rid])
             if 0 < k < arr.length[ri]:
-                groups.setdefault(k, []).append(ri)
-    if not groups:
+                idx.append(ri)
+                kept.append(k)
+    if not idx:
         raise ValueError("no recorded rally is longer than its branch point")
-    parts, order = [], []
-    for g, (k, idx) in enumerate(sorted(groups.items())):
-        rids = arr.rally_id[idx]
-        plan = rallies.loc[rids].reset_index()[PLAN_COLUMNS].copy()
-        plan["rally_id"] = np.arange(len(plan)) + 100_000 * g
-        plan["match_id"] = "branch"
-        init = np.stack([arr.pos_m[arr.start[i]:arr.start[i] + k] for i in idx])
-        forced = None if forced_pos_m is None else _stack_padded(
-            [forced_pos_m.get(int(r), np.full((0, 3, 3), np.nan)) for r in rids])
-        parts.append(sim.simulate_rallies(plan, seed=seed + g, init_pos_m=init,
-                                          max_duration_s=k / sim.fps + horizon_s,
-                                          forced_pos_m=forced))
-        order.append(pd.Series(rids, index=plan["rally_id"].to_numpy()))
-    return RallyData.concat(parts), pd.concat(order)
+    # One rollout for every branch point: each rally keeps its own frames
+    # (`init_frames`) and its own horizon beyond them.
+    kept = np.asarray(kept, dtype=np.int64)
+    rids = arr.rally_id[idx]
+    plan = rallies.loc[rids].reset_index()[PLAN_COLUMNS].copy()
+    plan["rally_id"] = np.arange(len(plan))
+    plan["match_id"] = "branch"
+    init = _stack_padded([arr.pos_m[arr.start[i]:arr.start[i] + k] for i, k in zip(idx, kept)])
+    forced = None if forced_pos_m is None else _stack_padded(
+        [forced_pos_m.get(int(r), np.full((0, 3, 3), np.nan)) for r in rids])
+    out = sim.simulate_rallies(plan, seed=seed, init_pos_m=init, init_frames=kept,
+                               max_duration_s=kept / sim.fps + horizon_s, forced_pos_m=forced)
+    return out, pd.Series(rids, index=plan["rally_id"].to_numpy())
 
 
 def _stack_padded(tracks: list[np.ndarray]) -> np.ndarray:

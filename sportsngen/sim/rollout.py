@@ -72,14 +72,25 @@ class RolloutInputs:
     tournament: np.ndarray   # (B,) int64
     serve: np.ndarray        # (B,) int64: 0 first serve, 1 second serve
     score: np.ndarray        # (B, 7) float32 (`sportsngen.data.tokens.score_vector`)
+    # (B,) each row's own count of initial frames (at most T0; the rest of its row is not
+    # read): rallies branched at different frames share one rollout. None: T0 for every row.
+    init_frames: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         b = len(self.init_pos_m)
         if self.init_pos_m.ndim != 4 or self.init_pos_m.shape[2:] != (3, 3):
             raise ValueError(f"init_pos_m must be (B, T0, 3, 3), got {self.init_pos_m.shape}")
-        if self.init_pos_m.shape[1] < 1:
+        t0 = self.init_pos_m.shape[1]
+        if t0 < 1:
             raise ValueError("rollouts need at least one initial frame")
-        if not np.isfinite(self.init_pos_m).all():
+        kept = np.ones((b, t0), dtype=bool)
+        if self.init_frames is not None:
+            k = np.asarray(self.init_frames)
+            if k.shape != (b,) or not np.issubdtype(k.dtype, np.integer) or \
+                    (k < 1).any() or (k > t0).any():
+                raise ValueError(f"init_frames must be (B,) = ({b},) integers in 1..{t0}")
+            kept = np.arange(t0) < k[:, None]
+        if not np.isfinite(self.init_pos_m[kept]).all():
             raise ValueError("init_pos_m holds NaN or infinite positions")
         for name in ("ident", "surface", "tournament", "serve", "score"):
             if len(getattr(self, name)) != b:
@@ -306,6 +317,11 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
         b, t0 = inputs.init_pos_m.shape[:2]
         if max_frames < t0:
             raise ValueError(f"max_frames ({max_frames}) is shorter than the initial frames ({t0})")
+        # Rows with initial frames of their own count start together at the fewest; the
+        # others take their recorded frames until theirs run out (`RolloutInputs.init_frames`).
+        starts = None if inputs.init_frames is None else np.asarray(inputs.init_frames)
+        if starts is not None:
+            t0 = int(starts.min())
         if generator is None:
             generator = torch.Generator(device=dev)
             generator.manual_seed(0 if seed is None else int(seed))
@@ -323,9 +339,9 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                                    tens(inputs.serve, torch.long),
                                    tens(inputs.score, torch.float32))
         hist = torch.full((b, max_frames, 3, 3), float("nan"), device=dev)
-        hist[:, :t0] = tens(inputs.init_pos_m, torch.float32)
+        hist[:, :t0] = tens(inputs.init_pos_m[:, :t0], torch.float32)
         out = np.full((b, max_frames, 3, 3), np.nan, dtype=np.float32)
-        out[:, :t0] = inputs.init_pos_m
+        out[:, :t0] = inputs.init_pos_m[:, :t0]
         length = np.full(b, t0, dtype=np.int64)
         ended = np.zeros(b, dtype=bool)
         alive = np.arange(b)                      # original row of each live batch row
@@ -337,6 +353,43 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                                  f"{tuple(top_all.shape)}")
 
         forced_all = None if forced_pos_m is None else _check_forced(forced_pos_m, b, dev)
+        resampled = np.zeros(b, dtype=np.int64)
+        forced_strikes = np.zeros(b, dtype=np.int64)
+
+        def draw(rows, n, h, pos, vel, prev_vel, p_bias, top, plan, serve, ident, surface):
+            """The next frame of the batch rows `rows` (indices as first given), drawn by the
+            decoder with every rule applied -> (frames, their strike plans)."""
+            nxt = model.sample_next(h, pos, vel, top_p_player, top_p_ball, generator, prev_vel,
+                                    contact_odds, top_p_contact, p_bias)
+            if player_accel_mps2 is not None:
+                nxt = limit_player_acceleration(nxt, pos, vel, fps, player_accel_mps2)
+            if top is not None:
+                nxt = limit_player_speed(nxt, pos, fps, top)
+            forced = None
+            if constraint is not None:
+                nxt, drawn, forced = redraw_rejected(model, constraint, rows, n, h, pos, vel,
+                                                     prev_vel, nxt, top_p_player, top_p_ball,
+                                                     generator, contact_odds, top_p_contact,
+                                                     p_bias, player_accel_mps2, top)
+                resampled[rows] += drawn
+                if model.strike_head is not None:
+                    forced_strikes[rows] += forced
+            planned = ~torch.isnan(plan[:, 0, 0])     # this frame is a launch's or a bounce's
+            if model.strike_head is not None or model.serve_head is not None:
+                shots = getattr(tracker, "n_shots", None)
+                returning = None if shots is None or model.strike_return is None else \
+                    torch.as_tensor(awaiting_return(np.asarray(shots)[rows]), device=dev)
+                shot = None if shots is None or (model.strike_shot is None
+                                                 and model.strike_late is None) else \
+                    torch.as_tensor(np.asarray(shots)[rows], device=dev)
+                nxt, plan = _follow_strikes(model, h, pos, vel, nxt, plan, generator, forced,
+                                            top_p_serve, serve, ident[:, 0], ident[:, 1],
+                                            returning, shot, surface)
+            if bounce_surfaces is not None and n >= 3:
+                nxt, plan = place_bounces(nxt, plan, pos, vel, prev_vel, fps, bounce_surfaces,
+                                          rows, planned)
+            return nxt, plan
+
         done = np.zeros(b, dtype=bool)
         # The receivers' waits for the serve (`model.receiver_start`), counted over the initial
         # frames but the last, which the loop's first step counts.
@@ -348,14 +401,12 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                 prev_k = hist[:, k - 1] if k else hist[:, 0]
                 wait = _wait_step(tracker, np.arange(b), hist[:, k],
                                   (hist[:, k] - prev_k) * fps, wait)
-        latest = inputs.init_pos_m[:, -1].astype(np.float32)   # every rally's newest frame
+        latest = inputs.init_pos_m[:, t0 - 1].astype(np.float32)   # every rally's newest frame
         cache, h = None, None
         if mode == "cache":
             hs, cache = model(window_features(hist, 0, t0, fps), ident, ctx, return_cache=True)
             h = hs[:, -1]
         n, steps, frames = t0, 0, 0
-        resampled = np.zeros(b, dtype=np.int64)
-        forced_strikes = np.zeros(b, dtype=np.int64)
         plan = torch.full((b, 2, 3), float("nan"), device=dev)   # a struck ball's next frames
         bar = tqdm(total=max_frames - t0, desc="frames", disable=not progress, leave=False)
         while True:
@@ -391,36 +442,21 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             if wait is not None:
                 wait = _wait_step(tracker, alive, pos, vel, wait)
                 p_bias = model.receiver_start_bias(ident[:, 0], serve, wait)
-            nxt = model.sample_next(h, pos, vel, top_p_player, top_p_ball, generator, prev_vel,
-                                    contact_odds, top_p_contact, p_bias)
-            if player_accel_mps2 is not None:
-                nxt = limit_player_acceleration(nxt, pos, vel, fps, player_accel_mps2)
             top = None if top_all is None else top_all[torch.as_tensor(alive, device=dev)]
-            if top is not None:
-                nxt = limit_player_speed(nxt, pos, fps, top)
-            forced = None
-            if constraint is not None:
-                nxt, drawn, forced = redraw_rejected(model, constraint, alive, n, h, pos, vel,
-                                                     prev_vel, nxt, top_p_player, top_p_ball,
-                                                     generator, contact_odds, top_p_contact,
-                                                     p_bias, player_accel_mps2, top)
-                resampled[alive] += drawn
-                if model.strike_head is not None:
-                    forced_strikes[alive] += forced
-            planned = ~torch.isnan(plan[:, 0, 0])     # this frame is a launch's or a bounce's
-            if model.strike_head is not None or model.serve_head is not None:
-                shots = getattr(tracker, "n_shots", None)
-                returning = None if shots is None or model.strike_return is None else \
-                    torch.as_tensor(awaiting_return(np.asarray(shots)[alive]), device=dev)
-                shot = None if shots is None or (model.strike_shot is None
-                                                 and model.strike_late is None) else \
-                    torch.as_tensor(np.asarray(shots)[alive], device=dev)
-                nxt, plan = _follow_strikes(model, h, pos, vel, nxt, plan, generator, forced,
-                                            top_p_serve, serve, ident[:, 0], ident[:, 1],
-                                            returning, shot, surface)
-            if bounce_surfaces is not None and n >= 3:
-                nxt, plan = place_bounces(nxt, plan, pos, vel, prev_vel, fps, bounce_surfaces,
-                                          alive, planned)
+            drawing = None if starts is None else np.flatnonzero(starts[alive] <= n)
+            if drawing is None or len(drawing) == len(alive):
+                nxt, plan = draw(alive, n, h, pos, vel, prev_vel, p_bias, top, plan, serve,
+                                 ident, surface)
+            else:
+                # Rows still inside their own initial frames take the recorded frame (their
+                # strike plans stay empty); the others draw theirs.
+                nxt = tens(inputs.init_pos_m[alive, n], torch.float32)
+                if len(drawing):
+                    d = torch.as_tensor(drawing, device=dev)
+                    nxt[d], plan[d] = draw(alive[drawing], n, h[d], pos[d], vel[d], prev_vel[d],
+                                           None if p_bias is None else p_bias[d],
+                                           None if top is None else top[d], plan[d], serve[d],
+                                           ident[d], surface[d])
             if forced_all is not None and n < forced_all.shape[1]:
                 f = forced_all[torch.as_tensor(alive, device=dev), n]
                 nxt = torch.where(torch.isnan(f), nxt, f)

@@ -282,7 +282,8 @@ class Simulator:
 
     # --- rallies -------------------------------------------------------------------------------
     def _inputs(self, plan: pd.DataFrame, rng: np.random.Generator,
-                init_pos_m: np.ndarray | None = None) -> RolloutInputs:
+                init_pos_m: np.ndarray | None = None,
+                init_frames: np.ndarray | None = None) -> RolloutInputs:
         init = init_pos_m if init_pos_m is not None else np.stack(
             [self.initial.draw(s, int(n), side, int(e), rng, surface=surf, receiver=rcv)
              for s, n, side, e, surf, rcv in zip(plan["server"], plan["serve_number"],
@@ -296,7 +297,8 @@ class Simulator:
         tour = plan["tournament"].map(v.tournament_index).to_numpy(np.int64)
         score = score_vector(*(plan[c].to_numpy() for c in SCORE_FIELDS))
         return RolloutInputs(init, ident, surf, tour,
-                             plan["serve_number"].to_numpy(np.int64) - 1, score)
+                             plan["serve_number"].to_numpy(np.int64) - 1, score,
+                             None if init_frames is None else np.asarray(init_frames, np.int64))
 
     def _player_index(self, name: str) -> int:
         """The model's identity of `name`; an unknown player (the model's generic identity,
@@ -342,8 +344,9 @@ class Simulator:
     def simulate_rallies(self, plan: pd.DataFrame, seed: int = 0, progress: bool = False,
                          init_pos_m: np.ndarray | None = None,
                          constraint: Constraint | None = None,
-                         max_duration_s: float | None = None,
-                         forced_pos_m: np.ndarray | None = None) -> RallyData:
+                         max_duration_s: float | np.ndarray | None = None,
+                         forced_pos_m: np.ndarray | None = None,
+                         init_frames: np.ndarray | None = None) -> RallyData:
         """One rally for each row of `plan` (columns `PLAN_COLUMNS`), in batches of
         `batch_size` -> RallyData with the simulator's columns (see `sportsngen.sim.assemble`).
 
@@ -351,25 +354,36 @@ class Simulator:
         (len(plan), T0, 3, 3) (branching from a real rally); `constraint` restricts sampling
         (`sportsngen.sim.rollout.Constraint`; row indices are plan positions).
         `max_duration_s` (default the simulator's) cuts rallies that last longer: they end
-        undecided (diagnostics that only need a rally's first shots). `forced_pos_m`
-        (len(plan), T, 3, 3), NaN where free: players' positions that replace the sampled ones
-        frame by frame (`rollout`'s; frames counted as `init_pos_m`'s)."""
+        undecided (diagnostics that only need a rally's first shots); (len(plan),): each
+        rally its own. `forced_pos_m` (len(plan), T, 3, 3), NaN where free: players' positions
+        that replace the sampled ones frame by frame (`rollout`'s; frames counted as
+        `init_pos_m`'s). `init_frames` (len(plan),): each rally's own count of `init_pos_m`'s
+        frames (the rest of its row unread), so rallies branched at different frames share
+        batches (`RolloutInputs.init_frames`)."""
         check_plan(plan)
-        if forced_pos_m is not None and len(forced_pos_m) != len(plan):
-            raise ArgumentError(f"forced_pos_m has {len(forced_pos_m)} rows, the plan "
-                                f"{len(plan)}")
+        for name, rows in (("forced_pos_m", forced_pos_m), ("init_frames", init_frames)):
+            if rows is not None and len(rows) != len(plan):
+                raise ArgumentError(f"{name} has {len(rows)} rows, the plan {len(plan)}")
+        if init_frames is not None and init_pos_m is None:
+            raise ArgumentError("init_frames counts init_pos_m's frames: give init_pos_m")
         rng = np.random.default_rng(check_int("seed", seed, 0))
         parts = []
-        duration_s = self.max_duration_s if max_duration_s is None else float(max_duration_s)
-        if not duration_s > 0:
+        duration_s = np.broadcast_to(np.asarray(
+            self.max_duration_s if max_duration_s is None else max_duration_s, dtype=float),
+            (len(plan),))
+        if not (duration_s > 0).all():
             raise ArgumentError(f"max_duration_s must be positive, got {max_duration_s!r}")
-        max_frames = int(math.ceil(duration_s * self.fps)) + 2
+
+        def rows(x, lo):
+            return None if x is None else x[lo:lo + self.batch_size]
+
         for lo in range(0, len(plan), self.batch_size):
             part = plan.iloc[lo:lo + self.batch_size].reset_index(drop=True)
-            inputs = self._inputs(part, rng, None if init_pos_m is None else
-                                  init_pos_m[lo:lo + self.batch_size])
+            inputs = self._inputs(part, rng, rows(init_pos_m, lo), rows(init_frames, lo))
+            cap_s = rows(duration_s, lo)
             tracker = RallyTracker(part["server_end"].to_numpy(), part["side"].to_numpy(),
-                                   part["serve_number"].to_numpy(), self.fps, duration_s)
+                                   part["serve_number"].to_numpy(), self.fps, cap_s)
+            max_frames = int(math.ceil(cap_s.max() * self.fps)) + 2
             drawn = self._return_reaches(part, seed, lo)
             rally_drawn = self._rally_reaches(part, seed, lo)
             limits = PhysicalLimits(fps=self.fps, reach_m=self.contact_reach_m,
@@ -406,8 +420,7 @@ class Simulator:
                            if self.physical_bounce else None,
                            player_accel_mps2=self.player_accel_mps2,
                            player_top_speed_mps=top,
-                           forced_pos_m=None if forced_pos_m is None else
-                           forced_pos_m[lo:lo + self.batch_size])
+                           forced_pos_m=rows(forced_pos_m, lo))
             labels = None if self.event_model is None else frame_labels(
                 self.event_model, roll.pos_m, roll.length, self.fps, self.model.cfg.window_frames)
             data = assemble(part, roll.pos_m, roll.length, tracker.results(), labels, self.fps)

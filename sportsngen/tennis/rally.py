@@ -178,7 +178,8 @@ class RallyTracker:
 
     `server_end` (B,) +-1: sign of x of the server's baseline; `side` (B,) "deuce"/"ad" (or bool,
     True = deuce); `serve_number` (B,) 1 or 2; `fps` frames per second; rallies still going after
-    `max_duration_s` are stopped and flagged. Call `update` once a frame from the first frame.
+    `max_duration_s` (one for all or (B,), each its own) are stopped and flagged. Call `update`
+    once a frame from the first frame.
     """
 
     def __init__(self, server_end, side, serve_number, fps: float,
@@ -190,11 +191,12 @@ class RallyTracker:
         serve = np.broadcast_to(np.asarray(serve_number), (n,)).astype(int)
         if not np.isin(serve, (1, 2)).all():
             raise ValueError(f"serve_number must be 1 or 2, got {np.unique(serve).tolist()}")
-        if not fps > 0 or not max_duration_s > 0:
+        cap_s = np.broadcast_to(np.asarray(max_duration_s, dtype=float), (n,))
+        if not fps > 0 or not (cap_s > 0).all():
             raise ValueError(f"fps and max_duration_s must be positive, got {fps}, "
                              f"{max_duration_s}")
         self.fps = float(fps)
-        self.max_frames = int(round(max_duration_s * fps))
+        self.max_frames = np.round(cap_s * fps).astype(np.int64)    # each rally's own cap
         self.server_end = end
         self.deuce = _deuce_flags(side, n)
         self.serve_number = serve.copy()
