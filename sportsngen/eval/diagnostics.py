@@ -43,6 +43,11 @@ Federer serving to Rafael Nadal on hard) and compare the model with that truth:
   returned. The branches start after the recorded strike, so only these show a model that
   drops its own toss (a physics-centred fine-tune struck no serve in 12-17 % of its rallies
   while its branches returned 87 % of serves, docs/evaluation.md);
+- **the server after the serve, one step** (`sportsngen.eval.one_step`): the server's speed
+  9 frames after each recorded serve's strike, drawn one frame from the record's history,
+  rank-correlated with the serve's speed within each serve number, beside the record's own
+  frame (about 0): a decoder that reads the serve's pace into the server's run shows it here,
+  free of a rollout's drift;
 - **branch third-shot share** (`sportsngen.eval.shot_branches`): each recorded return that
   stayed in play rolled out from `BRANCH_AFTER_FRAMES` frames after its contact; of the
   branches whose return stayed in play, the share the server struck back, against the
@@ -452,6 +457,9 @@ def leak_table_rows(rollouts: RallyData, record: pd.DataFrame, setup: Diagnostic
         "hi": leaks["hi"].where(~few).to_numpy(float)})
 
 
+_SERVES = {1: "first", 2: "second"}
+
+
 def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.DataFrame:
     """Every diagnostic of the module doc -> a table: signal, model, data (NaN where the
     signal has no data side), n (serves, frames or, for a leak AUC, comparable pairs) and, for
@@ -517,6 +525,11 @@ def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.Dat
     own = own_serves(sim, truth, seed=setup.seed)
     own_out = serve_outcomes(own)
     rows += own_serve_rows(own, truth_out, own_out)
+    from sportsngen.eval.one_step import COUPLING_AFTER_FRAMES, server_serve_coupling
+    for c in server_serve_coupling(sim, truth, seed=setup.seed).itertuples():
+        rows.append((f"server speed at strike + {COUPLING_AFTER_FRAMES}, one step: corr with "
+                     f"serve speed ({_SERVES[c.serve_number]} serves)", c.model_corr,
+                     c.record_corr, c.n))
     returns = shot_outcomes(truth, RETURN_SHOT, truth_rules)
     ret_branches, ret_order = shot_branches(sim, truth, RETURN_SHOT, BRANCH_AFTER_FRAMES,
                                             setup.seed, truth_out=returns)

@@ -30,13 +30,14 @@ SHOT_HORIZON_S = 2.5       # the shot's flight, the answer and its first frames
 
 
 def branch_rallies(sim, truth: RallyData, keep_frames: pd.Series, seed: int,
-                   horizon_s: float, forced_pos_m: dict[int, np.ndarray] | None = None
-                   ) -> tuple[RallyData, pd.Series]:
+                   horizon_s: float, forced_pos_m: dict[int, np.ndarray] | None = None,
+                   copies: int = 1) -> tuple[RallyData, pd.Series]:
     """Each recorded rally of `keep_frames` (rally id -> frames kept from its start) rolled
-    out once from its own frame, `horizon_s` beyond it -> (the branches, a Series: branch
-    rally id -> the recorded rally id). Rallies whose kept frames are not shorter than their
-    track are left out. `forced_pos_m`: recorded rally id -> (T, 3, 3) players' positions from
-    the rally's start, NaN where free, that replace the sampled ones (`rollout`'s)."""
+    out `copies` times from its own frame, `horizon_s` beyond it -> (the branches, a Series:
+    branch rally id -> the recorded rally id). Rallies whose kept frames are not shorter than
+    their track are left out. `forced_pos_m`: recorded rally id -> (T, 3, 3) players'
+    positions from the rally's start, NaN where free, that replace the sampled ones
+    (`rollout`'s)."""
     arr = rally_arrays(truth, sim.vocab, unknown="generic")
     rallies = truth.rallies.set_index("rally_id")
     idx, kept = [], []
@@ -50,7 +51,7 @@ def branch_rallies(sim, truth: RallyData, keep_frames: pd.Series, seed: int,
         raise ValueError("no recorded rally is longer than its branch point")
     # One rollout for every branch point: each rally keeps its own frames
     # (`init_frames`) and its own horizon beyond them.
-    kept = np.asarray(kept, dtype=np.int64)
+    idx, kept = np.repeat(idx, copies), np.repeat(np.asarray(kept, dtype=np.int64), copies)
     rids = arr.rally_id[idx]
     plan = rallies.loc[rids].reset_index()[PLAN_COLUMNS].copy()
     plan["rally_id"] = np.arange(len(plan))

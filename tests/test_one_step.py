@@ -1,0 +1,83 @@
+"""Frames drawn one step from the record, and the server's coupling to his serve's speed."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from sportsngen.data.tracking import RallyData
+from sportsngen.eval.diagnostics import DiagnosticsSetup, serve_strike_frames, truth_points
+from sportsngen.eval.one_step import (
+    COUPLING_AFTER_FRAMES,
+    SERVER_SLOT,
+    one_step_frames,
+    server_serve_coupling,
+)
+from tests.test_shot_branches import _Replay
+
+
+class _ReplayOneStep(_Replay):
+    """The record replayed, with an event classifier slot (the draws leave it out) and, if
+    given, the server's frame `frame` of each rally replaced by `server(rally_id, track)`."""
+
+    event_model = "classifier"
+
+    def __init__(self, truth: RallyData, frames: pd.Series | None = None, server=None):
+        super().__init__(truth)
+        self.frames, self.server, self.seen_events = frames, server, []
+
+    def simulate_rallies(self, plan, seed, init_pos_m, max_duration_s, forced_pos_m=None,
+                         init_frames=None):
+        self.seen_events.append(self.event_model)
+        out = super().simulate_rallies(plan, seed, init_pos_m, max_duration_s, forced_pos_m,
+                                       init_frames)
+        if self.server is None:
+            return out
+        frames = out.frames.copy()
+        servers = out.rallies.set_index("rally_id")["server"]
+        for new_id, init, k in zip(plan["rally_id"], init_pos_m, init_frames):
+            rid = next(r for r, t in self.tracks.items() if np.array_equal(t[:k], init[:k]))
+            mine = frames["rally_id"] == new_id
+            at = mine & (frames["frame"] == frames.loc[mine, "frame"].min() + k) & \
+                (frames["object"] == servers[new_id])
+            assert at.sum() == 1
+            frames.loc[at, ["x", "y"]] = self.server(rid, self.tracks[rid], k)
+        return RallyData(frames, out.rallies, out.shots, fps=out.fps)
+
+
+@pytest.fixture(scope="module")
+def truth():
+    return truth_points(DiagnosticsSetup(n_points=40, seed=5))
+
+
+def test_a_replay_draws_the_records_frames_and_its_coupling(truth):
+    frames = serve_strike_frames(truth) + COUPLING_AFTER_FRAMES
+    sim = _ReplayOneStep(truth)
+    drawn = one_step_frames(sim, truth, frames, draws=3)
+    assert len(drawn) > 20
+    for rid, d in drawn.items():
+        assert d.shape == (3, 3, 3)
+        np.testing.assert_allclose(d, np.repeat(sim.tracks[rid][None, frames[rid]], 3, 0))
+    assert sim.seen_events == [None] and sim.event_model == "classifier"
+    table = server_serve_coupling(sim, truth, draws=2)
+    assert table["serve_number"].tolist() == [1, 2]
+    np.testing.assert_allclose(table["model_corr"], table["record_corr"])
+    np.testing.assert_allclose(table["model_median_mps"], table["record_median_mps"])
+    assert (table["record_median_mps"] > 0.5).all()      # the servers are running back
+    with pytest.raises(ValueError, match="draws"):
+        one_step_frames(sim, truth, frames, draws=0)
+
+
+def test_a_server_slower_after_faster_serves_is_read_as_a_full_negative_coupling(truth):
+    serves = truth.shots[truth.shots["shot_index"] == 0].set_index("rally_id")["speed_mps"]
+
+    def server(rid, track, k):
+        # He steps 1 m/s / (serve's speed in tens of m/s) along x from his frame before.
+        before = track[k - 1, SERVER_SLOT, :2]
+        return before + np.array([10.0 / serves[rid] / 25.0, 0.0])
+
+    sim = _ReplayOneStep(truth, server=server)
+    table = server_serve_coupling(sim, truth, draws=1)
+    np.testing.assert_allclose(table["model_corr"], -1.0)
+    assert (table["record_corr"].abs() < 0.6).all()
