@@ -106,8 +106,8 @@ def _summary(outcomes: np.ndarray) -> dict:
 
 def rally_win_probabilities(sim, data: RallyData, items, n: int = 100,
                             seed: int = 0) -> pd.DataFrame:
-    """`rally_win_probability` for many (rally_id, frame) pairs at once: branches of pairs
-    with the same prefix length share batches. -> one row a pair: rally_id, frame, p, n,
+    """`rally_win_probability` for many (rally_id, frame) pairs at once, all in one set of
+    batches (each branch keeps its own prefix). -> one row a pair: rally_id, frame, p, n,
     n_sims, n_unrealistic."""
     n = check_int("n", n, 1, MAX_BRANCHES)
     seed = check_int("seed", seed, 0)
@@ -119,18 +119,18 @@ def rally_win_probabilities(sim, data: RallyData, items, n: int = 100,
             raise ArgumentError(f"frame {frame} is outside rally {rid} (frames {first}.."
                                 f"{first + len(pos) - 1})")
         prefixes.append((row, pos[:k + 1]))
-    results: dict[int, dict] = {}
-    by_len: dict[int, list[int]] = {}
-    for i, (_, pre) in enumerate(prefixes):
-        by_len.setdefault(len(pre), []).append(i)
-    for g, (_, idx) in enumerate(sorted(by_len.items())):
-        plan = pd.concat([_plan(prefixes[i][0], n) for i in idx], ignore_index=True)
-        plan["rally_id"] = np.arange(len(plan))
-        init = np.concatenate([np.repeat(prefixes[i][1][None], n, axis=0) for i in idx])
-        out = sim.simulate_rallies(plan, seed=seed + 1009 * g, init_pos_m=init)
-        outcomes = _branch_outcomes(sim, plan, out, seed + 1009 * g)
-        for j, i in enumerate(idx):
-            results[i] = _summary(outcomes[j * n:(j + 1) * n])
+    # One rollout for all the pairs, shortest prefix first (a batch starts at its shortest
+    # and replays the others' recorded frames: `RolloutInputs.init_frames`).
+    idx = sorted(range(len(prefixes)), key=lambda i: len(prefixes[i][1]))
+    kept = np.repeat([len(prefixes[i][1]) for i in idx], n)
+    plan = pd.concat([_plan(prefixes[i][0], n) for i in idx], ignore_index=True)
+    plan["rally_id"] = np.arange(len(plan))
+    init = np.full((len(plan), int(kept.max()), 3, 3), np.nan, dtype=np.float32)
+    for j, i in enumerate(idx):
+        init[j * n:(j + 1) * n, :len(prefixes[i][1])] = prefixes[i][1]
+    out = sim.simulate_rallies(plan, seed=seed, init_pos_m=init, init_frames=kept)
+    outcomes = _branch_outcomes(sim, plan, out, seed)
+    results = {i: _summary(outcomes[j * n:(j + 1) * n]) for j, i in enumerate(idx)}
     return pd.DataFrame([{"rally_id": int(rid), "frame": int(f), **results[i]}
                          for i, (rid, f) in enumerate(items)])
 
