@@ -361,9 +361,9 @@ class Simulator:
         frames (the rest of its row unread), so rallies branched at different frames share
         batches (`RolloutInputs.init_frames`)."""
         check_plan(plan)
-        for name, rows in (("forced_pos_m", forced_pos_m), ("init_frames", init_frames)):
-            if rows is not None and len(rows) != len(plan):
-                raise ArgumentError(f"{name} has {len(rows)} rows, the plan {len(plan)}")
+        for name, given in (("forced_pos_m", forced_pos_m), ("init_frames", init_frames)):
+            if given is not None and len(given) != len(plan):
+                raise ArgumentError(f"{name} has {len(given)} rows, the plan {len(plan)}")
         if init_frames is not None and init_pos_m is None:
             raise ArgumentError("init_frames counts init_pos_m's frames: give init_pos_m")
         rng = np.random.default_rng(check_int("seed", seed, 0))
