@@ -63,6 +63,7 @@ def test_a_replay_draws_the_records_frames_and_its_coupling(truth):
     table = server_serve_coupling(sim, truth, draws=2)
     assert table["serve_number"].tolist() == [1, 2]
     np.testing.assert_allclose(table["model_corr"], table["record_corr"])
+    np.testing.assert_allclose(table["model_slope"], table["record_slope"], atol=1e-9)
     np.testing.assert_allclose(table["model_median_mps"], table["record_median_mps"])
     assert (table["record_median_mps"] > 0.5).all()      # the servers are running back
     with pytest.raises(ValueError, match="draws"):
@@ -73,11 +74,20 @@ def test_a_server_slower_after_faster_serves_is_read_as_a_full_negative_coupling
     serves = truth.shots[truth.shots["shot_index"] == 0].set_index("rally_id")["speed_mps"]
 
     def server(rid, track, k):
-        # He steps 1 m/s / (serve's speed in tens of m/s) along x from his frame before.
+        # He steps 100 / (serve's speed) m/s along x from his frame before (about 2 m/s).
         before = track[k - 1, SERVER_SLOT, :2]
-        return before + np.array([10.0 / serves[rid] / 25.0, 0.0])
+        return before + np.array([100.0 / serves[rid] / 25.0, 0.0])
 
     sim = _ReplayOneStep(truth, server=server)
     table = server_serve_coupling(sim, truth, draws=1)
-    np.testing.assert_allclose(table["model_corr"], -1.0)
+    assert (table["model_corr"] < -0.99).all()       # a rank or two tied at 1 mm/s
+    assert (table["model_slope"] < 0).all()
+    # His speed is 100 / serve speed (m/s): the slope over the serves is that curve's.
+    drawn = one_step_frames(_ReplayOneStep(truth), truth,
+                            serve_strike_frames(truth) + COUPLING_AFTER_FRAMES, draws=1)
+    number = truth.rallies.set_index("rally_id")["serve_number"]
+    for n, row in table.set_index("serve_number").iterrows():
+        sp = serves[[r for r in drawn if number[r] == n]]
+        expected = np.polyfit(sp, 100.0 / sp, 1)[0] * 10.0
+        assert row["model_slope"] == pytest.approx(expected, rel=5e-3)   # float32, 1 mm/s
     assert (table["record_corr"].abs() < 0.6).all()

@@ -45,9 +45,10 @@ Federer serving to Rafael Nadal on hard) and compare the model with that truth:
   while its branches returned 87 % of serves, docs/evaluation.md);
 - **the server after the serve, one step** (`sportsngen.eval.one_step`): the server's speed
   9 frames after each recorded serve's strike, drawn one frame from the record's history,
-  rank-correlated with the serve's speed within each serve number, beside the record's own
-  frame (about 0): a decoder that reads the serve's pace into the server's run shows it here,
-  free of a rollout's drift;
+  rank-correlated with the serve's speed within each serve number, and its slope on it (m/s
+  per 10 m/s: ranks magnify a small dependence where the record's run barely varies), beside
+  the record's own frame (about 0): a decoder that reads the serve's pace into the server's
+  run shows it here, free of a rollout's drift;
 - **branch third-shot share** (`sportsngen.eval.shot_branches`): each recorded return that
   stayed in play rolled out from `BRANCH_AFTER_FRAMES` frames after its contact; of the
   branches whose return stayed in play, the share the server struck back, against the
@@ -526,10 +527,15 @@ def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.Dat
     own_out = serve_outcomes(own)
     rows += own_serve_rows(own, truth_out, own_out)
     from sportsngen.eval.one_step import COUPLING_AFTER_FRAMES, server_serve_coupling
-    for c in server_serve_coupling(sim, truth, seed=setup.seed).itertuples():
+    coupling = server_serve_coupling(sim, truth, seed=setup.seed)
+    for c in coupling.itertuples():
         rows.append((f"server speed at strike + {COUPLING_AFTER_FRAMES}, one step: corr with "
                      f"serve speed ({_SERVES[c.serve_number]} serves)", c.model_corr,
                      c.record_corr, c.n))
+    for c in coupling.itertuples():
+        rows.append((f"server speed at strike + {COUPLING_AFTER_FRAMES}, one step: m/s per 10 "
+                     f"m/s of serve ({_SERVES[c.serve_number]} serves)", c.model_slope,
+                     c.record_slope, c.n))
     returns = shot_outcomes(truth, RETURN_SHOT, truth_rules)
     ret_branches, ret_order = shot_branches(sim, truth, RETURN_SHOT, BRANCH_AFTER_FRAMES,
                                             setup.seed, truth_out=returns)

@@ -9,7 +9,7 @@ The one it reads (`server_serve_coupling`): the model's server ran back slower a
 serves on its own serves (rank correlation about -0.3 within first serves, the record's about
 0), which put the leak check's cell of his speed 12 frames after an ace below its band
 (docs/evaluation.md, sixty-fifth part). Drawn one step from the record, the coupling is there
-9 frames after the strike (second serves: about -0.5 against the record's -0.0 to -0.1), with
+9 frames after the strike (second serves: about -0.5, where the record's run is one profile), with
 the simulator's rules switched off too: the decoder's own, not the rollout's drift
 (sixty-sixth part). Ranks magnify it: in speed it is 0.14-0.15 m/s per 10 m/s of second-serve
 speed, where the record's server runs the same profile after every second serve.
@@ -59,7 +59,10 @@ def server_serve_coupling(sim, data: RallyData, after_frames: int = COUPLING_AFT
                           draws: int = COUPLING_DRAWS, seed: int = 0) -> pd.DataFrame:
     """The server's ground speed `after_frames` after each recorded serve's strike, drawn one
     step from the record (mean of `draws`) and recorded, against the serve's speed -> per serve
-    number: n, the rank correlations (`model_corr`, `record_corr`) and the median speeds (m/s).
+    number: n, the rank correlations (`model_corr`, `record_corr`), the least-squares slopes
+    (`model_slope`, `record_slope`: m/s of his speed per 10 m/s of the serve's) and the median
+    speeds (m/s). Ranks magnify a small dependence where the record's speed barely varies;
+    the slopes give its size.
     The record's servers run back the same way whatever the serve's speed (generator version
     6: their recovery is planned before the serve's fate is known)."""
     strike = serve_strike_frames(data)
@@ -74,19 +77,24 @@ def server_serve_coupling(sim, data: RallyData, after_frames: int = COUPLING_AFT
         before = arr.pos_m[where[rid] + int(frames[rid]) - 1, SERVER_SLOT, :2]
         rec = arr.pos_m[where[rid] + int(frames[rid]), SERVER_SLOT, :2]
         model = np.linalg.norm(d[:, SERVER_SLOT, :2] - before, axis=-1).mean()
+        # Rounded to 1 mm/s as the leak check's speeds: positions are float32, and finer
+        # differences are rounding, which ranks would read as an order.
         rows.append({"rally_id": rid, "serve_number": int(number[rid]),
                      "serve_mps": float(serves.get(rid, np.nan)),
-                     "model_mps": float(model) * data.fps,
-                     "record_mps": float(np.linalg.norm(rec - before)) * data.fps})
+                     "model_mps": round(float(model) * data.fps, 3),
+                     "record_mps": round(float(np.linalg.norm(rec - before)) * data.fps, 3)})
     table = pd.DataFrame(rows).dropna()
     out = []
     for n, g in table.groupby("serve_number"):
-        ok = len(g) >= 3
-        out.append({"serve_number": int(n), "n": len(g),
-                    "model_corr": float(spearmanr(g["model_mps"], g["serve_mps"])[0])
-                    if ok else np.nan,
-                    "record_corr": float(spearmanr(g["record_mps"], g["serve_mps"])[0])
-                    if ok else np.nan,
-                    "model_median_mps": float(g["model_mps"].median()),
+        ok = len(g) >= 3 and g["serve_mps"].nunique() > 1
+        row = {"serve_number": int(n), "n": len(g)}
+        for side in ("model", "record"):
+            speed = g[f"{side}_mps"]
+            # One speed for every serve has no order to correlate (NaN).
+            row[f"{side}_corr"] = float(spearmanr(speed, g["serve_mps"])[0]) \
+                if ok and speed.nunique() > 1 else np.nan
+            row[f"{side}_slope"] = float(np.polyfit(g["serve_mps"], speed, 1)[0]) * 10.0 \
+                if ok else np.nan
+        out.append({**row, "model_median_mps": float(g["model_mps"].median()),
                     "record_median_mps": float(g["record_mps"].median())})
     return pd.DataFrame(out)
