@@ -216,30 +216,31 @@ def _play_on(profiles: dict[str, PlayerProfile], rally: pd.Series, state: RallyS
 
 def _rollouts(sim, data: RallyData, arrays: RallyArrays, branches: pd.DataFrame,
               cfg: ExpertConfig, progress: bool = False) -> dict[int, np.ndarray]:
-    """Branch row -> the model's rollout (T, 3, 3) from its branch frame, grouped by frame."""
+    """Branch row -> the model's rollout (T, 3, 3) from its branch frame, all branch frames in
+    one set of batches (each rally keeps its own frames: `RolloutInputs.init_frames`)."""
     from sportsngen.sim.assemble import PLAN_COLUMNS
 
+    if branches.empty:
+        return {}
     rallies = data.rallies.set_index("rally_id")
+    rows = branches.sort_values("start", kind="stable")
+    plan = rallies.loc[rows["rally_id"].to_numpy()].reset_index()[PLAN_COLUMNS].copy()
+    plan["rally_id"] = np.arange(len(plan))
+    plan["match_id"] = "expert"
+    starts = rows["start"].to_numpy(np.int64)
+    init = np.full((len(rows), int(starts.max()), 3, 3), np.nan, dtype=np.float32)
+    for j, (i, k) in enumerate(zip(rows["ri"], starts)):
+        init[j, :k] = arrays.pos_m[arrays.start[i]:arrays.start[i] + k]
+    rolled = sim.simulate_rallies(plan, seed=cfg.seed * 10_007, progress=progress,
+                                  init_pos_m=init, init_frames=starts,
+                                  max_duration_s=(starts + cfg.max_model_frames + 1) / sim.fps)
+    arr = rally_arrays(rolled, sim.vocab, unknown="generic")
+    by_id = dict(zip(arr.rally_id.tolist(), range(len(arr))))
     out: dict[int, np.ndarray] = {}
-    groups = branches.groupby("start")
-    if progress:
-        from tqdm import tqdm
-        groups = tqdm(groups, desc="rollouts", unit="branch frame")
-    for g, (start, rows) in enumerate(groups):
-        plan = rallies.loc[rows["rally_id"].to_numpy()].reset_index()[PLAN_COLUMNS].copy()
-        plan["rally_id"] = np.arange(len(plan))
-        plan["match_id"] = "expert"
-        init = np.stack([arrays.pos_m[arrays.start[i]:arrays.start[i] + start]
-                         for i in rows["ri"]])
-        horizon = int(start) + cfg.max_model_frames + 1
-        rolled = sim.simulate_rallies(plan, seed=cfg.seed * 10_007 + g, init_pos_m=init,
-                                      max_duration_s=horizon / sim.fps)
-        arr = rally_arrays(rolled, sim.vocab, unknown="generic")
-        by_id = dict(zip(arr.rally_id.tolist(), range(len(arr))))
-        for j, idx in enumerate(rows.index):
-            k = by_id.get(j)
-            if k is not None:
-                out[int(idx)] = arr.pos_m[arr.start[k]:arr.start[k] + arr.length[k]]
+    for j, idx in enumerate(rows.index):
+        k = by_id.get(j)
+        if k is not None:
+            out[int(idx)] = arr.pos_m[arr.start[k]:arr.start[k] + arr.length[k]]
     return out
 
 
