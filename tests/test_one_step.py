@@ -18,18 +18,17 @@ from tests.test_shot_branches import _Replay
 
 
 class _ReplayOneStep(_Replay):
-    """The record replayed, with an event classifier slot (the draws leave it out) and, if
-    given, the server's frame `frame` of each rally replaced by `server(rally_id, track)`."""
-
-    event_model = "classifier"
+    """The record replayed, noting whether event labels were asked for (the draws leave them
+    out) and, if given, the server's frame `frame` of each rally replaced by
+    `server(rally_id, track)`."""
 
     def __init__(self, truth: RallyData, frames: pd.Series | None = None, server=None):
         super().__init__(truth)
         self.frames, self.server, self.seen_events = frames, server, []
 
     def simulate_rallies(self, plan, seed, init_pos_m, max_duration_s, forced_pos_m=None,
-                         init_frames=None):
-        self.seen_events.append(self.event_model)
+                         init_frames=None, label_events=True):
+        self.seen_events.append(label_events)
         out = super().simulate_rallies(plan, seed, init_pos_m, max_duration_s, forced_pos_m,
                                        init_frames)
         if self.server is None:
@@ -59,7 +58,7 @@ def test_a_replay_draws_the_records_frames_and_its_coupling(truth):
     for rid, d in drawn.items():
         assert d.shape == (3, 3, 3)
         np.testing.assert_allclose(d, np.repeat(sim.tracks[rid][None, frames[rid]], 3, 0))
-    assert sim.seen_events == [None] and sim.event_model == "classifier"
+    assert sim.seen_events == [False]
     table = server_serve_coupling(sim, truth, draws=2)
     assert table["serve_number"].tolist() == [1, 2]
     np.testing.assert_allclose(table["model_corr"], table["record_corr"])

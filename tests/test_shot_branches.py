@@ -98,7 +98,7 @@ class _Replay:
         self.calls = []
 
     def simulate_rallies(self, plan, seed, init_pos_m, max_duration_s, forced_pos_m=None,
-                         init_frames=None):
+                         init_frames=None, label_events=True):
         kept = np.full(len(plan), init_pos_m.shape[1]) if init_frames is None else init_frames
         self.calls.extend(int(k) for k in kept)
         parts = []

@@ -40,11 +40,8 @@ def one_step_frames(sim, data: RallyData, frames: pd.Series, draws: int = COUPLI
         raise ValueError(f"draws must be at least 1, got {draws}")
     # Only the positions are read: the event classifier's labels (a whole padded window a
     # branch, half of this function's time) are left out.
-    events, sim.event_model = sim.event_model, None
-    try:
-        out, order = branch_rallies(sim, data, frames, seed, 1.0 / sim.fps, copies=draws)
-    finally:
-        sim.event_model = events
+    out, order = branch_rallies(sim, data, frames, seed, 1.0 / sim.fps, copies=draws,
+                                label_events=False)
     arr = rally_arrays(out, _generic_vocab(out))
     got: dict[int, list[np.ndarray]] = {}
     for i, bid in enumerate(arr.rally_id):

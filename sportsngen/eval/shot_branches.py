@@ -23,6 +23,7 @@ from sportsngen.data.tokens import rally_arrays
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.sim.assemble import PLAN_COLUMNS
+from sportsngen.sim.rollout import pad_tracks
 from sportsngen.tennis.court import is_in_singles
 
 RETURN_SHOT = 1            # contacts count from the serve (0)
@@ -31,13 +32,14 @@ SHOT_HORIZON_S = 2.5       # the shot's flight, the answer and its first frames
 
 def branch_rallies(sim, truth: RallyData, keep_frames: pd.Series, seed: int,
                    horizon_s: float, forced_pos_m: dict[int, np.ndarray] | None = None,
-                   copies: int = 1) -> tuple[RallyData, pd.Series]:
+                   copies: int = 1, label_events: bool = True
+                   ) -> tuple[RallyData, pd.Series]:
     """Each recorded rally of `keep_frames` (rally id -> frames kept from its start) rolled
     out `copies` times from its own frame, `horizon_s` beyond it -> (the branches, a Series:
     branch rally id -> the recorded rally id). Rallies whose kept frames are not shorter than
     their track are left out. `forced_pos_m`: recorded rally id -> (T, 3, 3) players'
     positions from the rally's start, NaN where free, that replace the sampled ones
-    (`rollout`'s)."""
+    (`rollout`'s). `label_events`: `Simulator.simulate_rallies`'."""
     arr = rally_arrays(truth, sim.vocab, unknown="generic")
     rallies = truth.rallies.set_index("rally_id")
     idx, kept = [], []
@@ -56,21 +58,13 @@ def branch_rallies(sim, truth: RallyData, keep_frames: pd.Series, seed: int,
     plan = rallies.loc[rids].reset_index()[PLAN_COLUMNS].copy()
     plan["rally_id"] = np.arange(len(plan))
     plan["match_id"] = "branch"
-    init = _stack_padded([arr.pos_m[arr.start[i]:arr.start[i] + k] for i, k in zip(idx, kept)])
-    forced = None if forced_pos_m is None else _stack_padded(
+    init = pad_tracks([arr.pos_m[arr.start[i]:arr.start[i] + k] for i, k in zip(idx, kept)])
+    forced = None if forced_pos_m is None else pad_tracks(
         [forced_pos_m.get(int(r), np.full((0, 3, 3), np.nan)) for r in rids])
     out = sim.simulate_rallies(plan, seed=seed, init_pos_m=init, init_frames=kept,
-                               max_duration_s=kept / sim.fps + horizon_s, forced_pos_m=forced)
+                               max_duration_s=kept / sim.fps + horizon_s, forced_pos_m=forced,
+                               label_events=label_events)
     return out, pd.Series(rids, index=plan["rally_id"].to_numpy())
-
-
-def _stack_padded(tracks: list[np.ndarray]) -> np.ndarray:
-    """(T_i, 3, 3) arrays -> (n, max T_i, 3, 3), NaN after each one's end."""
-    out = np.full((len(tracks), max(1, max(len(t) for t in tracks)), 3, 3), np.nan,
-                  dtype=np.float32)
-    for i, t in enumerate(tracks):
-        out[i, :len(t)] = t
-    return out
 
 
 def shot_outcomes(data: RallyData, shot: int = RETURN_SHOT,

@@ -247,6 +247,17 @@ def _check_forced(forced_pos_m: np.ndarray, b: int, dev: torch.device) -> torch.
     return torch.as_tensor(f, device=dev)
 
 
+def pad_tracks(tracks: list[np.ndarray]) -> np.ndarray:
+    """(T_i, 3, 3) tracks -> (n, max T_i, 3, 3) float32, NaN after each one's end: the
+    initial frames of rallies branched at different frames (with `RolloutInputs.init_frames`
+    their lengths) or forced tracks of different lengths."""
+    out = np.full((len(tracks), max([1, *(len(t) for t in tracks)]), 3, 3), np.nan,
+                  dtype=np.float32)
+    for i, t in enumerate(tracks):
+        out[i, :len(t)] = t
+    return out
+
+
 def step_features(hist: torch.Tensor, n: int, fps: float) -> torch.Tensor:
     """Object tokens of frame n-1 given positions hist[:, :n] -> (B, 3, F)."""
     pos = hist[:, n - 1]

@@ -346,7 +346,8 @@ class Simulator:
                          constraint: Constraint | None = None,
                          max_duration_s: float | np.ndarray | None = None,
                          forced_pos_m: np.ndarray | None = None,
-                         init_frames: np.ndarray | None = None) -> RallyData:
+                         init_frames: np.ndarray | None = None,
+                         label_events: bool = True) -> RallyData:
         """One rally for each row of `plan` (columns `PLAN_COLUMNS`), in batches of
         `batch_size` -> RallyData with the simulator's columns (see `sportsngen.sim.assemble`).
 
@@ -359,7 +360,8 @@ class Simulator:
         that replace the sampled ones frame by frame (`rollout`'s; frames counted as
         `init_pos_m`'s). `init_frames` (len(plan),): each rally's own count of `init_pos_m`'s
         frames (the rest of its row unread), so rallies branched at different frames share
-        batches (`RolloutInputs.init_frames`)."""
+        batches (`RolloutInputs.init_frames`). `label_events` False: no event classifier
+        labels (the rules' shots only), for callers that read positions alone."""
         check_plan(plan)
         for name, given in (("forced_pos_m", forced_pos_m), ("init_frames", init_frames)):
             if given is not None and len(given) != len(plan):
@@ -421,7 +423,7 @@ class Simulator:
                            player_accel_mps2=self.player_accel_mps2,
                            player_top_speed_mps=top,
                            forced_pos_m=rows(forced_pos_m, lo))
-            labels = None if self.event_model is None else frame_labels(
+            labels = None if self.event_model is None or not label_events else frame_labels(
                 self.event_model, roll.pos_m, roll.length, self.fps, self.model.cfg.window_frames)
             data = assemble(part, roll.pos_m, roll.length, tracker.results(), labels, self.fps)
             data.rallies["resampled_frames"] = roll.resampled

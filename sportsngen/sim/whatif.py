@@ -30,6 +30,7 @@ from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.data.tracking import DIRECTIONS, RallyData
 from sportsngen.errors import ArgumentError, check_int, check_players
 from sportsngen.sim.assemble import PLAN_COLUMNS, realistic_points
+from sportsngen.sim.rollout import pad_tracks
 from sportsngen.tennis import court
 from sportsngen.tennis.scoring import MatchFormat, MatchState
 
@@ -125,9 +126,7 @@ def rally_win_probabilities(sim, data: RallyData, items, n: int = 100,
     kept = np.repeat([len(prefixes[i][1]) for i in idx], n)
     plan = pd.concat([_plan(prefixes[i][0], n) for i in idx], ignore_index=True)
     plan["rally_id"] = np.arange(len(plan))
-    init = np.full((len(plan), int(kept.max()), 3, 3), np.nan, dtype=np.float32)
-    for j, i in enumerate(idx):
-        init[j * n:(j + 1) * n, :len(prefixes[i][1])] = prefixes[i][1]
+    init = pad_tracks([prefixes[i][1] for i in idx for _ in range(n)])
     out = sim.simulate_rallies(plan, seed=seed, init_pos_m=init, init_frames=kept)
     outcomes = _branch_outcomes(sim, plan, out, seed)
     results = {i: _summary(outcomes[j * n:(j + 1) * n]) for j, i in enumerate(idx)}

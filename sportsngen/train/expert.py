@@ -219,6 +219,7 @@ def _rollouts(sim, data: RallyData, arrays: RallyArrays, branches: pd.DataFrame,
     """Branch row -> the model's rollout (T, 3, 3) from its branch frame, all branch frames in
     one set of batches (each rally keeps its own frames: `RolloutInputs.init_frames`)."""
     from sportsngen.sim.assemble import PLAN_COLUMNS
+    from sportsngen.sim.rollout import pad_tracks
 
     if branches.empty:
         return {}
@@ -228,9 +229,8 @@ def _rollouts(sim, data: RallyData, arrays: RallyArrays, branches: pd.DataFrame,
     plan["rally_id"] = np.arange(len(plan))
     plan["match_id"] = "expert"
     starts = rows["start"].to_numpy(np.int64)
-    init = np.full((len(rows), int(starts.max()), 3, 3), np.nan, dtype=np.float32)
-    for j, (i, k) in enumerate(zip(rows["ri"], starts)):
-        init[j, :k] = arrays.pos_m[arrays.start[i]:arrays.start[i] + k]
+    init = pad_tracks([arrays.pos_m[arrays.start[i]:arrays.start[i] + k]
+                       for i, k in zip(rows["ri"], starts)])
     rolled = sim.simulate_rallies(plan, seed=cfg.seed * 10_007, progress=progress,
                                   init_pos_m=init, init_frames=starts,
                                   max_duration_s=(starts + cfg.max_model_frames + 1) / sim.fps)
