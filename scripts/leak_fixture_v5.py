@@ -10,12 +10,14 @@ version. Refuses to generate on another generator version: the file is a record 
 whose players "know the future" (issue 16), for `tests/test_leaks.py`.
 
 When the check changes after version 5 is gone, generate the points in version 5's tree (the
-parent of commit 9cf9119) and extract the table with today's check:
+parent of commit 9cf9119) and extract the table with today's check. Generate from outside
+the checkout: `python -c` puts the working directory first on the path, so run from the
+checkout it would import today's generator, not version 5's.
 
     git worktree add /tmp/v5tree 9cf9119^
-    PYTHONPATH=/tmp/v5tree .venv/bin/python -c "from sportsngen.synth import generate_matches; \\
-        generate_matches([('Roger Federer', 'Rafael Nadal')], 'hard', n_points=300, seed=5, \\
-        workers=1).save('/tmp/v5data')"
+    (cd /tmp && PYTHONPATH=/tmp/v5tree $OLDPWD/.venv/bin/python -c "from sportsngen.synth \\
+        import generate_matches; generate_matches([('Roger Federer', 'Rafael Nadal')], \\
+        'hard', n_points=300, seed=5, workers=1).save('/tmp/v5data')")
     PYTHONPATH=. .venv/bin/python scripts/leak_fixture_v5.py --data /tmp/v5data
 """
 
@@ -27,6 +29,7 @@ from pathlib import Path
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.leaks import (
     CONTACT_SPEED_COLUMNS,
+    HITTER_STRATA_COLUMNS,
     OPPONENT_STRATA_COLUMNS,
     STRATA_COLUMNS,
     TABLE_COLUMNS,
@@ -56,7 +59,8 @@ def main() -> None:
     else:
         data = generate_matches([PLAYERS], SURFACE, n_points=N_POINTS, seed=SEED, workers=1)
     kin = contact_kinematics(data, ks=(6, 12))[
-        list(TABLE_COLUMNS + STRATA_COLUMNS + OPPONENT_STRATA_COLUMNS + CONTACT_SPEED_COLUMNS)]
+        list(TABLE_COLUMNS + STRATA_COLUMNS + OPPONENT_STRATA_COLUMNS + HITTER_STRATA_COLUMNS
+             + CONTACT_SPEED_COLUMNS)]
     args.out.parent.mkdir(parents=True, exist_ok=True)
     with open(args.out, "w") as fh:
         fh.write(f"# generator version 5: {N_POINTS} points of "

@@ -25,6 +25,7 @@ from sportsngen.data.tracking import RallyData
 from sportsngen.eval.__main__ import main
 from sportsngen.eval.leaks import (
     CONTACT_SPEED_COLUMNS,
+    HITTER_STRATA_COLUMNS,
     OPPONENT_STRATA_COLUMNS,
     PAIRS,
     STRATA_COLUMNS,
@@ -43,6 +44,7 @@ from sportsngen.eval.seen import (
     SEEN_ON_LINE,
     seen_ball,
     seen_flight,
+    seen_pace,
     seen_reach,
 )
 from sportsngen.tennis.court import BALL_RADIUS_M
@@ -87,9 +89,9 @@ def _table(rows) -> pd.DataFrame:
                    hitter_acc_mps2=0.0, opponent_speed_mps=0.0, opponent_acc_mps2=0.0,
                    hitter="A", opponent="B", serve_number=1, direction="middle",
                    hitter_speed0_mps=0.0, opponent_speed0_mps=0.0, seen_flight=-1,
-                   seen_reach=-1, contact_depth=0)
+                   seen_reach=-1, seen_pace=-1, contact_depth=0)
     return df[list(TABLE_COLUMNS + STRATA_COLUMNS + OPPONENT_STRATA_COLUMNS
-                   + CONTACT_SPEED_COLUMNS)]
+                   + HITTER_STRATA_COLUMNS + CONTACT_SPEED_COLUMNS)]
 
 
 def test_stratified_auc_compares_only_alike_contacts():
@@ -135,6 +137,41 @@ def test_the_seen_reach_strata_only_the_opponents_cells():
     neg = np.array([4.0] * 5 + [2.0] * 15)
     assert t.loc[("error_vs_in", "hitter", "speed_mps"), "auc"] == pytest.approx(auc(pos, neg))
     assert t.loc[("error_vs_in", "hitter", "speed_mps"), "n_pairs"] == 400
+
+
+def test_the_seen_pace_strata_only_the_hitters_cells():
+    # Fast balls (pace bin 8) are mostly not returned and their hitter recovers at 2 m/s, slow
+    # ones (bin 4) mostly returned, at 4 m/s: he runs back slower after harder balls, which he
+    # saw leave his racket. The opponent moves the same way with them (not his stratum).
+    rows = [(i, 30, 40, int(i % 4 != 0), 2.0) for i in range(20)] + \
+           [(20 + i, 30, 40, int(i % 4 == 0), 4.0) for i in range(20)]
+    speed = [2.0] * 20 + [4.0] * 20
+    kin = _table(rows).assign(opponent_speed_mps=speed, seen_pace=[8] * 20 + [4] * 20)
+    t = leak_auc(kin, n_boot=0).set_index(["pair", "role", "feature"])
+    # Hitter: within each pace bin the classes move alike; 15 x 5 + 5 x 15 pairs.
+    assert t.loc[("error_vs_in", "hitter", "speed_mps"), "auc"] == 0.5
+    assert t.loc[("error_vs_in", "hitter", "speed_mps"), "n_pairs"] == 150
+    # Opponent: all 20 x 20 pairs; the 15 slow positives lose to 15 fast negatives.
+    pos = np.array([2.0] * 15 + [4.0] * 5)
+    neg = np.array([2.0] * 5 + [4.0] * 15)
+    assert t.loc[("error_vs_in", "opponent", "speed_mps"), "auc"] == pytest.approx(auc(pos, neg))
+    assert t.loc[("error_vs_in", "opponent", "speed_mps"), "n_pairs"] == 400
+
+
+def test_seen_pace_bins_the_seen_speed_in_5_mps_bands():
+    # Seen velocities of 9, 12.5, 30 (3-4-5 triangle x 6: 18, 24, 0), 47 and 70 m/s; the last
+    # contact not seen yet.
+    vel = np.array([[9.0, 0, 0], [0, 12.5, 0], [18.0, 24.0, 0], [0, 0, -47.0], [70.0, 0, 0],
+                    [40.0, 0, 0]])
+    ok = np.array([True] * 5 + [False])
+    assert seen_pace({"vel_mps": vel, "ok": ok}).tolist() == [0, 1, 5, 8, 11, SEEN_NONE]
+    # From a track: a rally ball flying 19 m in x in 1 s, seen at frame 7 (0.28 s), when it
+    # climbs at vz0 - g t (a second difference of a parabola is exact): 19.04 m/s, bin 2.
+    ball = _flight((11.0, 0.0, 1.0), (-8.0, 0.0), 1.0)
+    seen_b = seen_ball(ball, np.array([0]), np.array([7]), np.array([0]), np.array([40.0]), FPS)
+    vz = (BALL_RADIUS_M - 1.0 + 0.5 * G) - G * 7 / FPS
+    assert np.linalg.norm(seen_b["vel_mps"][0]) == pytest.approx(np.hypot(19.0, vz), abs=1e-6)
+    assert seen_pace(seen_b).tolist() == [2]
 
 
 def test_visibility_rule_leaves_out_contacts_seen_by_then():

@@ -24,8 +24,8 @@ stratified check, which compares him with receivers on the same seen flight at t
 is the tool there.
 For the server's own cells of ace against returned, `pairs` can ask for them: his run back
 after the serve does not turn on reach (on the bundled model's own serves his speed 12 frames
-on reads 0.449 [0.384, 0.511] here, where the stratified check, blind to his serve's speed,
-reads 0.31-0.40; docs/evaluation.md, sixty-fifth part).
+on reads 0.449 [0.384, 0.511] here, where the stratified check, then blind to his serve's
+speed, read 0.31-0.40; docs/evaluation.md, sixty-fifth part; it holds the seen pace since).
 
 The bounce point is a fact of the ball's path, which the player watches from the launch, not
 of the outcome label; what this check cannot see is a leak that acts through the path itself.

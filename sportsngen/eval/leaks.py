@@ -37,14 +37,16 @@ same stratum (the hitter and opponent, the serve number, the shot's direction la
 hitter's depth behind his baseline at the contact in `CONTACT_DEPTH_BINS_M`, the role's speed
 at the contact in `CONTACT_SPEED_BINS_MPS`, and the ball's flight as seen a reaction time
 before the measured frame, ``seen_flight``; for the opponent's cells also how far sideways
-that flight passes him, ``seen_reach``), and the AUC pools the strata by their number of
+that flight passes him, ``seen_reach``; for the hitter's cells also how fast he saw his ball
+leave, ``seen_pace``), and the AUC pools the strata by their number of
 pairs. Without that, causes everyone can see pass for leaks: a player who aces more and whose
 receiver reacts later, a wide serve (more often an ace) after which the server recovers further,
+a harder serve (more often an ace) after which he runs back slower,
 an opponent still running at the contact (more often passed), a ball seen flying long that the
 opponent chases deeper (more often an error), a receiver sprinting at a serve that passes out
 of his reach (more often an ace). ``stratify=False`` gives the raw AUC.
 
-The seen flight and the seen reach are defined in `sportsngen.eval.seen`.
+The seen flight, reach and pace are defined in `sportsngen.eval.seen`.
 
 An AUC far from 0.5 says the classes move differently before the outcome is visible; it is a
 prompt to look, not proof of a leak: the opponent sees the ball in flight, and a ball that sends
@@ -64,7 +66,7 @@ import pandas as pd
 from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.rules import analyse_rally_data
-from sportsngen.eval.seen import SEEN_LAG_S, seen_ball, seen_flight, seen_reach
+from sportsngen.eval.seen import SEEN_LAG_S, seen_ball, seen_flight, seen_pace, seen_reach
 from sportsngen.tennis.court import BASELINE_X_M
 
 BASE_FPS = 25.0
@@ -79,6 +81,7 @@ CONTACT_SPEED_COLUMNS = tuple(f"{r}_speed0_mps" for r in ROLES)
 STRATA_COLUMNS = ("hitter", "opponent", "serve_number", "direction", "contact_depth",
                   "seen_flight")
 OPPONENT_STRATA_COLUMNS = ("seen_reach",)  # strata of the opponent's cells only
+HITTER_STRATA_COLUMNS = ("seen_pace",)      # strata of the hitter's cells only
 TABLE_COLUMNS = ("rally_id", "shot_index", "frame", "k", "at_frame", "land_frame",
                  "outcome_frame") + tuple(PAIRS) + FEATURE_COLUMNS
 CONTACT_SPEED_BINS_MPS = (0.25, 0.75, 1.5, 2.25, 3.0, 4.0, 5.0)
@@ -229,6 +232,7 @@ def contact_kinematics(data: RallyData, ks=DEFAULT_KS) -> pd.DataFrame:
         opp_rows = np.where(ball["ok"], row0 + at - lag, 0)
         part["seen_reach"] = seen_reach(ball, part["seen_flight"].to_numpy(),
                                         pos[opp_rows, opp_slot, :2])
+        part["seen_pace"] = seen_pace(ball)
         for role, slot in slots:
             part[f"{role}_speed_mps"], part[f"{role}_acc_mps2"] = kinematics(at, slot)
         parts.append(part)
@@ -298,7 +302,8 @@ def _strata(sub: pd.DataFrame, role: str) -> np.ndarray:
     and the role's speed bin at the contact."""
     speed0 = sub[f"{role}_speed0_mps"].to_numpy(dtype=float)
     speed_bin = np.where(np.isfinite(speed0), np.digitize(speed0, CONTACT_SPEED_BINS_MPS), -1)
-    columns = STRATA_COLUMNS + (OPPONENT_STRATA_COLUMNS if role == "opponent" else ())
+    columns = STRATA_COLUMNS + (OPPONENT_STRATA_COLUMNS if role == "opponent" else
+                                HITTER_STRATA_COLUMNS)
     keys = [sub[c].astype(str).to_numpy() for c in columns] + [speed_bin.astype(str)]
     return pd.factorize(pd.Series(["|".join(t) for t in zip(*keys)]))[0]
 

@@ -8,7 +8,9 @@ frame, a dependence the record lacks is the decoder's fit.
 The one it reads (`server_serve_coupling`): the model's server ran back slower after faster
 serves on its own serves (rank correlation about -0.3 within first serves, the record's about
 0), which put the leak check's cell of his speed 12 frames after an ace below its band
-(docs/evaluation.md, sixty-fifth part). Drawn one step from the record, the coupling is there
+(docs/evaluation.md, sixty-fifth part) until the check held the serve's seen pace (sixty-seventh
+part): a dependence on what he saw is no leak, but the record's server has none, so it is a
+fault of fidelity, read here. Drawn one step from the record, the coupling is there
 9 frames after the strike (second serves: about -0.5, where the record's run is one profile), with
 the simulator's rules switched off too: the decoder's own, not the rollout's drift
 (sixty-sixth part). Ranks magnify it: in speed it is 0.14-0.15 m/s per 10 m/s of second-serve
