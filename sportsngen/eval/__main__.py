@@ -448,7 +448,8 @@ def build_parser() -> argparse.ArgumentParser:
     leaks.add_argument("--raw", action="store_true",
                        help="raw AUCs, not stratified by what the players could see (pairing, "
                             "serve number, direction, depth, speed, the seen flight and, for "
-                            "the opponent, how far aside it passes him)")
+                            "the opponent, how far aside it passes him, for the hitter, how "
+                            "fast he saw it leave)")
     leaks.add_argument("--paths", action="store_true",
                        help="also the path-matched check of faults: is the movement before a "
                             "fault explained by the ball's path and the player's position?")
