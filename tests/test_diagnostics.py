@@ -211,9 +211,16 @@ def test_run_diagnostics_on_the_tiny_model(tiny_model_file):
     coupling = table[table["signal"].str.startswith("server speed at strike + 9")]
     assert list(coupling["signal"]) == [
         f"server speed at strike + 9, one step: {what} ({n} serves)"
-        for what in ("corr with serve speed", "m/s per 10 m/s of serve")
+        for what in ("corr with serve speed", "m/s per 10 m/s of serve",
+                     "m/s per 10 m/s of the ball's pace, path held")
         for n in ("first", "second")]
     assert coupling["model"].iloc[:2].dropna().between(-1, 1).all() and coupling["n"].sum() > 0
+    # The pace rows draw the recorded serves again (a re-flown ball may keep a branch the
+    # rules had ended, or end one); the record's server plans his run at the strike.
+    n_serves = own.at["own serves in the box, first serves", "n"], \
+        own.at["own serves in the box, second serves", "n"]
+    assert (coupling["n"].iloc[4:].to_numpy() <= np.array(n_serves)).all()
+    assert coupling["n"].iloc[4:].sum() > 0 and (coupling["data"].iloc[4:] == 0.0).all()
     third = table.set_index("signal").loc["branch third-shot share (returns in play)"]
     assert 0.8 < third["data"] <= 1.0          # the generator's servers answer their returns
     # An untrained model may keep none of its branched returns in play (n = 0), not more.

@@ -48,7 +48,9 @@ Federer serving to Rafael Nadal on hard) and compare the model with that truth:
   rank-correlated with the serve's speed within each serve number, and its slope on it (m/s
   per 10 m/s: ranks magnify a small dependence where the record's run barely varies), beside
   the record's own frame (about 0): a decoder that reads the serve's pace into the server's
-  run shows it here, free of a rollout's drift;
+  run shows it here, free of a rollout's drift; and the part of it the ball causes, the same
+  draw with the serve's ball re-flown at 0.9 and 1.1 times its pace on its own path
+  (`server_pace_response`; the record's server plans his run at the strike: 0);
 - **branch third-shot share** (`sportsngen.eval.shot_branches`): each recorded return that
   stayed in play rolled out from `BRANCH_AFTER_FRAMES` frames after its contact; of the
   branches whose return stayed in play, the share the server struck back, against the
@@ -526,7 +528,11 @@ def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.Dat
     own = own_serves(sim, truth, seed=setup.seed)
     own_out = serve_outcomes(own)
     rows += own_serve_rows(own, truth_out, own_out)
-    from sportsngen.eval.one_step import COUPLING_AFTER_FRAMES, server_serve_coupling
+    from sportsngen.eval.one_step import (
+        COUPLING_AFTER_FRAMES,
+        server_pace_response,
+        server_serve_coupling,
+    )
     coupling = server_serve_coupling(sim, truth, seed=setup.seed)
     for c in coupling.itertuples():
         rows.append((f"server speed at strike + {COUPLING_AFTER_FRAMES}, one step: corr with "
@@ -536,6 +542,11 @@ def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.Dat
         rows.append((f"server speed at strike + {COUPLING_AFTER_FRAMES}, one step: m/s per 10 "
                      f"m/s of serve ({_SERVES[c.serve_number]} serves)", c.model_slope,
                      c.record_slope, c.n))
+    # The same, caused: his serve's ball re-flown faster and slower on its own path.
+    for c in server_pace_response(sim, truth, seed=setup.seed).itertuples():
+        rows.append((f"server speed at strike + {COUPLING_AFTER_FRAMES}, one step: m/s per 10 "
+                     f"m/s of the ball's pace, path held ({_SERVES[c.serve_number]} serves)",
+                     c.slope, 0.0, c.n))
     returns = shot_outcomes(truth, RETURN_SHOT, truth_rules)
     ret_branches, ret_order = shot_branches(sim, truth, RETURN_SHOT, BRANCH_AFTER_FRAMES,
                                             setup.seed, truth_out=returns)

@@ -19,6 +19,8 @@ speed, where the record's server runs the same profile after every second serve.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pandas as pd
 from scipy.stats import spearmanr
@@ -31,6 +33,7 @@ from sportsngen.eval.shot_branches import branch_rallies
 SERVER_SLOT = OBJECTS.index("server")
 COUPLING_AFTER_FRAMES = 9   # the server's speed this many frames after the serve's strike
 COUPLING_DRAWS = 8          # draws of that frame per serve
+PACE_SCALES = (0.9, 1.1)    # the serve's pace re-flown at these factors (server_pace_response)
 
 
 def one_step_frames(sim, data: RallyData, frames: pd.Series, draws: int = COUPLING_DRAWS,
@@ -54,6 +57,25 @@ def one_step_frames(sim, data: RallyData, frames: pd.Series, draws: int = COUPLI
     return {rid: np.stack(v) for rid, v in got.items()}
 
 
+def _drawn_server_speeds(data: RallyData, drawn: dict[int, np.ndarray],
+                         frames: pd.Series) -> tuple[pd.Series, pd.Series]:
+    """The server's ground speed (m/s) at each rally's frame `frames[rid]`: drawn (mean of
+    the draws in `drawn`) and recorded, both from the record's frame before it, rounded to
+    1 mm/s as the leak check's speeds (positions are float32, and finer differences are
+    rounding, which ranks would read as an order)."""
+    arr = rally_arrays(data, _generic_vocab(data))
+    where = dict(zip(arr.rally_id.tolist(), arr.start.tolist()))
+    model, record = {}, {}
+    for rid, d in drawn.items():
+        at = where[rid] + int(frames[rid])
+        before = arr.pos_m[at - 1, SERVER_SLOT, :2]
+        speed = np.linalg.norm(d[:, SERVER_SLOT, :2] - before, axis=-1).mean()
+        model[rid] = round(float(speed) * data.fps, 3)
+        record[rid] = round(float(np.linalg.norm(arr.pos_m[at, SERVER_SLOT, :2] - before))
+                            * data.fps, 3)
+    return pd.Series(model, dtype=float), pd.Series(record, dtype=float)
+
+
 def server_serve_coupling(sim, data: RallyData, after_frames: int = COUPLING_AFTER_FRAMES,
                           draws: int = COUPLING_DRAWS, seed: int = 0) -> pd.DataFrame:
     """The server's ground speed `after_frames` after each recorded serve's strike, drawn one
@@ -66,23 +88,13 @@ def server_serve_coupling(sim, data: RallyData, after_frames: int = COUPLING_AFT
     6: their recovery is planned before the serve's fate is known)."""
     strike = serve_strike_frames(data)
     frames = strike + after_frames
-    drawn = one_step_frames(sim, data, frames, draws, seed)
-    arr = rally_arrays(data, _generic_vocab(data))
-    where = dict(zip(arr.rally_id.tolist(), arr.start.tolist()))
+    model, record = _drawn_server_speeds(data, one_step_frames(sim, data, frames, draws, seed),
+                                         frames)
     serves = data.shots[data.shots["shot_index"] == 0].set_index("rally_id")["speed_mps"]
     number = data.rallies.set_index("rally_id")["serve_number"]
-    rows = []
-    for rid, d in drawn.items():
-        before = arr.pos_m[where[rid] + int(frames[rid]) - 1, SERVER_SLOT, :2]
-        rec = arr.pos_m[where[rid] + int(frames[rid]), SERVER_SLOT, :2]
-        model = np.linalg.norm(d[:, SERVER_SLOT, :2] - before, axis=-1).mean()
-        # Rounded to 1 mm/s as the leak check's speeds: positions are float32, and finer
-        # differences are rounding, which ranks would read as an order.
-        rows.append({"rally_id": rid, "serve_number": int(number[rid]),
-                     "serve_mps": float(serves.get(rid, np.nan)),
-                     "model_mps": round(float(model) * data.fps, 3),
-                     "record_mps": round(float(np.linalg.norm(rec - before)) * data.fps, 3)})
-    table = pd.DataFrame(rows).dropna()
+    table = pd.DataFrame({"serve_number": number.reindex(model.index),
+                          "serve_mps": serves.reindex(model.index),
+                          "model_mps": model, "record_mps": record}).dropna()
     out = []
     for n, g in table.groupby("serve_number"):
         ok = len(g) >= 3 and g["serve_mps"].nunique() > 1
@@ -96,4 +108,57 @@ def server_serve_coupling(sim, data: RallyData, after_frames: int = COUPLING_AFT
                 if ok else np.nan
         out.append({**row, "model_median_mps": float(g["model_mps"].median()),
                     "record_median_mps": float(g["record_mps"].median())})
+    return pd.DataFrame(out)
+
+
+def paced_serves(data: RallyData, scale: float, until_frames: int) -> RallyData:
+    """The record with each serve's ball re-flown at `scale` times its pace on the same path:
+    its positions at strike + 1 .. strike + `until_frames` - 1 moved to the strike's ball
+    position plus `scale` times their displacement from it. Nothing else changes (the players'
+    tracks, the later frames, the tables)."""
+    if scale <= 0:
+        raise ValueError(f"scale must be positive, got {scale}")
+    f = data.frames
+    first = f.groupby("rally_id")["frame"].min()
+    strike = serve_strike_frames(data)
+    rel = (f["frame"] - f["rally_id"].map(first)).to_numpy()
+    at = f["rally_id"].map(strike).to_numpy(dtype=float)       # NaN: no serve
+    ball = (f["object"] == "ball").to_numpy()
+    moved = ball & (rel > at) & (rel < at + until_frames)
+    origin = f[ball & (rel == at)].set_index("rally_id")[["x", "y", "z"]]
+    xyz = f.loc[moved, ["x", "y", "z"]].to_numpy(float)
+    o = origin.reindex(f.loc[moved, "rally_id"]).to_numpy(float)
+    frames = f.copy()
+    frames.loc[moved, ["x", "y", "z"]] = o + scale * (xyz - o)
+    return replace(data, frames=frames)
+
+
+def server_pace_response(sim, data: RallyData, after_frames: int = COUPLING_AFTER_FRAMES,
+                         scales: tuple[float, float] = PACE_SCALES,
+                         draws: int = COUPLING_DRAWS, seed: int = 0) -> pd.DataFrame:
+    """What the ball's pace does to the server's draw, all else held: each recorded serve's
+    ball re-flown at the two `scales` of its pace on its own path up to the frame before
+    strike + `after_frames` (`paced_serves`), that frame drawn one step (`draws` times, the
+    same seed for both), and the server's speed there compared -> per serve number: n, the
+    mean over serves of his speed's change per 10 m/s of the serve's pace (`slope`, m/s) and
+    its standard error (`se`), and his mean speeds at each scale. The record's server has no
+    such dependence (his run is planned at the strike); `server_serve_coupling` reads the
+    dependence across serves, this the part the ball causes."""
+    lo, hi = scales
+    if not 0 < lo < hi:
+        raise ValueError(f"scales must be two increasing positive factors, got {scales}")
+    frames = serve_strike_frames(data) + after_frames
+    speeds = [_drawn_server_speeds(data, one_step_frames(
+        sim, paced_serves(data, s, after_frames), frames, draws, seed), frames)[0]
+        for s in scales]
+    serves = data.shots[data.shots["shot_index"] == 0].set_index("rally_id")["speed_mps"]
+    number = data.rallies.set_index("rally_id")["serve_number"]
+    table = pd.DataFrame({"lo": speeds[0], "hi": speeds[1]}).dropna()
+    table["slope"] = (table["hi"] - table["lo"]) / ((hi - lo) * serves.reindex(table.index)) * 10
+    table["serve_number"] = number.reindex(table.index)
+    out = []
+    for n, g in table.dropna().groupby("serve_number"):
+        se = float(g["slope"].std(ddof=1) / np.sqrt(len(g))) if len(g) > 1 else np.nan
+        out.append({"serve_number": int(n), "n": len(g), "slope": float(g["slope"].mean()),
+                    "se": se, "lo_mps": float(g["lo"].mean()), "hi_mps": float(g["hi"].mean())})
     return pd.DataFrame(out)
