@@ -72,6 +72,14 @@ class ModelConfig:
     # players ran the first 0.8-1 s of a long chase as the record's did and then slowed early:
     # 30 % of 4-6 m chases passed beyond 1.5 m of them, 2 % of the record's (issue 17).
     ball_intercept: bool = False
+    # With > 0, one more input column in every token, last: the rally's elapsed time (s),
+    # clipped at `clock_s`. The features' own time is scaled by 10 s (0.004 a frame), and the
+    # decoder times its server's run after the serve by the ball's flight instead: a serve
+    # re-flown 10 % faster on its path slows him as a later frame would, while shifting the
+    # time feature by 10 s does not move him (docs/evaluation.md, sixty-seventh part). A serve is
+    # struck about 1.1 s into a rally, so the clock covers its phase (an experiment; the general
+    # clock would be the time since the last racket contact).
+    clock_s: float = 0.0
     # Each ball bin split again into this many equal parts by a head of its own
     # (`heads.SubBinHead`, p(part | bins)), 0: none, uniform inside the bin. A strike's offset
     # lies where the bins are 10-17 cm wide, and a track drawn uniformly inside them puts
@@ -294,6 +302,8 @@ class ModelConfig:
         if self.receiver_start and self.head != "factorised":
             raise ValueError("model.receiver_start shifts the players' factorised head: it "
                              "needs head='factorised'")
+        if self.clock_s < 0:
+            raise ValueError(f"model.clock_s must be >= 0 (0: no clock), got {self.clock_s}")
         if self.ball_intercept and not self.ball_forecast:
             raise ValueError("model.ball_intercept adds columns to the ball's forecast: it needs "
                              "ball_forecast=True")

@@ -32,7 +32,7 @@ from sportsngen.model.bins import Bins
 from sportsngen.model.centre import object_centres_m
 from sportsngen.model.config import FEATURE_GROUPS, ModelConfig
 from sportsngen.model.embedding import ContextEmbedding, ObjectEmbedding, run_mlp
-from sportsngen.model.forecast import extra_columns, forecast_columns
+from sportsngen.model.forecast import clock_columns, extra_columns, forecast_columns
 from sportsngen.model.heads import FactorisedHead, SubBinHead, make_head
 from sportsngen.model.sampling import uniform_in_bin
 
@@ -328,16 +328,19 @@ class SportsNGEN(nn.Module):
         (B, 3, N_FEATURES) or None) -> token embeddings; with `ball_forecast`, the ball's flight
         forecast in the players' tokens (`forecast.forecast_columns`), read in the model's
         frame: flight is the same physics at either end."""
+        clock = clock_columns(feats, self.cfg.clock_s) if self.cfg.clock_s > 0 else None
         if not self.cfg.ball_forecast:
-            return self.embed(self._frame_features(feats), ident)
+            return self.embed(self._frame_features(feats), ident, clock)
         if before is None:
             before = torch.full_like(feats[:, 0], float("nan"))
         prev = torch.cat([before[:, None], feats[:, :-1]], dim=1)
         feats = self._frame_features(feats)
         # The frame before turned as its own frame: NaN rows stay NaN.
         prev = torch.where(torch.isnan(prev), prev, self._frame_features(prev.nan_to_num()))
-        return self.embed(feats, ident, forecast_columns(feats, prev, self.cfg.fps,
-                                                        self.cfg.ball_intercept))
+        extra = forecast_columns(feats, prev, self.cfg.fps, self.cfg.ball_intercept)
+        if clock is not None:
+            extra = torch.cat([extra, clock.to(extra.dtype)], dim=-1)
+        return self.embed(feats, ident, extra)
 
     def context_tokens(self, surface, tournament, serve, score) -> torch.Tensor:
         return self.context(surface, tournament, serve, score)

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import torch
 
-from sportsngen.data.tokens import BALL, POS_SCALE_M, VEL_SCALE_MPS
+from sportsngen.data.tokens import BALL, POS_SCALE_M, TIME_SCALE_S, VEL_SCALE_MPS
 from sportsngen.model.centre import (
     BOUNCE_RESTITUTION,
     flight_acceleration_mps2,
@@ -132,11 +132,23 @@ def ball_forecast(pos_m: torch.Tensor, vel_mps: torch.Tensor,
     return columns, torch.stack(track, dim=-2)
 
 
+TIME_COLUMN = 7  # the elapsed time's column of the object features (`tokens.object_features`)
+
+
+def clock_columns(feats: torch.Tensor, clock_s: float) -> torch.Tensor:
+    """Object features (..., N_FEATURES) -> (..., 1): the rally's elapsed time (s) clipped at
+    `clock_s` (`ModelConfig.clock_s`), on the scale of a second rather than the features'
+    ten."""
+    return (feats[..., TIME_COLUMN:TIME_COLUMN + 1] * TIME_SCALE_S).clamp(max=clock_s)
+
+
 def extra_columns(cfg) -> int:
-    """The number of input columns a model config's forecast adds to each token."""
+    """The number of input columns a model config's forecast (and its clock, `clock_s`)
+    adds to each token."""
+    clock = 1 if getattr(cfg, "clock_s", 0.0) > 0 else 0
     if not cfg.ball_forecast:
-        return 0
-    return FORECAST_FEATURES + (INTERCEPT_FEATURES if cfg.ball_intercept else 0)
+        return clock
+    return FORECAST_FEATURES + (INTERCEPT_FEATURES if cfg.ball_intercept else 0) + clock
 
 
 def nearest_playable(track_m: torch.Tensor, players_xy_m: torch.Tensor,

@@ -187,6 +187,11 @@ def train_from_config(cfg: DictConfig, out_dir: str | Path) -> dict:
                                  "the init needs model.ball_forecast (or init_ball_forecast=true)")
             model_cfg = ModelConfig.from_dict({**model_cfg.to_dict(), "ball_intercept": True})
             init_state = widen_for_extra(init_state, "embed.", INTERCEPT_FEATURES)
+        if cfg.get("init_clock_s") and not model_cfg.clock_s:
+            # The clock's column joins the object embedding last, with zero weights.
+            model_cfg = ModelConfig.from_dict({**model_cfg.to_dict(),
+                                               "clock_s": float(cfg.init_clock_s)})
+            init_state = widen_for_extra(init_state, "embed.", 1)
         check_data_matches(model_cfg, vocab, data)
     else:
         if cfg.get("player"):
