@@ -34,6 +34,23 @@ def tiny_sim(path, **kw):
     return Simulator.from_pretrained(path, **{"max_retries": 0, "physical_limits": False, **kw})
 
 
+def init_runs(tmp_path: Path, model_file: Path, option: str, steps=(0, 3)) -> dict:
+    """The tiny model file fine-tuned on toy rallies with one `init_...` option (e.g.
+    "init_clock_s=2.0") for each number of `steps` -> steps: `load_model`'s tuple."""
+    from sportsngen.model import load_model
+    from sportsngen.train.run import train_from_config
+
+    over = ["experiment=tiny", "data=toy", "data.n_rallies=16", "trainer.val_check_interval=3",
+            "trainer.limit_val_batches=1", "trainer.enable_progress_bar=false",
+            "events.enabled=false", f"init={model_file}", option]
+    runs = {}
+    for n in steps:
+        with initialize_config_dir(config_dir=str(REPO / "conf"), version_base=None):
+            cfg = compose(config_name="train", overrides=[*over, f"trainer.max_steps={n}"])
+        runs[n] = load_model(train_from_config(cfg, tmp_path / f"s{n}")["model_file"])
+    return runs
+
+
 def run_folder(tmp_path_factory, worker_id: str, name: str) -> Path:
     """A folder all of a run's workers share (xdist's base temporary folder's parent), or a
     fresh one without xdist."""

@@ -6,13 +6,12 @@ from __future__ import annotations
 
 import pytest
 import torch
-from hydra import compose, initialize_config_dir
 
 from sportsngen.data.tokens import object_features
 from sportsngen.model import SportsNGEN, load_model
 from sportsngen.model.embedding import widen_for_extra
 from sportsngen.model.forecast import FORECAST_FEATURES, clock_columns, extra_columns
-from tests.conftest import REPO
+from tests.conftest import init_runs
 from tests.test_model import tiny_cfg
 
 
@@ -69,17 +68,8 @@ def test_a_model_given_the_clock_starts_from_the_same_function(forecast):
 
 
 def test_init_clock_s_widens_a_trained_model(tmp_path, tiny_model_file):
-    from sportsngen.train.run import train_from_config
-
-    over = ["experiment=tiny", "data=toy", "data.n_rallies=16", "trainer.val_check_interval=3",
-            "trainer.limit_val_batches=1", "trainer.enable_progress_bar=false",
-            "events.enabled=false", f"init={tiny_model_file}", "init_clock_s=2.0"]
     base = load_model(tiny_model_file)[0].state_dict()
-    runs = {}
-    for steps in (0, 3):
-        with initialize_config_dir(config_dir=str(REPO / "conf"), version_base=None):
-            cfg = compose(config_name="train", overrides=[*over, f"trainer.max_steps={steps}"])
-        runs[steps] = load_model(train_from_config(cfg, tmp_path / f"s{steps}")["model_file"])
+    runs = init_runs(tmp_path, tiny_model_file, "init_clock_s=2.0")
     m0, cfg0 = runs[0][0].state_dict(), runs[0][3]
     assert cfg0.clock_s == 2.0
     w = m0["embed.mlp.0.weight"]

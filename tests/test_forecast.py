@@ -23,7 +23,7 @@ from sportsngen.model.forecast import (
     nearest_playable,
 )
 from sportsngen.tennis.court import BALL_RADIUS_M
-from tests.conftest import REPO
+from tests.conftest import REPO, init_runs
 from tests.test_model import tiny_cfg
 
 
@@ -130,11 +130,7 @@ def test_init_ball_forecast_widens_a_trained_model(tmp_path, tiny_model_file):
             "trainer.limit_val_batches=1", "trainer.enable_progress_bar=false",
             "events.enabled=false", f"init={tiny_model_file}", "init_ball_forecast=true"]
     base = load_model(tiny_model_file)[0].state_dict()
-    runs = {}
-    for steps in (0, 3):
-        with initialize_config_dir(config_dir=str(REPO / "conf"), version_base=None):
-            cfg = compose(config_name="train", overrides=[*over, f"trainer.max_steps={steps}"])
-        runs[steps] = load_model(train_from_config(cfg, tmp_path / f"s{steps}")["model_file"])
+    runs = init_runs(tmp_path, tiny_model_file, "init_ball_forecast=true")
     m0, cfg0 = runs[0][0].state_dict(), runs[0][3]
     assert cfg0.ball_forecast
     w = m0["embed.mlp.0.weight"]
