@@ -78,7 +78,9 @@ class ModelConfig:
     # re-flown 10 % faster on its path slows him as a later frame would, while shifting the
     # time feature by 10 s does not move him (docs/evaluation.md, sixty-seventh part). A serve is
     # struck about 1.1 s into a rally, so the clock covers its phase (an experiment; the general
-    # clock would be the time since the last racket contact).
+    # clock would be the time since the last racket contact). Added in a 700-step fine-tune it
+    # is learned (held-out player NLL 0.013 below a paired control's) but the brake still
+    # follows the ball: off.
     clock_s: float = 0.0
     # Each ball bin split again into this many equal parts by a head of its own
     # (`heads.SubBinHead`, p(part | bins)), 0: none, uniform inside the bin. A strike's offset
