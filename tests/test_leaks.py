@@ -118,44 +118,27 @@ def test_stratified_auc_compares_only_alike_contacts():
         leak_auc(kin.drop(columns="seen_reach"))
 
 
-def test_the_seen_reach_strata_only_the_opponents_cells():
-    # Balls seen passing far from the opponent (reach bin 3) are mostly not returned and he
-    # runs at them at 4 m/s; near ones (bin 0) mostly returned, at 2 m/s. The hitter moves the
-    # same way with them (it is not his reach).
+@pytest.mark.parametrize("column, role, other", [("seen_reach", "opponent", "hitter"),
+                                                  ("seen_pace", "hitter", "opponent")])
+def test_a_roles_own_stratum_holds_only_that_roles_cells(column, role, other):
+    # Contacts in bin 3 of `column` (balls seen passing far from the opponent; balls seen
+    # leaving the hitter's racket fast) are mostly not returned, and both players move at
+    # 4 m/s after them; those in bin 0 mostly returned, at 2 m/s. Only `role` saw the
+    # difference as his own (his reach, his pace), so only his cells are held by it.
     rows = [(i, 30, 40, int(i % 4 != 0), 0.0) for i in range(20)] + \
            [(20 + i, 30, 40, int(i % 4 == 0), 0.0) for i in range(20)]
     speed = [4.0] * 20 + [2.0] * 20
     kin = _table(rows).assign(opponent_speed_mps=speed, hitter_speed_mps=speed,
-                              seen_reach=[3] * 20 + [0] * 20)
+                              **{column: [3] * 20 + [0] * 20})
     t = leak_auc(kin, n_boot=0).set_index(["pair", "role", "feature"])
-    # Opponent: within each reach bin the classes move alike; 15 x 5 + 5 x 15 pairs.
-    assert t.loc[("error_vs_in", "opponent", "speed_mps"), "auc"] == 0.5
-    assert t.loc[("error_vs_in", "opponent", "speed_mps"), "n_pairs"] == 150
-    # Hitter: all 20 x 20 pairs; 15 fast positives beat 15 slow negatives, the rest tie:
-    # (15 * 15 + 0.5 * (15 * 5 + 5 * 15 + 5 * 5 ... )) worked out as P(pos > neg) + P(=) / 2.
+    # His cells: within each bin the classes move alike; 15 x 5 + 5 x 15 pairs.
+    assert t.loc[("error_vs_in", role, "speed_mps"), "auc"] == 0.5
+    assert t.loc[("error_vs_in", role, "speed_mps"), "n_pairs"] == 150
+    # The other's: all 20 x 20 pairs; 15 fast positives beat 15 slow negatives, the rest tie.
     pos = np.array([4.0] * 15 + [2.0] * 5)
     neg = np.array([4.0] * 5 + [2.0] * 15)
-    assert t.loc[("error_vs_in", "hitter", "speed_mps"), "auc"] == pytest.approx(auc(pos, neg))
-    assert t.loc[("error_vs_in", "hitter", "speed_mps"), "n_pairs"] == 400
-
-
-def test_the_seen_pace_strata_only_the_hitters_cells():
-    # Fast balls (pace bin 8) are mostly not returned and their hitter recovers at 2 m/s, slow
-    # ones (bin 4) mostly returned, at 4 m/s: he runs back slower after harder balls, which he
-    # saw leave his racket. The opponent moves the same way with them (not his stratum).
-    rows = [(i, 30, 40, int(i % 4 != 0), 2.0) for i in range(20)] + \
-           [(20 + i, 30, 40, int(i % 4 == 0), 4.0) for i in range(20)]
-    speed = [2.0] * 20 + [4.0] * 20
-    kin = _table(rows).assign(opponent_speed_mps=speed, seen_pace=[8] * 20 + [4] * 20)
-    t = leak_auc(kin, n_boot=0).set_index(["pair", "role", "feature"])
-    # Hitter: within each pace bin the classes move alike; 15 x 5 + 5 x 15 pairs.
-    assert t.loc[("error_vs_in", "hitter", "speed_mps"), "auc"] == 0.5
-    assert t.loc[("error_vs_in", "hitter", "speed_mps"), "n_pairs"] == 150
-    # Opponent: all 20 x 20 pairs; the 15 slow positives lose to 15 fast negatives.
-    pos = np.array([2.0] * 15 + [4.0] * 5)
-    neg = np.array([2.0] * 5 + [4.0] * 15)
-    assert t.loc[("error_vs_in", "opponent", "speed_mps"), "auc"] == pytest.approx(auc(pos, neg))
-    assert t.loc[("error_vs_in", "opponent", "speed_mps"), "n_pairs"] == 400
+    assert t.loc[("error_vs_in", other, "speed_mps"), "auc"] == pytest.approx(auc(pos, neg))
+    assert t.loc[("error_vs_in", other, "speed_mps"), "n_pairs"] == 400
 
 
 def test_seen_pace_bins_the_seen_speed_in_5_mps_bands():

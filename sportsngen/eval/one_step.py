@@ -60,22 +60,21 @@ def one_step_frames(sim, data: RallyData, frames: pd.Series, draws: int = COUPLI
     return {rid: np.stack(v) for rid, v in got.items()}
 
 
-def _drawn_server_speeds(data: RallyData, drawn: dict[int, np.ndarray],
+def _drawn_server_speeds(arr, fps: float, drawn: dict[int, np.ndarray],
                          frames: pd.Series) -> tuple[pd.Series, pd.Series]:
     """The server's ground speed (m/s) at each rally's frame `frames[rid]`: drawn (mean of
-    the draws in `drawn`) and recorded, both from the record's frame before it, rounded to
-    1 mm/s as the leak check's speeds (positions are float32, and finer differences are
-    rounding, which ranks would read as an order)."""
-    arr = rally_arrays(data, _generic_vocab(data))
+    the draws in `drawn`) and recorded, both from the record's frame before it (`arr`, the
+    record's `rally_arrays`), rounded to 1 mm/s as the leak check's speeds (positions are
+    float32, and finer differences are rounding, which ranks would read as an order)."""
     where = dict(zip(arr.rally_id.tolist(), arr.start.tolist()))
     model, record = {}, {}
     for rid, d in drawn.items():
         at = where[rid] + int(frames[rid])
         before = arr.pos_m[at - 1, SERVER_SLOT, :2]
         speed = np.linalg.norm(d[:, SERVER_SLOT, :2] - before, axis=-1).mean()
-        model[rid] = round(float(speed) * data.fps, 3)
+        model[rid] = round(float(speed) * fps, 3)
         record[rid] = round(float(np.linalg.norm(arr.pos_m[at, SERVER_SLOT, :2] - before))
-                            * data.fps, 3)
+                            * fps, 3)
     return pd.Series(model, dtype=float), pd.Series(record, dtype=float)
 
 
@@ -91,8 +90,8 @@ def server_serve_coupling(sim, data: RallyData, after_frames: int = COUPLING_AFT
     6: their recovery is planned before the serve's fate is known)."""
     strike = serve_strike_frames(data)
     frames = strike + after_frames
-    model, record = _drawn_server_speeds(data, one_step_frames(sim, data, frames, draws, seed),
-                                         frames)
+    model, record = _drawn_server_speeds(rally_arrays(data, _generic_vocab(data)), data.fps,
+                                         one_step_frames(sim, data, frames, draws, seed), frames)
     serves = data.shots[data.shots["shot_index"] == 0].set_index("rally_id")["speed_mps"]
     number = data.rallies.set_index("rally_id")["serve_number"]
     table = pd.DataFrame({"serve_number": number.reindex(model.index),
@@ -151,7 +150,8 @@ def server_pace_response(sim, data: RallyData, after_frames: int = COUPLING_AFTE
     if not 0 < lo < hi:
         raise ValueError(f"scales must be two increasing positive factors, got {scales}")
     frames = serve_strike_frames(data) + after_frames
-    speeds = [_drawn_server_speeds(data, one_step_frames(
+    arr = rally_arrays(data, _generic_vocab(data))    # the players' frames: any pace's
+    speeds = [_drawn_server_speeds(arr, data.fps, one_step_frames(
         sim, paced_serves(data, s, after_frames), frames, draws, seed), frames)[0]
         for s in scales]
     serves = data.shots[data.shots["shot_index"] == 0].set_index("rally_id")["speed_mps"]
