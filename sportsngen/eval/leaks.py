@@ -36,15 +36,21 @@ Stratified by what both players could see: positives are compared only with nega
 same stratum (the hitter and opponent, the serve number, the shot's direction label, the
 hitter's depth behind his baseline at the contact in `CONTACT_DEPTH_BINS_M`, the role's speed
 at the contact in `CONTACT_SPEED_BINS_MPS`, and the ball's flight as seen a reaction time
-before the measured frame, ``seen_flight``; for the opponent's cells also how far sideways
-that flight passes him, ``seen_reach``; for the hitter's cells also how fast he saw his ball
-leave, ``seen_pace``), and the AUC pools the strata by their number of
+before the measured frame, ``seen_flight`` for the hitter's cells and
+``opponent_seen_flight`` for the opponent's, which differ only for a serve's receiver, who
+reads it sooner; for the opponent's cells also how far sideways that flight passes him,
+``seen_reach``; for the hitter's cells also how fast he saw his ball leave, ``seen_pace``),
+and the AUC pools the strata by their number of
 pairs. Without that, causes everyone can see pass for leaks: a player who aces more and whose
 receiver reacts later, a wide serve (more often an ace) after which the server recovers further,
 a harder serve (more often an ace) after which he runs back slower,
 an opponent still running at the contact (more often passed), a ball seen flying long that the
 opponent chases deeper (more often an error), a receiver sprinting at a serve that passes out
-of his reach (more often an ace). ``stratify=False`` gives the raw AUC.
+of his reach (more often an ace), a receiver who had read a wide serve by the sixth frame
+and sprinted (more often an ace). ``stratify=False`` gives the raw AUC; ``diff_within`` says
+how large a difference an AUC ranks (m/s, m/s^2): a rank statistic can put 4 mm/s between
+receivers all near their top acceleration outside the band (0.63 in the bundled model's serve
+branches, where version 5's frozen players differ by 1-3 m/s).
 
 The seen flight, reach and pace are defined in `sportsngen.eval.seen`.
 
@@ -66,7 +72,14 @@ import pandas as pd
 from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.rules import analyse_rally_data
-from sportsngen.eval.seen import SEEN_LAG_S, seen_ball, seen_flight, seen_pace, seen_reach
+from sportsngen.eval.seen import (
+    SEEN_LAG_S,
+    SEEN_RETURN_LAG_S,
+    seen_ball,
+    seen_flight,
+    seen_pace,
+    seen_reach,
+)
 from sportsngen.tennis.court import BASELINE_X_M
 
 BASE_FPS = 25.0
@@ -78,10 +91,10 @@ PAIRS = {"fault_vs_in": "land_frame", "ace_vs_returned": "outcome_frame",
          "winner_vs_returned": "outcome_frame", "error_vs_in": "land_frame"}
 FEATURE_COLUMNS = tuple(f"{r}_{f}" for r in ROLES for f in FEATURES)
 CONTACT_SPEED_COLUMNS = tuple(f"{r}_speed0_mps" for r in ROLES)
-STRATA_COLUMNS = ("hitter", "opponent", "serve_number", "direction", "contact_depth",
-                  "seen_flight")
-OPPONENT_STRATA_COLUMNS = ("seen_reach",)  # strata of the opponent's cells only
-HITTER_STRATA_COLUMNS = ("seen_pace",)      # strata of the hitter's cells only
+STRATA_COLUMNS = ("hitter", "opponent", "serve_number", "direction", "contact_depth")
+# The flight as each role saw it: a serve's receiver reads it sooner (`SEEN_RETURN_LAG_S`).
+OPPONENT_STRATA_COLUMNS = ("opponent_seen_flight", "seen_reach")  # the opponent's cells only
+HITTER_STRATA_COLUMNS = ("seen_flight", "seen_pace")               # the hitter's cells only
 TABLE_COLUMNS = ("rally_id", "shot_index", "frame", "k", "at_frame", "land_frame",
                  "outcome_frame") + tuple(PAIRS) + FEATURE_COLUMNS
 CONTACT_SPEED_BINS_MPS = (0.25, 0.75, 1.5, 2.25, 3.0, 4.0, 5.0)
@@ -223,16 +236,20 @@ def contact_kinematics(data: RallyData, ks=DEFAULT_KS) -> pd.DataFrame:
     parts = []
     lag = int(round(SEEN_LAG_S * data.fps))
     serve = c["shot_index"].to_numpy() == 0
+    opp_lag = np.where(serve, int(round(SEEN_RETURN_LAG_S * data.fps)), lag)
     for k in ks:
         at = f + int(round(k * data.fps / BASE_FPS))
         part = base.assign(k=k, at_frame=at)
         ball = seen_ball(pos[:, 2], f, at - lag, row0, track_end, data.fps)
         part["seen_flight"] = seen_flight(pos[:, 2], f, at - lag, row0, track_end, serve,
                                           data.fps, ball=ball)
-        opp_rows = np.where(ball["ok"], row0 + at - lag, 0)
-        part["seen_reach"] = seen_reach(ball, part["seen_flight"].to_numpy(),
-                                        pos[opp_rows, opp_slot, :2])
         part["seen_pace"] = seen_pace(ball)
+        opp_ball = seen_ball(pos[:, 2], f, at - opp_lag, row0, track_end, data.fps)
+        opp_flight = seen_flight(pos[:, 2], f, at - opp_lag, row0, track_end, serve,
+                                 data.fps, ball=opp_ball)
+        opp_rows = np.where(opp_ball["ok"], row0 + at - opp_lag, 0)
+        part["opponent_seen_flight"] = opp_flight
+        part["seen_reach"] = seen_reach(opp_ball, opp_flight, pos[opp_rows, opp_slot, :2])
         for role, slot in slots:
             part[f"{role}_speed_mps"], part[f"{role}_acc_mps2"] = kinematics(at, slot)
         parts.append(part)
@@ -280,6 +297,20 @@ def stratified_auc(pos: np.ndarray, neg: np.ndarray, w_pos: np.ndarray, w_neg: n
         return np.where(den > 0, num / den, np.nan)
 
 
+def stratified_difference(pos: np.ndarray, neg: np.ndarray, s_pos: np.ndarray,
+                          s_neg: np.ndarray) -> float:
+    """Mean of pos minus mean of neg within each stratum, pooled by the strata's numbers of
+    pairs (the weights of `stratified_auc`): how large the difference the AUC ranks is, in
+    the feature's units. NaN without a comparable pair."""
+    num = den = 0.0
+    for code in np.intersect1d(s_pos, s_neg):
+        p, n = pos[s_pos == code], neg[s_neg == code]
+        w = float(len(p) * len(n))
+        num += w * (p.mean() - n.mean())
+        den += w
+    return num / den if den > 0 else float("nan")
+
+
 def comparable_pairs(s_pos: np.ndarray, s_neg: np.ndarray) -> int:
     """How many (positive, negative) pairs share a stratum: what a stratified AUC rests on
     (a handful of contacts can make thousands of n_pos x n_neg but few comparable pairs)."""
@@ -315,10 +346,11 @@ def leak_auc(kin: pd.DataFrame, n_boot: int = 1000, seed: int = 0, level: float 
     doc) unless `stratify` is False, with `level` bootstrap percentile intervals from `n_boot`
     resamples of whole rallies (all the contacts of a rally share its weight, so shots of one
     rally are not taken as independent; n_pos and n_neg vary between replicates). ``n_pairs``
-    counts the (positive, negative) pairs within a stratum, what the AUC rests on. The
+    counts the (positive, negative) pairs within a stratum, what the AUC rests on;
+    ``diff_within`` is the size of what it ranks (`stratified_difference`). The
     generator is seeded per (seed, pair, k): fixed results."""
-    need = TABLE_COLUMNS + ((STRATA_COLUMNS + OPPONENT_STRATA_COLUMNS + CONTACT_SPEED_COLUMNS)
-                            if stratify else ())
+    need = TABLE_COLUMNS + ((STRATA_COLUMNS + OPPONENT_STRATA_COLUMNS + HITTER_STRATA_COLUMNS
+                             + CONTACT_SPEED_COLUMNS) if stratify else ())
     missing = [col for col in need if col not in kin.columns]
     if missing:
         raise ValueError(f"kinematics table lacks columns {missing}"
@@ -363,7 +395,9 @@ def leak_auc(kin: pd.DataFrame, n_boot: int = 1000, seed: int = 0, level: float 
                             "n_pos": int(mp.sum()), "n_neg": int(mn.sum()),
                             "n_pairs": comparable_pairs(cj[mp], cj[mn]),
                             "mean_pos": x[mp, j].mean() if mp.any() else np.nan,
-                            "mean_neg": x[mn, j].mean() if mn.any() else np.nan})
+                            "mean_neg": x[mn, j].mean() if mn.any() else np.nan,
+                            "diff_within": stratified_difference(x[mp, j], x[mn, j], cj[mp],
+                                                                 cj[mn])})
     return pd.DataFrame(out)
 
 
@@ -384,13 +418,14 @@ def render_leaks(table: pd.DataFrame, band=(0.4, 0.6)) -> str:
     flag = outside_band(table, band)
     fmt = lambda v, d=2: "-" if pd.isna(v) else f"{v:.{d}f}"  # noqa: E731
     pairs = table["n_pairs"] if "n_pairs" in table else pd.Series(np.nan, index=table.index)
+    diff = table["diff_within"] if "diff_within" in table else pd.Series(np.nan, index=table.index)
     lines = ["| pair | role | feature | k | AUC [interval] | n_pos | n_neg | pairs | mean pos | "
-             "mean neg | |", "|---|---|---|---|---|---|---|---|---|---|---|"]
-    for (_, row), bad, n_pairs in zip(table.iterrows(), flag, pairs):
+             "mean neg | pos - neg within strata | |", "|" + "---|" * 12]
+    for (_, row), bad, n_pairs, d in zip(table.iterrows(), flag, pairs, diff):
         lines.append(f"| {row['pair']} | {row['role']} | {row['feature']} | {row['k']} | "
                      f"{fmt(row['auc'], 3)} [{fmt(row['lo'])}, {fmt(row['hi'])}] | "
                      f"{row['n_pos']} | {row['n_neg']} | {fmt(n_pairs, 0)} | "
-                     f"{fmt(row['mean_pos'])} | {fmt(row['mean_neg'])} | "
+                     f"{fmt(row['mean_pos'])} | {fmt(row['mean_neg'])} | {fmt(d, 3)} | "
                      f"{'LEAK' if bad else ''} |")
     lines.append(f"\n{int(flag.sum())} of {len(table)} AUCs outside [{band[0]:g}, {band[1]:g}].")
     return "\n".join(lines)

@@ -5,7 +5,8 @@ alike in these terms, so that a player who reacts to a ball he saw is not read a
 knows the outcome.
 
 The seen flight (`seen_flight`): the ball's position, velocity and acceleration at frame
-``at_frame - SEEN_LAG_S`` from three frames of its track after the contact, flown on to its
+``at_frame - SEEN_LAG_S`` (for a serve's receiver ``at_frame - SEEN_RETURN_LAG_S``: returners
+read a serve sooner) from three frames of its track after the contact, flown on to its
 bounce (`predict_flight`); the code is the bin in `SEEN_MARGIN_BINS_M` of the bounce's
 distance inside the target (the service box of a serve, the singles court beyond the net of a
 rally shot), at most the "close" bin for a ball seen within `SEEN_NET_MARGIN_M` of the
@@ -42,6 +43,14 @@ from sportsngen.tennis.court import (
 from sportsngen.tennis.rally import GRAVITY_MPS2
 
 SEEN_LAG_S = 0.2     # a player's reaction time: he acts at frame t on the flight seen by then
+# A serve's receiver reads it sooner: returners anticipate from the toss and the racket, and
+# the generator's (causal) returners move from its floor, `synth.rally.MIN_RETURN_REACTION_S`.
+# With the 0.2 s lag the check held nothing of the serve 6 frames on, while both the
+# generator's and the model's receivers already ran to the serve's side from the third frame:
+# the bundled model's receiver read 0.606 at k = 6 on its own serves (1,200 points), 0.572
+# with this; the generator's receiver before unseen faults, 12 frames on, 0.36 / 0.36 on two
+# 10,000-point samples, 0.45 / 0.46 with this (docs/evaluation.md, sixty-eighth part).
+SEEN_RETURN_LAG_S = 0.08
 # Bounce inside the target by: clearly out, close, in, well in. Narrower bins at the lines
 # (a +-0.2 m bin) were tried for the receiver before faults (module doc): on two 10,000-point
 # samples his speed 12 frames on gave AUC 0.46 and 0.24 against 0.34 and 0.35 with these, on a
