@@ -80,7 +80,7 @@ class ModelConfig:
     # struck about 1.1 s into a rally, so the clock covers its phase (an experiment; the general
     # clock would be the time since the last racket contact). Added in a 700-step fine-tune it
     # is learned (held-out player NLL 0.013 below a paired control's) but the brake still
-    # follows the ball: off.
+    # follows the ball, also with the players' turns weighted (sixty-eighth part): off.
     clock_s: float = 0.0
     # Each ball bin split again into this many equal parts by a head of its own
     # (`heads.SubBinHead`, p(part | bins)), 0: none, uniform inside the bin. A strike's offset
