@@ -244,9 +244,15 @@ def contact_kinematics(data: RallyData, ks=DEFAULT_KS) -> pd.DataFrame:
         part["seen_flight"] = seen_flight(pos[:, 2], f, at - lag, row0, track_end, serve,
                                           data.fps, ball=ball)
         part["seen_pace"] = seen_pace(ball)
-        opp_ball = seen_ball(pos[:, 2], f, at - opp_lag, row0, track_end, data.fps)
-        opp_flight = seen_flight(pos[:, 2], f, at - opp_lag, row0, track_end, serve,
-                                 data.fps, ball=opp_ball)
+        # The opponent saw what the hitter saw, but for a serve's receiver: read those alone.
+        sub = (f[serve], (at - opp_lag)[serve], row0[serve], track_end[serve])
+        ball_serve = seen_ball(pos[:, 2], *sub, data.fps)
+        opp_ball = {key: v.copy() for key, v in ball.items()}
+        for key, v in ball_serve.items():
+            opp_ball[key][serve] = v
+        opp_flight = part["seen_flight"].to_numpy().copy()
+        opp_flight[serve] = seen_flight(pos[:, 2], *sub, serve[serve], data.fps,
+                                        ball=ball_serve)
         opp_rows = np.where(opp_ball["ok"], row0 + at - opp_lag, 0)
         part["opponent_seen_flight"] = opp_flight
         part["seen_reach"] = seen_reach(opp_ball, opp_flight, pos[opp_rows, opp_slot, :2])
@@ -302,13 +308,17 @@ def stratified_difference(pos: np.ndarray, neg: np.ndarray, s_pos: np.ndarray,
     """Mean of pos minus mean of neg within each stratum, pooled by the strata's numbers of
     pairs (the weights of `stratified_auc`): how large the difference the AUC ranks is, in
     the feature's units. NaN without a comparable pair."""
-    num = den = 0.0
-    for code in np.intersect1d(s_pos, s_neg):
-        p, n = pos[s_pos == code], neg[s_neg == code]
-        w = float(len(p) * len(n))
-        num += w * (p.mean() - n.mean())
-        den += w
-    return num / den if den > 0 else float("nan")
+    if len(pos) == 0 or len(neg) == 0:
+        return float("nan")
+    size = int(max(s_pos.max(), s_neg.max())) + 1
+    n_pos, n_neg = np.bincount(s_pos, minlength=size), np.bincount(s_neg, minlength=size)
+    w = (n_pos * n_neg).astype(float)
+    if w.sum() == 0:
+        return float("nan")
+    both = w > 0
+    diff = (np.bincount(s_pos, pos, size)[both] / n_pos[both]
+            - np.bincount(s_neg, neg, size)[both] / n_neg[both])
+    return float((w[both] * diff).sum() / w.sum())
 
 
 def comparable_pairs(s_pos: np.ndarray, s_neg: np.ndarray) -> int:
