@@ -30,6 +30,10 @@ try:  # absent from trees older than the check (a --save-data run)
     from sportsngen.eval.leaks import check_leaks, outside_band, render_leaks
 except ImportError:
     check_leaks = None
+try:  # absent from trees older than the thin cells (a --before run)
+    from sportsngen.eval.leaks import thin_cells
+except ImportError:
+    thin_cells = None
 try:  # absent from trees older than the path-matched check (a --before run)
     from sportsngen.eval.leak_paths import check_fault_paths
 except ImportError:
@@ -72,8 +76,12 @@ def main() -> None:
         table = check_leaks(data, ks=(6, 12), n_boot=args.boot, seed=0)
         table.to_csv(args.out.parent / f"{args.out.name}_{name}.csv", index=False)
         parts += [f"## {a} v {b}, {surface}\n", render_leaks(table), ""]
+        thin = ""
+        if thin_cells is not None:
+            outside = (table["auc"] < 0.4) | (table["auc"] > 0.6)
+            thin = f" ({int((thin_cells(table) & outside).sum())} more on too few pairs to read)"
         print(f"{a} v {b} ({surface}): {int(outside_band(table).sum())} of {len(table)} AUCs "
-              "outside [0.4, 0.6]", flush=True)
+              f"outside [0.4, 0.6]{thin}", flush=True)
         if check_fault_paths is not None:
             paths = check_fault_paths(data, ks=(6, 12), n_boot=args.boot)
             paths.to_csv(args.out.parent / f"{args.out.name}_{name}_paths.csv", index=False)

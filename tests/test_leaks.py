@@ -36,6 +36,7 @@ from sportsngen.eval.leaks import (
     leak_auc,
     outside_band,
     render_leaks,
+    thin_cells,
     weighted_auc,
 )
 from sportsngen.eval.seen import (
@@ -47,6 +48,7 @@ from sportsngen.eval.seen import (
     seen_flight,
     seen_pace,
     seen_reach,
+    seen_width,
 )
 from sportsngen.synth.rally import MIN_RETURN_REACTION_S
 from sportsngen.tennis.court import BALL_RADIUS_M
@@ -91,7 +93,8 @@ def _table(rows) -> pd.DataFrame:
                    hitter_acc_mps2=0.0, opponent_speed_mps=0.0, opponent_acc_mps2=0.0,
                    hitter="A", opponent="B", serve_number=1, direction="middle",
                    hitter_speed0_mps=0.0, opponent_speed0_mps=0.0, seen_flight=-1,
-                   opponent_seen_flight=-1, seen_reach=-1, seen_pace=-1, contact_depth=0)
+                   opponent_seen_flight=-1, seen_reach=-1, seen_pace=-1, seen_width=-1,
+                   contact_depth=0)
     return df[list(TABLE_COLUMNS + STRATA_COLUMNS + OPPONENT_STRATA_COLUMNS
                    + HITTER_STRATA_COLUMNS + CONTACT_SPEED_COLUMNS)]
 
@@ -127,6 +130,7 @@ def test_stratified_auc_compares_only_alike_contacts():
 @pytest.mark.parametrize("column, role, other", [("seen_reach", "opponent", "hitter"),
                                                   ("opponent_seen_flight", "opponent", "hitter"),
                                                   ("seen_pace", "hitter", "opponent"),
+                                                  ("seen_width", "hitter", "opponent"),
                                                   ("seen_flight", "hitter", "opponent")])
 def test_a_roles_own_stratum_holds_only_that_roles_cells(column, role, other):
     # Contacts in bin 3 of `column` (balls seen passing far from the opponent; balls seen
@@ -163,6 +167,24 @@ def test_seen_pace_bins_the_seen_speed_in_5_mps_bands():
     vz = (BALL_RADIUS_M - 1.0 + 0.5 * G) - G * 7 / FPS
     assert np.linalg.norm(seen_b["vel_mps"][0]) == pytest.approx(np.hypot(19.0, vz), abs=1e-6)
     assert seen_pace(seen_b).tolist() == [2]
+
+
+def test_seen_width_bins_how_far_across_the_ball_was_seen_going():
+    # Contacts at y = 1 m; seen bounces 0.5, 2.9 (1.9 across: along a line), 3.5, 5.5, 8 m
+    # across (-7 m) and one not seen landing: bins 0, 0, 1, 2, 3 and none.
+    land = np.array([[-8.0, 1.5], [-8.0, 2.9], [-8.0, -2.5], [-8.0, 6.5], [-8.0, -7.0],
+                     [np.nan, np.nan]])
+    ball = {"land_m": land, "contact_m": np.tile([11.0, 1.0, 1.0], (6, 1)),
+            "ok": np.ones(6, bool)}
+    assert seen_width(ball).tolist() == [0, 0, 1, 2, 3, SEEN_NONE]
+    ball["ok"][0] = False
+    assert seen_width(ball)[0] == SEEN_NONE
+    # From a track: a rally ball struck at y = 0 toward a bounce at y = 3 m, seen by frame 7.
+    track = _flight((11.0, 0.0, 1.0), (-8.0, 3.0), 1.0)
+    seen_b = seen_ball(track, np.array([0]), np.array([7]), np.array([0]), np.array([40.0]),
+                       FPS)
+    assert seen_b["land_m"][0, 1] == pytest.approx(3.0, abs=0.05)
+    assert seen_width(seen_b).tolist() == [1]
 
 
 def test_visibility_rule_leaves_out_contacts_seen_by_then():
@@ -354,6 +376,26 @@ def test_planted_leak_is_flagged_and_clean_tracks_are_not(clean, leaky):
     assert text.count("LEAK") == 4 and "4 of 32 AUCs outside [0.4, 0.6]" in text
 
 
+def test_an_auc_on_too_few_pairs_is_marked_thin_not_flagged():
+    # Four cells outside the band on 2, 9, 10 and NaN (path-matched: no pair count) pairs,
+    # one inside on 5: only the 2- and 9-pair cells are too few to read.
+    table = pd.DataFrame({"pair": "fault_vs_in", "role": "opponent", "feature": "acc_mps2",
+                          "k": 12, "auc": [0.0, 0.9, 0.1, 0.2, 0.5],
+                          "lo": 0.0, "hi": 1.0, "n_pos": 2, "n_neg": 1,
+                          "n_pairs": [2, 9, 10, np.nan, 5], "mean_pos": 0.0, "mean_neg": 0.0,
+                          "diff_within": 0.0})
+    assert thin_cells(table).tolist() == [True, True, False, False, True]
+    assert outside_band(table).tolist() == [False, False, True, True, False]
+    assert outside_band(table, min_pairs=1).tolist() == [True, True, True, True, False]
+    text = render_leaks(table)
+    assert text.count("| thin |") == 2 and text.count("| LEAK |") == 2
+    assert ("2 of 5 AUCs outside [0.4, 0.6] (2 more outside on fewer than 10 comparable "
+            "pairs: too few to read, marked thin).") in text
+    assert "thin" not in render_leaks(table, min_pairs=2).split("\n")[2]  # 2 pairs: read
+    # A table without pair counts is read whole.
+    assert outside_band(table.drop(columns="n_pairs")).sum() == 4
+
+
 def test_a_serves_receiver_reads_its_flight_sooner(clean):
     # Serves at frame 20, measured at k = 6: the server (0.2 s lag) has seen one frame of the
     # flight, too few to read it; the receiver (the generator's return floor, 0.08 s) four,
@@ -363,9 +405,17 @@ def test_a_serves_receiver_reads_its_flight_sooner(clean):
     kin = contact_kinematics(clean, ks=(6,))
     serves, rally = kin[kin["shot_index"] == 0], kin[kin["shot_index"] >= 1]
     assert (serves["seen_flight"] == SEEN_NONE).all() and (serves["seen_pace"] == SEEN_NONE).all()
+    assert (serves["seen_width"] == SEEN_NONE).all()
     assert (serves["opponent_seen_flight"] != SEEN_NONE).all()
     assert (serves["seen_reach"] != SEEN_NONE).all()
     assert (rally["opponent_seen_flight"] == rally["seen_flight"]).all()
+    # By k = 12 the hitter has seen his rally ball land about 2 m across (the planted balls
+    # cross from y = +-1 m to -+1 m): bin 1, or bin 0 just under 2 m. A serve's width is its
+    # direction label's, not read again as seen width.
+    kin12 = contact_kinematics(clean, ks=(12,))
+    assert (kin12.loc[kin12["shot_index"] == 0, "seen_width"] == SEEN_NONE).all()
+    assert kin12.loc[kin12["shot_index"] >= 1, "seen_width"].value_counts().to_dict() == {1: 32,
+                                                                                          0: 16}
 
 
 def test_visible_frames_on_planted_tracks(clean):
@@ -452,6 +502,11 @@ def test_cli_exit_codes(clean, leaky, tmp_path, capsys):
     assert main(["leaks", str(tmp_path / "nowhere")]) == 2
     assert main(["leaks", str(tmp_path / "clean"), "--band", "0.6", "0.4"]) == 2
     assert "--band" in capsys.readouterr().err
+    # The planted cells rest on 12 and 48 comparable pairs: thin, and passed, below 1,000.
+    assert main(["leaks", str(tmp_path / "leaky"), "--boot", "0", "--k", "12",
+                 "--min-pairs", "1000"]) == 0
+    assert "2 more outside on fewer than 1000" in capsys.readouterr().out
+    assert main(["leaks", str(tmp_path / "clean"), "--min-pairs", "0"]) == 2
 
 
 # -- generator version 5 (committed table) -----------------------------------------------------

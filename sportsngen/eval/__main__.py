@@ -4,7 +4,7 @@
     python -m sportsngen.eval report --sim FOLDER --ref-synthetic "Roger Federer,Rafael Nadal" \\
         [--surface hard] [--points N] [--seed 0] [--real-year 2011 | --no-real] --out DIR
     python -m sportsngen.eval leaks FOLDER [--k 6 12] [--boot N] [--seed S] [--csv PATH] \\
-        [--band 0.4 0.6] [--paths]
+        [--band 0.4 0.6] [--min-pairs 10] [--paths]
     python -m sportsngen.eval diagnose [--model PATH] [--points 400] [--seed 0] [--csv PATH]
         [--top-p-ball P] [--[no-]contact-odds] [--top-p-contact P] [--[no-]strike-in-reach]
         [--strike-in-reach-from N] [--[no-]strike-in-reach-force] [--top-p-serve P]
@@ -41,7 +41,8 @@ generator's players on a folder's own rally states, their next shot beside the f
 fidelity). `leaks` prints the AUC table of
 `sportsngen.eval.leaks` (with `--paths` also the path-matched fault check of
 `sportsngen.eval.leak_paths`) and exits with status 1 when some AUC lies outside the band (a
-gate for CI).
+gate for CI); an AUC resting on fewer than `--min-pairs` comparable pairs is marked thin, not
+read.
 Exit status 2 on a missing folder, empty data or a bad option.
 """
 
@@ -143,27 +144,28 @@ def run_leaks(args: argparse.Namespace) -> int:
         raise UsageError(f"--band wants 0 <= LOW < HIGH <= 1, got {lo:g} {hi:g}")
     if min(args.k) < 0:
         raise UsageError(f"--k wants frame offsets >= 0, got {args.k}")
-    if args.boot < 0 or args.seed < 0:
-        raise UsageError(f"--boot and --seed must be >= 0, got {args.boot}, {args.seed}")
+    if args.boot < 0 or args.seed < 0 or args.min_pairs < 1:
+        raise UsageError(f"--boot and --seed must be >= 0 and --min-pairs >= 1, got "
+                         f"{args.boot}, {args.seed}, {args.min_pairs}")
     data = load_tracking(args.folder, "leaks")
     try:
         table = check_leaks(data, ks=args.k, n_boot=args.boot, seed=args.seed,
                             stratify=not args.raw)
     except ValueError as exc:
         raise UsageError(f"leaks: {args.folder}: {exc}") from exc
-    print(render_leaks(table, (lo, hi)))
+    print(render_leaks(table, (lo, hi), args.min_pairs))
     if args.paths:
         from sportsngen.eval.leak_paths import check_fault_paths
 
         paths = check_fault_paths(data, ks=args.k, n_boot=args.boot, seed=args.seed)
         print("\nPath-matched, fault against in (sportsngen.eval.leak_paths):\n")
-        print(render_leaks(paths, (lo, hi)))
+        print(render_leaks(paths, (lo, hi), args.min_pairs))
         table = pd.concat([table, paths.assign(check="path_matched")], ignore_index=True)
     if args.csv is not None:
         args.csv.parent.mkdir(parents=True, exist_ok=True)
         table.to_csv(args.csv, index=False)
         print(f"wrote {args.csv}")
-    return int(outside_band(table, (lo, hi)).any())
+    return int(outside_band(table, (lo, hi), args.min_pairs).any())
 
 
 def _simulator(args: argparse.Namespace):
@@ -449,12 +451,17 @@ def build_parser() -> argparse.ArgumentParser:
                        help="raw AUCs, not stratified by what the players could see (pairing, "
                             "serve number, direction, depth, speed, the seen flight and, for "
                             "the opponent, how far aside it passes him, for the hitter, how "
-                            "fast he saw it leave)")
+                            "fast and how far across he saw it go)")
     leaks.add_argument("--paths", action="store_true",
                        help="also the path-matched check of faults: is the movement before a "
                             "fault explained by the ball's path and the player's position?")
     leaks.add_argument("--band", type=float, nargs=2, default=[0.4, 0.6],
                        metavar=("LOW", "HIGH"), help="AUCs outside it fail (default 0.4 0.6)")
+    from sportsngen.eval.leaks import MIN_READ_PAIRS
+
+    leaks.add_argument("--min-pairs", type=int, default=MIN_READ_PAIRS,
+                       help="an AUC on fewer comparable pairs is too few to read: marked thin, "
+                            f"not failed (default {MIN_READ_PAIRS})")
     model_opts = argparse.ArgumentParser(add_help=False)
     model_opts.add_argument("--model", default=None,
                             help="model file (default: the bundled model)")

@@ -39,11 +39,13 @@ at the contact in `CONTACT_SPEED_BINS_MPS`, and the ball's flight as seen a reac
 before the measured frame, ``seen_flight`` for the hitter's cells and
 ``opponent_seen_flight`` for the opponent's, which differ only for a serve's receiver, who
 reads it sooner; for the opponent's cells also how far sideways that flight passes him,
-``seen_reach``; for the hitter's cells also how fast he saw his ball leave, ``seen_pace``),
+``seen_reach``; for the hitter's cells also how fast he saw his ball leave, ``seen_pace``,
+and, after rally shots, how far across the court he saw it go, ``seen_width``),
 and the AUC pools the strata by their number of
 pairs. Without that, causes everyone can see pass for leaks: a player who aces more and whose
 receiver reacts later, a wide serve (more often an ace) after which the server recovers further,
-a harder serve (more often an ace) after which he runs back slower,
+a harder serve (more often an ace) after which he runs back slower, a ball sent far across
+the court (more often a winner) after which the hitter recovers further,
 an opponent still running at the contact (more often passed), a ball seen flying long that the
 opponent chases deeper (more often an error), a receiver sprinting at a serve that passes out
 of his reach (more often an ace), a receiver who had read a wide serve by the sixth frame
@@ -74,11 +76,13 @@ from sportsngen.data.tracking import RallyData
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.eval.seen import (
     SEEN_LAG_S,
+    SEEN_NONE,
     SEEN_RETURN_LAG_S,
     seen_ball,
     seen_flight,
     seen_pace,
     seen_reach,
+    seen_width,
 )
 from sportsngen.tennis.court import BASELINE_X_M
 
@@ -94,7 +98,7 @@ CONTACT_SPEED_COLUMNS = tuple(f"{r}_speed0_mps" for r in ROLES)
 STRATA_COLUMNS = ("hitter", "opponent", "serve_number", "direction", "contact_depth")
 # The flight as each role saw it: a serve's receiver reads it sooner (`SEEN_RETURN_LAG_S`).
 OPPONENT_STRATA_COLUMNS = ("opponent_seen_flight", "seen_reach")  # the opponent's cells only
-HITTER_STRATA_COLUMNS = ("seen_flight", "seen_pace")               # the hitter's cells only
+HITTER_STRATA_COLUMNS = ("seen_flight", "seen_pace", "seen_width")  # the hitter's cells only
 TABLE_COLUMNS = ("rally_id", "shot_index", "frame", "k", "at_frame", "land_frame",
                  "outcome_frame") + tuple(PAIRS) + FEATURE_COLUMNS
 CONTACT_SPEED_BINS_MPS = (0.25, 0.75, 1.5, 2.25, 3.0, 4.0, 5.0)
@@ -102,6 +106,10 @@ CONTACT_SPEED_BINS_MPS = (0.25, 0.75, 1.5, 2.25, 3.0, 4.0, 5.0)
 # player who struck from inside the court recovers backward, and such balls are more often
 # winners (the hitter's speed 12 frames on: AUC 0.61 -> 0.56 with this stratum).
 CONTACT_DEPTH_BINS_M = (0.0, 1.0)
+# An AUC resting on fewer comparable pairs is not read (`thin_cells`): below 10 one pair moves
+# it by more than the band's half-width (0.1). At 800 generated points the receiver's
+# acceleration 12 frames before a fault rested on 2 pairs and read 0.000.
+MIN_READ_PAIRS = 10
 LABEL_TOL_FRAMES = 1  # a labelled contact and the rules' detected one differ by at most this
 _BOOT_CELLS = 4_000_000  # replicate x contact weights held at once
 
@@ -244,6 +252,8 @@ def contact_kinematics(data: RallyData, ks=DEFAULT_KS) -> pd.DataFrame:
         part["seen_flight"] = seen_flight(pos[:, 2], f, at - lag, row0, track_end, serve,
                                           data.fps, ball=ball)
         part["seen_pace"] = seen_pace(ball)
+        # A serve's width is its direction label's (wide, body, T), already a stratum.
+        part["seen_width"] = np.where(serve, SEEN_NONE, seen_width(ball))
         # The opponent saw what the hitter saw, but for a serve's receiver: read those alone.
         sub = (f[serve], (at - opp_lag)[serve], row0[serve], track_end[serve])
         ball_serve = seen_ball(pos[:, 2], *sub, data.fps)
@@ -417,25 +427,42 @@ def check_leaks(data: RallyData, ks=DEFAULT_KS, n_boot: int = 1000, seed: int = 
     return leak_auc(contact_kinematics(data, ks), n_boot=n_boot, seed=seed, stratify=stratify)
 
 
-def outside_band(table: pd.DataFrame, band=(0.4, 0.6)) -> pd.Series:
-    """Rows whose AUC lies outside [band[0], band[1]] (NaN AUCs are not flagged)."""
+def outside_band(table: pd.DataFrame, band=(0.4, 0.6),
+                 min_pairs: int = MIN_READ_PAIRS) -> pd.Series:
+    """Rows whose AUC lies outside [band[0], band[1]] and rests on at least `min_pairs`
+    comparable pairs (NaN AUCs are not flagged; a table without ``n_pairs`` is read whole)."""
     lo, hi = band
-    return (table["auc"] < lo) | (table["auc"] > hi)
+    return ((table["auc"] < lo) | (table["auc"] > hi)) & ~thin_cells(table, min_pairs)
 
 
-def render_leaks(table: pd.DataFrame, band=(0.4, 0.6)) -> str:
-    """A markdown table of `leak_auc` rows, rows outside `band` marked LEAK, and a summary."""
-    flag = outside_band(table, band)
+def thin_cells(table: pd.DataFrame, min_pairs: int = MIN_READ_PAIRS) -> pd.Series:
+    """Rows whose AUC rests on fewer than `min_pairs` comparable pairs: too few to read (an
+    AUC of 2 pairs is 0, 0.5 or 1 whatever the players do)."""
+    if "n_pairs" not in table:
+        return pd.Series(False, index=table.index)
+    return table["n_pairs"].notna() & (table["n_pairs"] < min_pairs)
+
+
+def render_leaks(table: pd.DataFrame, band=(0.4, 0.6), min_pairs: int = MIN_READ_PAIRS) -> str:
+    """A markdown table of `leak_auc` rows, rows outside `band` marked LEAK (``thin`` where the
+    AUC rests on fewer than `min_pairs` comparable pairs), and a summary."""
+    flag = outside_band(table, band, min_pairs)
+    thin = ((table["auc"] < band[0]) | (table["auc"] > band[1])) & thin_cells(table, min_pairs)
     fmt = lambda v, d=2: "-" if pd.isna(v) else f"{v:.{d}f}"  # noqa: E731
     pairs = table["n_pairs"] if "n_pairs" in table else pd.Series(np.nan, index=table.index)
     diff = table["diff_within"] if "diff_within" in table else pd.Series(np.nan, index=table.index)
     lines = ["| pair | role | feature | k | AUC [interval] | n_pos | n_neg | pairs | mean pos | "
              "mean neg | pos - neg within strata | |", "|" + "---|" * 12]
-    for (_, row), bad, n_pairs, d in zip(table.iterrows(), flag, pairs, diff):
+    for (_, row), bad, few, n_pairs, d in zip(table.iterrows(), flag, thin, pairs, diff):
+        mark = "LEAK" if bad else ("thin" if few else "")
         lines.append(f"| {row['pair']} | {row['role']} | {row['feature']} | {row['k']} | "
                      f"{fmt(row['auc'], 3)} [{fmt(row['lo'])}, {fmt(row['hi'])}] | "
                      f"{row['n_pos']} | {row['n_neg']} | {fmt(n_pairs, 0)} | "
                      f"{fmt(row['mean_pos'])} | {fmt(row['mean_neg'])} | {fmt(d, 3)} | "
-                     f"{'LEAK' if bad else ''} |")
-    lines.append(f"\n{int(flag.sum())} of {len(table)} AUCs outside [{band[0]:g}, {band[1]:g}].")
+                     f"{mark} |")
+    summary = f"\n{int(flag.sum())} of {len(table)} AUCs outside [{band[0]:g}, {band[1]:g}]"
+    if thin.any():
+        summary += (f" ({int(thin.sum())} more outside on fewer than {min_pairs} comparable "
+                    "pairs: too few to read, marked thin)")
+    lines.append(summary + ".")
     return "\n".join(lines)
