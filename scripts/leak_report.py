@@ -31,7 +31,7 @@ try:  # absent from trees older than the check (a --save-data run)
 except ImportError:
     check_leaks = None
 try:  # absent from trees older than the thin cells (a --before run)
-    from sportsngen.eval.leaks import thin_cells
+    from sportsngen.eval.leaks import sure_leaks, thin_cells
 except ImportError:
     thin_cells = None
 try:  # absent from trees older than the path-matched check (a --before run)
@@ -79,7 +79,8 @@ def main() -> None:
         thin = ""
         if thin_cells is not None:
             outside = (table["auc"] < 0.4) | (table["auc"] > 0.6)
-            thin = f" ({int((thin_cells(table) & outside).sum())} more on too few pairs to read)"
+            thin = (f" ({int(sure_leaks(table).sum())} with an interval that leaves out 0.5; "
+                    f"{int((thin_cells(table) & outside).sum())} more on too few pairs to read)")
         print(f"{a} v {b} ({surface}): {int(outside_band(table).sum())} of {len(table)} AUCs "
               f"outside [0.4, 0.6]{thin}", flush=True)
         if check_fault_paths is not None:

@@ -33,9 +33,11 @@ from sportsngen.eval.leaks import (
     auc,
     check_leaks,
     contact_kinematics,
+    interval_holds_half,
     leak_auc,
     outside_band,
     render_leaks,
+    sure_leaks,
     thin_cells,
     weighted_auc,
 )
@@ -381,7 +383,7 @@ def test_an_auc_on_too_few_pairs_is_marked_thin_not_flagged():
     # one inside on 5: only the 2- and 9-pair cells are too few to read.
     table = pd.DataFrame({"pair": "fault_vs_in", "role": "opponent", "feature": "acc_mps2",
                           "k": 12, "auc": [0.0, 0.9, 0.1, 0.2, 0.5],
-                          "lo": 0.0, "hi": 1.0, "n_pos": 2, "n_neg": 1,
+                          "lo": np.nan, "hi": np.nan, "n_pos": 2, "n_neg": 1,
                           "n_pairs": [2, 9, 10, np.nan, 5], "mean_pos": 0.0, "mean_neg": 0.0,
                           "diff_within": 0.0})
     assert thin_cells(table).tolist() == [True, True, False, False, True]
@@ -394,6 +396,25 @@ def test_an_auc_on_too_few_pairs_is_marked_thin_not_flagged():
     assert "thin" not in render_leaks(table, min_pairs=2).split("\n")[2]  # 2 pairs: read
     # A table without pair counts is read whole.
     assert outside_band(table.drop(columns="n_pairs")).sum() == 4
+
+
+def test_an_auc_outside_whose_interval_holds_half_is_unsure():
+    # Outside the band: 0.30 [0.00, 0.50] and 0.65 [0.46, 0.76] hold 0.5 (unsure), 0.35 [0.20,
+    # 0.49] and 0.62 without an interval (n_boot = 0) do not; 0.55 [0.30, 0.80] is inside.
+    table = pd.DataFrame({"pair": "winner_vs_returned", "role": "opponent",
+                          "feature": "speed_mps", "k": 12,
+                          "auc": [0.30, 0.65, 0.35, 0.62, 0.55],
+                          "lo": [0.0, 0.46, 0.20, np.nan, 0.30],
+                          "hi": [0.5, 0.76, 0.49, np.nan, 0.80],
+                          "n_pos": 20, "n_neg": 200, "n_pairs": 100, "mean_pos": 0.0,
+                          "mean_neg": 0.0, "diff_within": 0.0})
+    assert interval_holds_half(table).tolist() == [True, True, False, False, True]
+    assert outside_band(table).tolist() == [True, True, True, True, False]
+    assert sure_leaks(table).tolist() == [False, False, True, True, False]
+    text = render_leaks(table)
+    assert text.count("| unsure |") == 2 and text.count("| LEAK |") == 2
+    assert ("4 of 5 AUCs outside [0.4, 0.6] (2 of them unsure: their 95 % interval holds "
+            "0.5).") in text
 
 
 def test_a_serves_receiver_reads_its_flight_sooner(clean):
@@ -507,6 +528,10 @@ def test_cli_exit_codes(clean, leaky, tmp_path, capsys):
                  "--min-pairs", "1000"]) == 0
     assert "2 more outside on fewer than 1000" in capsys.readouterr().out
     assert main(["leaks", str(tmp_path / "clean"), "--min-pairs", "0"]) == 2
+    # The planted leaks are sure (their intervals are [0, 0]): they fail either way.
+    assert main(["leaks", str(tmp_path / "leaky"), "--boot", "20", "--k", "12",
+                 "--fail-on", "sure"]) == 1
+    assert main(["leaks", str(tmp_path / "clean"), "--boot", "20", "--fail-on", "sure"]) == 0
 
 
 # -- generator version 5 (committed table) -----------------------------------------------------

@@ -4,7 +4,7 @@
     python -m sportsngen.eval report --sim FOLDER --ref-synthetic "Roger Federer,Rafael Nadal" \\
         [--surface hard] [--points N] [--seed 0] [--real-year 2011 | --no-real] --out DIR
     python -m sportsngen.eval leaks FOLDER [--k 6 12] [--boot N] [--seed S] [--csv PATH] \\
-        [--band 0.4 0.6] [--min-pairs 10] [--paths]
+        [--band 0.4 0.6] [--min-pairs 10] [--fail-on outside|sure] [--paths]
     python -m sportsngen.eval diagnose [--model PATH] [--points 400] [--seed 0] [--csv PATH]
         [--top-p-ball P] [--[no-]contact-odds] [--top-p-contact P] [--[no-]strike-in-reach]
         [--strike-in-reach-from N] [--[no-]strike-in-reach-force] [--top-p-serve P]
@@ -41,8 +41,9 @@ generator's players on a folder's own rally states, their next shot beside the f
 fidelity). `leaks` prints the AUC table of
 `sportsngen.eval.leaks` (with `--paths` also the path-matched fault check of
 `sportsngen.eval.leak_paths`) and exits with status 1 when some AUC lies outside the band (a
-gate for CI); an AUC resting on fewer than `--min-pairs` comparable pairs is marked thin, not
-read.
+gate for CI; `--fail-on sure` only where the AUC's bootstrap interval also leaves out 0.5,
+the others marked unsure); an AUC resting on fewer than `--min-pairs` comparable pairs is
+marked thin, not read.
 Exit status 2 on a missing folder, empty data or a bad option.
 """
 
@@ -137,7 +138,7 @@ def run_leaks(args: argparse.Namespace) -> int:
     the band, else 0."""
     import pandas as pd
 
-    from sportsngen.eval.leaks import check_leaks, outside_band, render_leaks
+    from sportsngen.eval.leaks import check_leaks, outside_band, render_leaks, sure_leaks
 
     lo, hi = args.band
     if not 0.0 <= lo < hi <= 1.0:
@@ -165,7 +166,8 @@ def run_leaks(args: argparse.Namespace) -> int:
         args.csv.parent.mkdir(parents=True, exist_ok=True)
         table.to_csv(args.csv, index=False)
         print(f"wrote {args.csv}")
-    return int(outside_band(table, (lo, hi), args.min_pairs).any())
+    fail = outside_band if args.fail_on == "outside" else sure_leaks
+    return int(fail(table, (lo, hi), args.min_pairs).any())
 
 
 def _simulator(args: argparse.Namespace):
@@ -457,6 +459,10 @@ def build_parser() -> argparse.ArgumentParser:
                             "fault explained by the ball's path and the player's position?")
     leaks.add_argument("--band", type=float, nargs=2, default=[0.4, 0.6],
                        metavar=("LOW", "HIGH"), help="AUCs outside it fail (default 0.4 0.6)")
+    leaks.add_argument("--fail-on", choices=("outside", "sure"), default="outside",
+                       help="exit 1 on any AUC outside the band (default), or only where its "
+                            "bootstrap interval also leaves out 0.5 ('sure': small samples put "
+                            "cells outside by chance; marked unsure in the table)")
     from sportsngen.eval.leaks import MIN_READ_PAIRS
 
     leaks.add_argument("--min-pairs", type=int, default=MIN_READ_PAIRS,
