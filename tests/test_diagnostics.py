@@ -17,6 +17,7 @@ from sportsngen.eval.diagnostics import (
     paired_return_gap,
     run_diagnostics,
     serve_outcomes,
+    serve_strike_frames,
     strike_branches,
     truth_leak_aucs,
     truth_points,
@@ -129,6 +130,26 @@ def test_rules_serve_outcomes_replace_a_classifier_that_mislabels_serves(truth_d
     later = fixed["shot_index"] > 0
     assert (fixed.loc[later, "outcome"].to_numpy()
             == truth.shots.loc[later, "outcome"].to_numpy()).all()
+
+
+def test_a_serves_strike_frame_is_the_first_past_the_racket():
+    # The generator strikes each player's serves at one fraction of a frame: Sharapova's before
+    # the shots table's frame (the ball there has left), Williams' 0.16 of a frame after it (the
+    # ball there is still on the toss), so her strike is the next frame.
+    from sportsngen.synth import generate_matches
+
+    data = generate_matches([("Serena Williams", "Maria Sharapova")], "hard", 12, seed=0)
+    strike = serve_strike_frames(data)
+    serves = data.shots[data.shots["shot_index"] == 0].set_index("rally_id")
+    first = data.frames.groupby("rally_id")["frame"].min()
+    ball = data.frames[data.frames["object"] == "ball"].set_index(["rally_id", "frame"])["x"]
+    late = (strike - (serves["frame"] - first)).groupby(serves["hitter"]).agg(["min", "max"])
+    assert late.loc["Serena Williams"].tolist() == [1, 1]
+    assert late.loc["Maria Sharapova"].tolist() == [0, 0]
+    for rid, f in strike.items():
+        x0 = abs(serves.loc[rid, "contact_x"])
+        assert x0 - abs(ball[(rid, first[rid] + f)]) > 0.01        # left the racket
+        assert x0 - abs(ball[(rid, first[rid] + f - 1)]) < 0.01    # not yet, a frame before
 
 
 def test_serve_outcomes_of_a_bounce_just_past_the_last_frame(monkeypatch):

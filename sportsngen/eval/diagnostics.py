@@ -120,6 +120,7 @@ RECEIVER_SLOT = OBJECTS.index("receiver")
 # A leak cell resting on fewer comparable pairs is left blank (NaN): with 3 pairs an AUC is 0,
 # 0.33, 0.67 or 1 whatever the model does.
 MIN_LEAK_PAIRS = 30
+STRIKE_LEFT_M = 0.01  # a serve's ball this far nearer the net than its contact has been struck
 
 
 @dataclass(frozen=True)
@@ -199,9 +200,17 @@ def wide_share(in_box: pd.DataFrame) -> float:
 
 
 def serve_strike_frames(data: RallyData) -> pd.Series:
-    """Rally id -> the frame of its serve's strike (shots table, `shot_index` 0), counted from
-    the rally's first frame (rallies without a serve left out)."""
-    strike = data.shots[data.shots["shot_index"] == 0].set_index("rally_id")["frame"]
+    """Rally id -> the frame of its serve's strike, the first past the racket, counted from the
+    rally's first frame (rallies without a serve left out). The shots table's frame is the
+    contact's, rounded (`shot_index` 0): where the ball there has not yet left the contact
+    toward the net by `STRIKE_LEFT_M` (a contact late in the frame interval: every one of
+    Williams' generated serves), the strike is the next frame."""
+    serves = data.shots.loc[data.shots["shot_index"] == 0, ["rally_id", "frame", "contact_x"]]
+    ball = data.frames.loc[data.frames["object"] == "ball", ["rally_id", "frame", "x"]]
+    at = serves.merge(ball, on=["rally_id", "frame"], how="left")
+    left = (at["contact_x"].abs() - at["x"].abs()) > STRIKE_LEFT_M  # NaN (no ball row): False
+    strike = pd.Series((at["frame"] + (~left).astype(int)).to_numpy(),
+                       index=at["rally_id"].to_numpy())
     first = data.frames.groupby("rally_id")["frame"].min()
     return (strike - first.reindex(strike.index)).astype(int)
 
