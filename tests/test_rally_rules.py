@@ -192,6 +192,24 @@ def test_ace():
     assert_clean(res)
 
 
+@pytest.mark.parametrize("late", [0.5, 0.9, 0.905, 0.95, 0.99])
+def test_a_fast_serve_struck_late_in_a_frame_interval_is_found(late):
+    # A 200 km/h serve struck `late` of a frame after frame 20. At 0.9 the first frame after it
+    # holds a sliver of the flight, 5.5 m/s along x: too small a share of the serve to be its
+    # segment and too fast for a toss, so the rules had found no serve and stopped the rally
+    # undecided (0.88-0.90 of a frame), and from 0.91 to 0.95 read the contact 0.11-0.17 m
+    # nearer the net (real trackers' frames fall anywhere; the generator's serves at one phase).
+    t = TOSS_S + late / FPS
+    shots = [(t, (-6.0, -1.5), 0.32)]
+    pos = make_rally(shots, receiver_home=(-12.4, 3.0))
+    contact = ball_track(shots, 6.0)[1][0][1]
+    res = judge(pos)
+    assert (res["winner"], res["end_reason"], res["end_detail"]) == (0, "ace", "unreached")
+    assert res["n_shots"] == 1 and abs(res["contact_frames"][0] - t * FPS) <= 0.5 + 1e-9
+    assert res["contacts_m"][0] == pytest.approx(contact, abs=0.05)
+    assert_clean(res)
+
+
 @pytest.mark.parametrize("still_at, frame, winner, reason, detail", [
     ((8.0, 1.0, R), 68, 1, "winner", "unreached"),   # dies where it lands: a good bounce
     ((5.0, 1.0, 1.0), 60, 0, "error", "out"),         # stopped in the air (a fence) before landing

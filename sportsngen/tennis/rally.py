@@ -64,6 +64,7 @@ CONTACT_REACH_M = 2.5           # horizontal distance from a player's centre to 
 CONTACT_MAX_Z_M = 3.5
 CONTACT_GAP_FRAMES = 3          # segments between two contacts, or two bounces, at least
 EVENT_MIN_SHARE = 0.1           # share of the velocity change seen inside the event's segment
+SERVE_SLIVER_MIN_MPS = 2.0      # a serve's sliver, above tracking noise, read back to its contact
 BOUNCE_AFTER_CONTACT_FRAMES = 2  # no bounce this soon after a contact (velocities still mixed)
 BOUNCE_MAX_ACC_H_MPS2 = 40.0    # drag on a fast ball; measured accelerations are clipped to
 BOUNCE_MAX_ACC_DOWN_G = 2.0     # these bounds (down: between 0.5 g and 2 g, gravity plus
@@ -213,6 +214,7 @@ class RallyTracker:
         self.n_bounces = i0(0)            # bounces on the far side since the last contact
         self._last_contact = i0(-10 ** 6)  # segment index of the last contact / bounce
         self._last_bounce = i0(-10 ** 6)
+        self._serve_next = np.zeros(n, dtype=bool)  # the serve's sliver seen: read it next
         self._rest = i0(0)
         self._through = np.zeros(n)       # side a ball that crossed below the cord went to
         self.flags = i0(0)                # bit i set: CHECKS[i] failed
@@ -372,10 +374,25 @@ class RallyTracker:
         # The event must lie in this segment, not the next: the segment's own velocity has
         # already moved part of the way from before to after (else a fast serve struck early
         # in the next segment would be caught one segment too soon).
-        free = (seg - self._last_contact >= CONTACT_GAP_FRAMES) & \
-            (_share(va[:, 0], vm[:, 0], vb[:, 0]) > EVENT_MIN_SHARE)
-        serve = live & free & (self.n_shots == 0) & (hs_a < TOSS_MAX_HSPEED_MPS) & \
-            (hs_b > SERVE_MIN_HSPEED_MPS) & (vb[:, 0] * self.server_end < 0)
+        spaced = seg - self._last_contact >= CONTACT_GAP_FRAMES
+        in_segment = _share(va[:, 0], vm[:, 0], vb[:, 0]) > EVENT_MIN_SHARE
+        free = spaced & in_segment
+        served = live & (self.n_shots == 0) & (hs_b > SERVE_MIN_HSPEED_MPS) & \
+            (vb[:, 0] * self.server_end < 0)
+        # A serve struck in the last tenth of a segment shows only a sliver of its flight there
+        # (a fast one, faster than a toss): it is read in the next segment, whose flight before
+        # is that sliver, and its contact found back along the flight by the sliver's length.
+        late = served & free & self._serve_next & (np.abs(va[:, 0]) > SERVE_SLIVER_MIN_MPS)
+        serve = served & free & ((hs_a < TOSS_MAX_HSPEED_MPS) | self._serve_next)
+        self._serve_next = np.where(live, served & spaced & ~in_segment &
+                                    (hs_a < TOSS_MAX_HSPEED_MPS), self._serve_next)
+        if late.any():
+            back_s = np.abs(va[:, 0]) / np.maximum(np.abs(vm[:, 0]), 1e-9) * dt
+            contact = np.where(late[:, None], p0 - vm * back_s[:, None], contact)
+            frac = np.where(late[:, None], 0.0, frac)
+            players = np.where(late[:, None, None], before, players)
+            half = np.where(contact[:, 0] >= 0.0, 1, -1)
+            who = np.where(half == self.server_end, SERVER, RECEIVER)
         role = np.where(serve, SERVER, who)
         mine = players[np.arange(len(self)), role]
         gap = np.hypot(*(contact[:, :2] - mine).T)
