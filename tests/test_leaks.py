@@ -16,6 +16,7 @@ at a contact that will not be returned.
 from __future__ import annotations
 
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
@@ -33,6 +34,7 @@ from sportsngen.eval.leaks import (
     auc,
     check_leaks,
     contact_kinematics,
+    contact_phase,
     interval_holds_half,
     leak_auc,
     outside_band,
@@ -96,7 +98,7 @@ def _table(rows) -> pd.DataFrame:
                    hitter="A", opponent="B", serve_number=1, direction="middle",
                    hitter_speed0_mps=0.0, opponent_speed0_mps=0.0, seen_flight=-1,
                    opponent_seen_flight=-1, seen_reach=-1, seen_pace=-1, seen_width=-1,
-                   contact_depth=0)
+                   contact_depth=0, contact_phase=-1)
     return df[list(TABLE_COLUMNS + STRATA_COLUMNS + OPPONENT_STRATA_COLUMNS
                    + HITTER_STRATA_COLUMNS + CONTACT_SPEED_COLUMNS)]
 
@@ -187,6 +189,28 @@ def test_seen_width_bins_how_far_across_the_ball_was_seen_going():
                        FPS)
     assert seen_b["land_m"][0, 1] == pytest.approx(3.0, abs=0.05)
     assert seen_width(seen_b).tolist() == [1]
+
+
+def test_contact_phase_bins_how_far_the_ball_had_flown_at_its_labelled_frame():
+    # A ball struck at frame 10 + d (d = -0.4, -0.1, 0.2, 0.45 of a frame, labelled frame 10)
+    # flying 2 m a frame along -x from x = 11: at frame 10 it had flown -d frames -> bins 3, 2,
+    # 1, 0 of (-0.25, 0, 0.25); one without a contact position and one with its track ending
+    # at frame 11 are SEEN_NONE.
+    delays = [-0.4, -0.1, 0.2, 0.45, 0.0, 0.0]
+    n = 20
+    ball = np.zeros((len(delays) * n, 2))
+    for i, d in enumerate(delays):
+        t = np.arange(n) - (10 + d)
+        ball[i * n:(i + 1) * n, 0] = 11.0 - 2.0 * np.maximum(t, 0.0)
+        ball[i * n:(i + 1) * n, 1] = 0.5
+    shots = pd.DataFrame({"rally_id": range(6), "shot_index": 0, "contact_x": 11.0,
+                          "contact_y": [0.5, 0.5, 0.5, 0.5, np.nan, 0.5]})
+    contacts = shots[["rally_id", "shot_index"]]
+    row0 = np.arange(6) * n
+    track_end = np.array([n, n, n, n, n, 12.0])
+    data = SimpleNamespace(shots=shots)
+    code = contact_phase(data, contacts, ball, row0, np.full(6, 10), track_end)
+    assert code.tolist() == [3, 2, 1, 0, SEEN_NONE, SEEN_NONE]
 
 
 def test_visibility_rule_leaves_out_contacts_seen_by_then():
@@ -427,6 +451,9 @@ def test_a_serves_receiver_reads_its_flight_sooner(clean):
     serves, rally = kin[kin["shot_index"] == 0], kin[kin["shot_index"] >= 1]
     assert (serves["seen_flight"] == SEEN_NONE).all() and (serves["seen_pace"] == SEEN_NONE).all()
     assert (serves["seen_width"] == SEEN_NONE).all()
+    # The planted serves are struck on frame 20 itself: phase bin 2 (0 to 0.25 of a frame
+    # flown); rally balls are not binned by their phase.
+    assert (serves["contact_phase"] == 2).all() and (rally["contact_phase"] == SEEN_NONE).all()
     assert (serves["opponent_seen_flight"] != SEEN_NONE).all()
     assert (serves["seen_reach"] != SEEN_NONE).all()
     assert (rally["opponent_seen_flight"] == rally["seen_flight"]).all()
