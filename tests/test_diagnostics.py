@@ -5,6 +5,7 @@ the tiny test model."""
 import dataclasses
 
 import numpy as np
+import pandas as pd
 import pytest
 import torch
 
@@ -14,6 +15,7 @@ from sportsngen.eval.diagnostics import (
     WIDE_SERVE_Y_M,
     DiagnosticsSetup,
     contact_calibration,
+    leak_rows_summary,
     paired_return_gap,
     run_diagnostics,
     serve_outcomes,
@@ -130,6 +132,19 @@ def test_rules_serve_outcomes_replace_a_classifier_that_mislabels_serves(truth_d
     later = fixed["shot_index"] > 0
     assert (fixed.loc[later, "outcome"].to_numpy()
             == truth.shots.loc[later, "outcome"].to_numpy()).all()
+
+
+def test_leak_rows_summary_counts_outside_and_unsure_rows():
+    # Four leak rows read (0.30 [0.18, 0.43] sure, 0.61 [0.48, 0.73] unsure, 0.50 inside, 0.65
+    # without an interval: sure), one unread (NaN), and a row that is not a leak cell.
+    table = pd.DataFrame({
+        "signal": ["leak AUC a", "leak AUC b", "leak AUC c", "leak AUC d", "leak AUC e",
+                   "branch return share"],
+        "model": [0.30, 0.61, 0.50, 0.65, np.nan, 0.9], "data": 0.5, "n": 100,
+        "lo": [0.18, 0.48, 0.40, np.nan, np.nan, 0.1], "hi": [0.43, 0.73, 0.60, np.nan,
+                                                               np.nan, 0.2]})
+    assert leak_rows_summary(table) == ("leak rows outside [0.4, 0.6]: 3 of 4 read (1 unsure: "
+                                        "their 95 % interval holds 0.5)")
 
 
 def test_a_serves_strike_frame_is_the_first_past_the_racket():

@@ -204,9 +204,11 @@ def _print_table(table, csv: Path | None, footer: str, notes: tuple[str, ...] = 
         print(f"wrote {csv}")
 
 
-def _run_model_table(args: argparse.Namespace, name: str, compute, **setup_kw) -> int:
+def _run_model_table(args: argparse.Namespace, name: str, compute, notes=None,
+                     **setup_kw) -> int:
     """A model's table over generated truth: the model file and sampling of `args`, the truth
-    of its matchup, `compute(sim, setup)` -> the table, printed (and written as CSV)."""
+    of its matchup, `compute(sim, setup)` -> the table, printed with `notes(table)`'s lines
+    (and written as CSV)."""
     import time
 
     from sportsngen.eval.diagnostics import DiagnosticsSetup
@@ -221,17 +223,18 @@ def _run_model_table(args: argparse.Namespace, name: str, compute, **setup_kw) -
         raise UsageError(f"{name}: {exc}") from exc
     _print_table(table, args.csv, f"({time.perf_counter() - t0:.0f} s, {setup.n_points} points "
                  f"of {setup.server} serving to {setup.receiver} on {setup.surface}, seed "
-                 f"{setup.seed})")
+                 f"{setup.seed})", notes=() if notes is None else tuple(notes(table)))
     return 0
 
 
 def run_diagnose(args: argparse.Namespace) -> int:
     """The rollout diagnostics of a model: prints the table (and writes the CSV)."""
-    from sportsngen.eval.diagnostics import run_diagnostics
+    from sportsngen.eval.diagnostics import leak_rows_summary, run_diagnostics
 
     if args.boot < 0:
         raise UsageError(f"--boot must be >= 0, got {args.boot}")
-    return _run_model_table(args, "diagnose", run_diagnostics, leak_boot=args.boot)
+    return _run_model_table(args, "diagnose", run_diagnostics,
+                            notes=lambda t: (leak_rows_summary(t),), leak_boot=args.boot)
 
 
 def run_strikes(args: argparse.Namespace) -> int:

@@ -91,7 +91,7 @@ from sportsngen.data.tokens import (
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.contact_odds import approach_frames, far_probability
 from sportsngen.eval.flight import flight_residuals, rally_tracks
-from sportsngen.eval.leaks import check_leaks
+from sportsngen.eval.leaks import check_leaks, interval_holds_half, outside_band
 from sportsngen.eval.long_rallies import late_shot_contact_odds
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.eval.shot_branches import (
@@ -470,6 +470,19 @@ def leak_table_rows(rollouts: RallyData, record: pd.DataFrame, setup: Diagnostic
 
 
 _SERVES = {1: "first", 2: "second"}
+
+
+def leak_rows_summary(table: pd.DataFrame, band=(0.4, 0.6)) -> str:
+    """One line on `run_diagnostics`' leak rows: how many of the model's AUCs lie outside
+    `band`, and how many of those have a bootstrap interval holding 0.5 (unsure: at 400
+    points a cell rests on a few hundred pairs and falls outside by chance)."""
+    rows = table[table["signal"].str.startswith("leak AUC")]
+    cells = rows.rename(columns={"model": "auc"})[["auc", "lo", "hi"]]
+    out = outside_band(cells, band)
+    unsure = out & interval_holds_half(cells)
+    return (f"leak rows outside [{band[0]:g}, {band[1]:g}]: {int(out.sum())} of "
+            f"{int(cells['auc'].notna().sum())} read ({int(unsure.sum())} unsure: their 95 % "
+            f"interval holds 0.5)")
 
 
 def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.DataFrame:
