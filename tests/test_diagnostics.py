@@ -147,24 +147,34 @@ def test_leak_rows_summary_counts_outside_and_unsure_rows():
                                         "their 95 % interval holds 0.5)")
 
 
-def test_a_serves_strike_frame_is_the_first_past_the_racket():
-    # The generator strikes each player's serves at one fraction of a frame: Sharapova's before
-    # the shots table's frame (the ball there has left), Williams' 0.16 of a frame after it (the
-    # ball there is still on the toss), so her strike is the next frame.
-    from sportsngen.synth import generate_matches
-
-    data = generate_matches([("Serena Williams", "Maria Sharapova")], "hard", 12, seed=0)
+def _strike_frames_after_rounding(data):
+    """serve_strike_frames, checked against the ball, -> per hitter the (min, max) frames it
+    adds to the shots table's rounded contact frame."""
     strike = serve_strike_frames(data)
     serves = data.shots[data.shots["shot_index"] == 0].set_index("rally_id")
     first = data.frames.groupby("rally_id")["frame"].min()
     ball = data.frames[data.frames["object"] == "ball"].set_index(["rally_id", "frame"])["x"]
-    late = (strike - (serves["frame"] - first)).groupby(serves["hitter"]).agg(["min", "max"])
-    assert late.loc["Serena Williams"].tolist() == [1, 1]
-    assert late.loc["Maria Sharapova"].tolist() == [0, 0]
     for rid, f in strike.items():
         x0 = abs(serves.loc[rid, "contact_x"])
         assert x0 - abs(ball[(rid, first[rid] + f)]) > 0.01        # left the racket
         assert x0 - abs(ball[(rid, first[rid] + f - 1)]) < 0.01    # not yet, a frame before
+    late = strike - (serves["frame"] - first).reindex(strike.index)
+    return {h: (int(g.min()), int(g.max())) for h, g in late.groupby(serves["hitter"])}
+
+
+def test_a_serves_strike_frame_is_the_first_past_the_racket(monkeypatch):
+    # The generator strikes each player's serves at one fraction of a frame: Sharapova's before
+    # the shots table's frame (the ball there has left), Williams' 0.16 of a frame after it (the
+    # ball there is still on the toss), so her strike is the next frame.
+    from sportsngen.synth import cycle, generate_matches
+
+    data = generate_matches([("Serena Williams", "Maria Sharapova")], "hard", 12, seed=0)
+    assert _strike_frames_after_rounding(data) == {"Maria Sharapova": (0, 0),
+                                                   "Serena Williams": (1, 1)}
+    # Serves anywhere in their frame, as real tracking has them: either, for both.
+    monkeypatch.setattr(cycle, "SERVE_PHASE", True)
+    data = generate_matches([("Serena Williams", "Maria Sharapova")], "hard", 12, seed=0)
+    assert set(_strike_frames_after_rounding(data).values()) == {(0, 1)}
 
 
 def test_serve_outcomes_of_a_bounce_just_past_the_last_frame(monkeypatch):

@@ -421,6 +421,22 @@ def test_agreement_with_the_generator(monkeypatch):
     assert res["ended"].all()
 
 
+def test_agreement_with_the_generator_whose_serves_fall_anywhere_in_a_frame(monkeypatch):
+    # Real trackers' frames fall anywhere in a serve; the generator's fall at one phase unless
+    # told otherwise. On these points a serve struck 0.9 of a frame after its frame had left
+    # the rules without a serve (rally 47: not ended).
+    from sportsngen.synth import cycle
+
+    monkeypatch.setattr(cycle, "SERVE_PHASE", True)
+    data = generate_matches(["Roger Federer", "Rafael Nadal"], "hard", 80, seed=1, workers=1)
+    res = analyse_rally_data(data)
+    r = data.rallies.set_index("rally_id").loc[res.index]
+    winner = np.where(r["winner"] == "", -1, np.where(r["winner"] == r["server"], 0, 1))
+    assert len(res) >= 100 and res["ended"].all()
+    assert (res["winner"] == winner).mean() >= 0.97
+    assert (res["end_reason"] == end_class(r["end_reason"].to_numpy(str))).mean() >= 0.97
+
+
 def test_a_long_clay_rally_of_the_generator_is_judged_to_its_end_not_capped():
     # Djokovic v Murray on clay, seed 2: rally 28 lasts 40 s (28 shots; the generator's clay
     # rallies last over 30 s 1.06 % of the time). At the former default cap of 30 s it was

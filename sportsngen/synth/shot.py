@@ -254,15 +254,17 @@ def stop_roll_at_net(roll: np.ndarray, side: float) -> None:
 
 
 def ball_track(t: np.ndarray, flights: list[tuple[float, physics.Flight]],
-               toss: tuple[tuple[float, float], np.ndarray, float] | None = None) -> np.ndarray:
-    """Ball at each frame time: the toss (`toss` = (stance, serve contact, toss z-speed)), then
-    each flight until the next contact, then the last flight and a roll-out; a ball reaching
-    the fence stops there and drops."""
+               toss: tuple[tuple[float, float], np.ndarray, float, float] | None = None
+               ) -> np.ndarray:
+    """Ball at each frame time: the toss (`toss` = (stance, serve contact, toss z-speed, the
+    toss's start time; the ball rests in the hand before it)), then each flight until the next
+    contact, then the last flight and a roll-out; a ball reaching the fence stops there and
+    drops."""
     out = np.empty((len(t), 3))
     starts = [s for s, _ in flights]
     before = t < starts[0]
     if toss is not None:
-        out[before] = toss_track(t[before], toss[0], toss[1], toss[2])
+        out[before] = toss_track(t[before] - toss[3], toss[0], toss[1], toss[2])
     else:  # a continued rally: the ball was where the first flight starts
         out[before] = flights[0][1].pos_m[0]
     for i, (t0, flight) in enumerate(flights):
