@@ -78,9 +78,9 @@ def main() -> None:
         parts += [f"## {a} v {b}, {surface}\n", render_leaks(table), ""]
         thin = ""
         if thin_cells is not None:
-            outside = (table["auc"] < 0.4) | (table["auc"] > 0.6)
+            few = outside_band(table, min_pairs=0) & thin_cells(table)
             thin = (f" ({int(sure_leaks(table).sum())} with an interval that leaves out 0.5; "
-                    f"{int((thin_cells(table) & outside).sum())} more on too few pairs to read)")
+                    f"{int(few.sum())} more on too few pairs to read)")
         print(f"{a} v {b} ({surface}): {int(outside_band(table).sum())} of {len(table)} AUCs "
               f"outside [0.4, 0.6]{thin}", flush=True)
         if check_fault_paths is not None:

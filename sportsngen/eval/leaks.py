@@ -481,7 +481,7 @@ def thin_cells(table: pd.DataFrame, min_pairs: int = MIN_READ_PAIRS) -> pd.Serie
 
 
 def interval_holds_half(table: pd.DataFrame) -> pd.Series:
-    """Rows whose bootstrap interval [lo, hi] holds 0.5: no difference is within the sampling
+    """Rows whose bootstrap interval [lo, hi] holds 0.5: no difference beyond the sampling
     noise (rows without an interval, ``n_boot=0``, are not)."""
     if "lo" not in table or "hi" not in table:
         return pd.Series(False, index=table.index)
@@ -503,7 +503,7 @@ def render_leaks(table: pd.DataFrame, band=(0.4, 0.6), min_pairs: int = MIN_READ
     than `min_pairs` comparable pairs (and is not counted as outside)."""
     flag = outside_band(table, band, min_pairs)
     unsure = flag & interval_holds_half(table)
-    thin = ((table["auc"] < band[0]) | (table["auc"] > band[1])) & thin_cells(table, min_pairs)
+    thin = outside_band(table, band, min_pairs=0) & thin_cells(table, min_pairs)
     fmt = lambda v, d=2: "-" if pd.isna(v) else f"{v:.{d}f}"  # noqa: E731
     pairs = table["n_pairs"] if "n_pairs" in table else pd.Series(np.nan, index=table.index)
     diff = table["diff_within"] if "diff_within" in table else pd.Series(np.nan, index=table.index)
