@@ -391,6 +391,38 @@ def test_a_forced_strike_whose_launch_is_not_found_is_drawn_again(monkeypatch):
     assert strike_heads.FORCED_DRAWS == 8
 
 
+def test_serves_struck_anywhere_in_a_frame_are_found_once_and_read_where_they_bounced(
+        monkeypatch):
+    # Real trackers' frames fall anywhere in a serve (the generator's, at one phase a player,
+    # unless told otherwise). The finder's serve frame is the first past the racket, or the one
+    # after it where the first holds less than its 2 m/s of the flight (a contact in the last
+    # few hundredths of the frame interval).
+    from sportsngen.eval.diagnostics import DiagnosticsSetup, serve_strike_frames, truth_points
+    from sportsngen.synth import cycle
+
+    monkeypatch.setattr(cycle, "SERVE_PHASE", True)
+    data = truth_points(DiagnosticsSetup(n_points=60, seed=4))
+    strike = serve_strike_frames(data)
+    serves = data.shots[data.shots["shot_index"] == 0].set_index("rally_id")
+    ball = data.frames[data.frames["object"] == "ball"].sort_values(["rally_id", "frame"])
+    later, err = [], []
+    for rid, g in ball.groupby("rally_id"):
+        p = g[["x", "y", "z"]].to_numpy(float)
+        v = np.zeros_like(p)
+        v[1:] = (p[1:] - p[:-1]) * data.fps
+        found = np.flatnonzero(S.is_serve(p[:-1], v[:-1], p[1:], data.fps))
+        assert len(found) == 1
+        k = found[0]
+        later.append(k + 1 - strike[rid])
+        label = S.strike_labels(p[None, k + 1:k + 4], np.sign(p[k:k + 1, 0]), data.fps)[0]
+        bounce = serves.loc[rid, ["bounce_x", "bounce_y"]].to_numpy(float)
+        if np.isfinite(bounce).all():
+            side = np.sign(p[k, 0])
+            err.append(np.hypot(-side * label[0] - bounce[0], -side * label[1] - bounce[1]))
+    assert set(later) <= {0, 1} and later.count(0) > 0.8 * len(later)
+    assert len(err) > 20 and np.median(err) < 0.01 and np.percentile(err, 90) < 0.05
+
+
 def test_recorded_serves_are_found_once_and_read_where_they_bounced(truth_data):
     data = truth_data(40, 4)
     ball = data.frames[data.frames["object"] == "ball"].sort_values(["rally_id", "frame"])
