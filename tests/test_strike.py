@@ -391,6 +391,29 @@ def test_a_forced_strike_whose_launch_is_not_found_is_drawn_again(monkeypatch):
     assert strike_heads.FORCED_DRAWS == 8
 
 
+def _found_serves(data):
+    """Each rally's serve as the finder sees it -> rows (rally id, ball track, frame k of the
+    toss's last frame, strike labels read from k + 1, the labels' landing error to the shots
+    table's bounce or NaN); asserts one serve a rally."""
+    ball = data.frames[data.frames["object"] == "ball"].sort_values(["rally_id", "frame"])
+    serves = data.shots[data.shots["shot_index"] == 0].set_index("rally_id")
+    out = []
+    for rid, g in ball.groupby("rally_id"):
+        p = g[["x", "y", "z"]].to_numpy(float)
+        v = np.zeros_like(p)
+        v[1:] = (p[1:] - p[:-1]) * data.fps
+        found = np.flatnonzero(S.is_serve(p[:-1], v[:-1], p[1:], data.fps))
+        assert len(found) == 1
+        k = found[0]
+        assert not S.is_strike(p[k:k + 1], v[k:k + 1], p[k + 1:k + 2], data.fps)[0]
+        label = S.strike_labels(p[None, k + 1:k + 4], np.sign(p[k:k + 1, 0]), data.fps)[0]
+        bounce = serves.loc[rid, ["bounce_x", "bounce_y"]].to_numpy(float)
+        side = np.sign(p[k, 0])
+        err = np.hypot(-side * label[0] - bounce[0], -side * label[1] - bounce[1])
+        out.append((rid, g, p, k, label, err))
+    return out
+
+
 def test_serves_struck_anywhere_in_a_frame_are_found_once_and_read_where_they_bounced(
         monkeypatch):
     # Real trackers' frames fall anywhere in a serve (the generator's, at one phase a player,
@@ -403,49 +426,26 @@ def test_serves_struck_anywhere_in_a_frame_are_found_once_and_read_where_they_bo
     monkeypatch.setattr(cycle, "SERVE_PHASE", True)
     data = truth_points(DiagnosticsSetup(n_points=60, seed=4))
     strike = serve_strike_frames(data)
-    serves = data.shots[data.shots["shot_index"] == 0].set_index("rally_id")
-    ball = data.frames[data.frames["object"] == "ball"].sort_values(["rally_id", "frame"])
-    later, err = [], []
-    for rid, g in ball.groupby("rally_id"):
-        p = g[["x", "y", "z"]].to_numpy(float)
-        v = np.zeros_like(p)
-        v[1:] = (p[1:] - p[:-1]) * data.fps
-        found = np.flatnonzero(S.is_serve(p[:-1], v[:-1], p[1:], data.fps))
-        assert len(found) == 1
-        k = found[0]
-        later.append(k + 1 - strike[rid])
-        label = S.strike_labels(p[None, k + 1:k + 4], np.sign(p[k:k + 1, 0]), data.fps)[0]
-        bounce = serves.loc[rid, ["bounce_x", "bounce_y"]].to_numpy(float)
-        if np.isfinite(bounce).all():
-            side = np.sign(p[k, 0])
-            err.append(np.hypot(-side * label[0] - bounce[0], -side * label[1] - bounce[1]))
+    found = _found_serves(data)
+    later = [k + 1 - strike[rid] for rid, _, _, k, _, _ in found]
+    err = np.array([e for *_, e in found])
+    err = err[np.isfinite(err)]
     assert set(later) <= {0, 1} and later.count(0) > 0.8 * len(later)
     assert len(err) > 20 and np.median(err) < 0.01 and np.percentile(err, 90) < 0.05
 
 
 def test_recorded_serves_are_found_once_and_read_where_they_bounced(truth_data):
     data = truth_data(40, 4)
-    ball = data.frames[data.frames["object"] == "ball"].sort_values(["rally_id", "frame"])
     serves = data.shots[data.shots["shot_index"] == 0].set_index("rally_id")
     err, after, contact = [], [], []
-    for rid, g in ball.groupby("rally_id"):
-        p = g[["x", "y", "z"]].to_numpy(float)
-        v = np.zeros_like(p)
-        v[1:] = (p[1:] - p[:-1]) * data.fps
-        found = np.flatnonzero(S.is_serve(p[:-1], v[:-1], p[1:], data.fps))
+    for rid, g, p, k, label, e in _found_serves(data):
         # One serve a rally, found on the frame before the shots table's contact frame.
-        assert len(found) == 1
-        k = found[0]
         assert g["frame"].iloc[k + 1] == serves.loc[rid, "frame"]
-        assert not S.is_strike(p[k:k + 1], v[k:k + 1], p[k + 1:k + 2], data.fps)[0]
-        label = S.strike_labels(p[None, k + 1:k + 4], np.sign(p[k:k + 1, 0]), data.fps)[0]
         assert np.isfinite(label).all()
         after.append(p[k + 1:k + 4])
         contact.append(p[k])
-        bounce = serves.loc[rid, ["bounce_x", "bounce_y"]].to_numpy(float)
-        if np.isfinite(bounce).all():
-            side = np.sign(p[k, 0])
-            err.append(np.hypot(-side * label[0] - bounce[0], -side * label[1] - bounce[1]))
+        if np.isfinite(e):
+            err.append(e)
     # The physics centre's flight from the serve's first frames lands where the generator's
     # serve bounced, to millimetres (no spin model to read).
     assert len(err) > 20 and np.median(err) < 0.01 and np.percentile(err, 90) < 0.05
