@@ -183,6 +183,18 @@ def _explode(rules: pd.DataFrame, column: str, first: np.ndarray) -> tuple[np.nd
     return rally, frames + first[rally]
 
 
+def frames_flown(contact_xy: np.ndarray, next_xy: np.ndarray, after_xy: np.ndarray
+                 ) -> np.ndarray:
+    """(N, 2) each a contact's position and the ball's at the two frames after the contact's
+    labelled frame -> how many frames the ball had flown from the contact at the labelled frame
+    (negative: the contact came after it), the flight between the two frames carried back to
+    the contact (drag slows a fast ball a few per cent a frame: about 0.04 of a frame
+    over, which quarter-frame bins do not feel); NaN where the ball did not move."""
+    step = after_xy - next_xy
+    norm2 = (step ** 2).sum(axis=1)
+    return ((next_xy - contact_xy) * step).sum(axis=1) / np.where(norm2 > 0, norm2, np.nan) - 1.0
+
+
 def contact_phase(data: RallyData, contacts: pd.DataFrame, ball_xy: np.ndarray,
                   row0: np.ndarray, f: np.ndarray, track_end: np.ndarray,
                   bins=CONTACT_PHASE_BINS) -> np.ndarray:
@@ -196,10 +208,8 @@ def contact_phase(data: RallyData, contacts: pd.DataFrame, ball_xy: np.ndarray,
     contact = (shots.reindex(key)[cols].to_numpy(float) if len(cols) == 2
                else np.full((len(contacts), 2), np.nan))
     ok = f + 2 < track_end
-    p1 = ball_xy[np.where(ok, row0 + f + 1, 0)]
-    step = ball_xy[np.where(ok, row0 + f + 2, 0)] - p1
-    norm2 = (step ** 2).sum(axis=1)
-    flown = ((p1 - contact) * step).sum(axis=1) / np.where(norm2 > 0, norm2, np.nan) - 1.0
+    flown = frames_flown(contact, ball_xy[np.where(ok, row0 + f + 1, 0)],
+                         ball_xy[np.where(ok, row0 + f + 2, 0)])
     seen = ok & np.isfinite(flown)
     code = np.digitize(np.where(seen, flown, 0.0), bins)
     return np.where(seen, code, SEEN_NONE).astype(np.int64)
@@ -271,8 +281,9 @@ def contact_kinematics(data: RallyData, ks=DEFAULT_KS) -> pd.DataFrame:
     # Serves only: a rally ball's time of contact follows from flights, and falls anywhere in
     # its frame in any tracking (no rally cell read by it: 0 of 32 outside on 10,000 points
     # without it), where a generator's serves could share one phase.
-    phase = np.where(c["shot_index"].to_numpy() == 0,
-                     contact_phase(data, c, pos[:, 2, :2], row0, f, track_end), SEEN_NONE)
+    phase = np.full(len(c), SEEN_NONE, dtype=np.int64)
+    sv = c["shot_index"].to_numpy() == 0
+    phase[sv] = contact_phase(data, c[sv], pos[:, 2, :2], row0[sv], f[sv], track_end[sv])
     hitter_x = pos[np.where(f < track_end, row0 + f, 0), hitter_slot, 0]
     depth_bin = np.digitize(np.abs(hitter_x) - BASELINE_X_M, CONTACT_DEPTH_BINS_M)
     base = c.assign(land_frame=land.astype(np.int64), outcome_frame=outcome.astype(np.int64),
