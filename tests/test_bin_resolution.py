@@ -48,10 +48,13 @@ def test_strikes_redrawn_in_their_bins_and_in_parts_of_them(truth):
     assert (coarse["n"] == parts["n"]).all()
     assert (coarse["loop_in_play"] == parts["loop_in_play"]).all()
     # The loop follows the record up to what it leaves out (the net: a return into it flies
-    # on to a bounce); uniform inside 61 bins loses a large share of the strikes, the
-    # recorded part of 32 keeps them (within a strike or two).
+    # on to a bounce, at most one strike more); uniform inside 61 bins loses a large share of
+    # the strikes, the recorded part of 32 keeps them (within a strike or two).
     ret = coarse.iloc[0]
-    assert 0.0 <= ret["loop_in_play"] - ret["record_in_play"] < 0.15
+    errors = shots[(shots["shot_index"] == 1) & (shots["outcome"] == "error")]
+    detail = truth.rallies.set_index("rally_id")["end_detail"]
+    into_net = int((detail.loc[errors["rally_id"]] == "net").sum())
+    assert 0.0 <= ret["loop_in_play"] - ret["record_in_play"] <= (into_net + 1) / ret["n"]
     lost = (coarse["loop_in_play"] - coarse["redrawn_in_play"]).sum()
     kept = (parts["loop_in_play"] - parts["redrawn_in_play"]).abs().max()
     assert lost > 0.2 and kept < 2.5 / coarse["n"].min()

@@ -92,10 +92,11 @@ def test_a_server_slower_after_faster_serves_is_read_as_a_full_negative_coupling
         sp = serves[[r for r in drawn if number[r] == n]]
         expected = np.polyfit(sp, 100.0 / sp, 1)[0] * 10.0
         assert row["model_slope"] == pytest.approx(expected, rel=5e-3)   # float32, 1 mm/s
-    # The record's first serves vary a little (serve and volley among them); after a second
-    # serve every server runs one profile, so there is no order to read.
+    # The record's servers do not slow after faster first serves (its rank correlation is
+    # positive: 0.08-0.30 over 400-point samples, 0.62 on these 25 serves; serve and volley
+    # among them); after a second serve every server runs one profile: no order to read.
     first, second = table["record_corr"]
-    assert abs(first) < 0.6 and np.isnan(second)
+    assert first > -0.3 and np.isnan(second)
 
 
 def test_paced_serves_move_only_the_serves_ball_before_the_drawn_frame(truth):

@@ -146,11 +146,21 @@ def test_the_rule_tables_carry_over_with_the_players_own_rows(data):
     speeds = TopSpeeds.from_dict(got["top_speed"])
     top = {"Roger Federer": 6.8, "Rafael Nadal": 7.0}[receiver]
     assert speeds.players_mps["Other"] == 6.1 and 6.0 < speeds.players_mps[receiver] <= top + 1e-6
-    # The server receives no serve here, and answered every rally ball due to him: both his
-    # reaches stay the pooled rows (the fall of his odds cannot be read).
+    # The server receives no serve here: his return reach stays the pooled row. His rally
+    # reach is his own where he let a good ball due to him go, and the pooled row on the
+    # rallies where he answered every one (the fall of his odds cannot be read).
+    from sportsngen.eval.reach import reach_rows
+
     got = player_rule_tables(base, data, server, min_balls=30, min_frames=1000)
     assert server not in ReachTable.from_dict(got["return_reach"]).players
-    assert server not in ReachTable.from_dict(got["rally_reach"]).players
     assert server in TopSpeeds.from_dict(got["top_speed"]).players_mps
+    rows = reach_rows(data)
+    mine = rows[(rows["shot"] >= 1) & (rows["role"] == "server")]   # he serves every rally
+    missed = set(mine.loc[~mine["answered"].astype(bool), "rally_id"])
+    assert len(mine) >= 30 and 0 < len(missed) < len(mine) / 4
+    assert server in ReachTable.from_dict(got["rally_reach"]).players
+    clean = data.subset(sorted(set(data.rallies["rally_id"]) - missed))
+    got = player_rule_tables(base, clean, server, min_balls=30, min_frames=1000)
+    assert server not in ReachTable.from_dict(got["rally_reach"]).players
     few = player_rule_tables({"top_speed": base["top_speed"]}, data, server, min_frames=10 ** 9)
     assert set(few) == {"top_speed"} and server not in few["top_speed"]["players_mps"]

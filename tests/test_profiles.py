@@ -215,3 +215,96 @@ def test_aces_move_the_serve_margin_only_where_the_disguise_is_at_its_floor():
     # too few aces at the floor: the margin comes back down, never below every player's 0.45 m
     q = step_2011(replace(floor, serve_margin_m=0.46), dict(sim, ace=0.0), tgt, damping=0.5)
     assert q.serve_margin_m == 0.45
+
+
+def test_surface_overrides_replace_fields_on_their_surface_only():
+    p = PlayerProfile.from_dict({"name": "X", "rushed_return_noise": 2.4,
+                                 "surface_overrides": {"clay": {"rushed_return_noise": 1.5,
+                                                                "second_return_depth_m": 2.1}}})
+    clay = p.on_surface("clay")
+    assert clay.rushed_return_noise == 1.5 and clay.second_return_depth_m == 2.1
+    assert clay.on_surface("clay") == clay          # idempotent
+    assert p.on_surface("hard") is p and p.on_surface("grass").rushed_return_noise == 2.4
+    # the JSON form survives a round trip, and a profile without overrides writes none
+    assert PlayerProfile.from_dict(p.to_dict()) == p
+    assert p.to_dict()["surface_overrides"] == {"clay": {"rushed_return_noise": 1.5,
+                                                         "second_return_depth_m": 2.1}}
+    assert "surface_overrides" not in PlayerProfile(name="Y").to_dict()
+    hash(p)                                          # still usable as a key
+    with pytest.raises(ValueError, match="unknown surface 'carpet'"):
+        p.on_surface("carpet")
+
+
+@pytest.mark.parametrize("overrides, match", [
+    ({"carpet": {"reach_m": 1.0}}, "unknown surface 'carpet'"),
+    ({"clay": {"handedness": 1.0}}, "names fields \\['handedness'\\] that no surface"),
+    ({"clay": {"backhand_grip": 1.0}}, "names fields \\['backhand_grip'\\]"),
+    ({"clay": {"aggression": 1.5}}, "aggression is a probability"),
+    ({"clay": 2.0}, "surface_overrides must map a surface"),
+])
+def test_surface_overrides_are_validated(overrides, match):
+    with pytest.raises(ValueError, match=match):
+        PlayerProfile.from_dict({"name": "X", "surface_overrides": overrides})
+
+
+def test_the_population_and_the_average_ignore_surface_overrides():
+    men = [dataclasses.replace(p, surface_overrides=(("clay", (("reach_m", 0.5),)),))
+           for p in named_profiles().values() if p.gender == "men"]
+    avg = average_profile("men", profiles=men)
+    assert avg.surface_overrides == () and avg.reach_m == pytest.approx(
+        np.mean([p.reach_m for p in men]))
+    assert all(q.surface_overrides == () for q in sample_population(5, base=avg))
+
+
+def test_named_nadal_returns_by_surface():
+    # His real second-serve returns run the other way between surfaces from everyone else's
+    # (Hawk-Eye: 3.29 m behind the baseline on hard, 2.93 on clay).
+    nadal = get_profile("Rafael Nadal")
+    assert nadal.on_surface("hard").second_return_depth_m > \
+        nadal.on_surface("clay").second_return_depth_m
+    assert nadal.on_surface("hard").rushed_return_noise > \
+        nadal.on_surface("clay").rushed_return_noise
+
+
+def test_the_rally_policy_plays_the_surface_profile():
+    from sportsngen.synth.behaviour import return_depth_m
+    from sportsngen.synth.rally import ProfilePolicy
+
+    p = PlayerProfile.from_dict({"name": "X", "second_return_depth_m": 0.5,
+                                 "surface_overrides": {"clay": {"second_return_depth_m": 2.0}}})
+    on_clay = ProfilePolicy(PlayerProfile(name="S"), p, 1, "deuce", 2, "clay")
+    on_hard = ProfilePolicy(PlayerProfile(name="S"), p, 1, "deuce", 2, "hard")
+    assert on_clay.profiles[1].second_return_depth_m == 2.0
+    assert on_hard.profiles[1].second_return_depth_m == 0.5
+    # where the receiver waits for a second serve follows
+    assert on_clay.serve(np.random.default_rng(0))[1][0] != \
+        on_hard.serve(np.random.default_rng(0))[1][0]
+    assert return_depth_m(on_clay.profiles[1], 2, "clay") == pytest.approx(2.0 + 0.3)
+
+
+def test_hawkeye_step_moves_a_surface_override_on_that_surface_alone():
+    import math
+
+    import pandas as pd
+
+    from sportsngen.synth.calibrate import step_hawkeye
+
+    p = PlayerProfile.from_dict({"name": "Him", "rushed_return_noise": 3.0,
+                                 "surface_overrides": {"clay": {"rushed_return_noise": 2.0}}})
+
+    def table(rows):
+        return pd.DataFrame([("Him",) + r for r in rows],
+                            columns=["player", "surface", "statistic", "value", "n"])
+
+    sim = table([("hard", "return_net_z_p90", 3.0, 500), ("clay", "return_net_z_p90", 3.3, 500),
+                 ("hard", "return_net_z_median", 2.0, 500),
+                 ("clay", "return_net_z_median", 1.8, 500)])
+    real = table([("hard", "return_net_z_p90", 3.5, 400), ("clay", "return_net_z_p90", 3.1, 400),
+                  ("hard", "return_net_z_median", 1.9, 400),
+                  ("clay", "return_net_z_median", 1.9, 400)])
+    q = step_hawkeye(p, sim, real, damping=0.5)
+    assert q.rushed_return_noise == pytest.approx(3.0 * math.exp(0.5 * 1.7 * 0.5))   # hard
+    assert q.on_surface("clay").rushed_return_noise == pytest.approx(
+        2.0 * math.exp(0.5 * 1.7 * -0.2))                                            # clay
+    # a field no surface overrides follows the mean over the surfaces, as before
+    assert q.return_pace == pytest.approx(0.85 * math.exp(0.5 * -0.45 * 0.0))

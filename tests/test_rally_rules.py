@@ -167,6 +167,31 @@ def test_ball_into_the_net_loses_for_the_hitter():
     assert_clean(res)
 
 
+def test_ball_off_the_bottom_of_the_net_is_no_bounce():
+    # A return driven down into the net 6 cm up, coming back off it and rising again a
+    # little before it drops on the returner's side (as a generated return did): the net, and
+    # no bounce past it.
+    pos = rally_return(((3.0, 0.0), 0.5))
+    k = round(RETURN_AT * FPS) + 1
+    start = pos[k - 1, 2].copy()
+    arrive = 9                                   # frames to the net, descending
+    hit = np.array([-0.05, start[1], 0.06])
+    for i in range(1, arrive + 1):               # straight in, falling faster near the net
+        w = i / arrive
+        pos[k - 1 + i, 2] = start + (hit - start) * np.array([w, w, w ** 1.5])
+    p, v = hit.copy(), np.array([-1.5, 0.0, 1.8])
+    for f in range(k + arrive, len(pos)):
+        v[2] -= G / FPS
+        p = p + v / FPS
+        if p[2] < R:
+            p[2], v[2], v[0] = R, 0.0, 0.7 * v[0]
+        pos[f, 2] = p
+    res = judge(pos)
+    assert (res["winner"], res["end_reason"], res["end_detail"]) == (0, "error", "net")
+    assert all(b[0] < 0.0 for b in res["bounces_m"][1:])   # nothing read past the net
+    assert len(res["bounce_frames"]) == 1                 # the serve's bounce alone
+
+
 def test_passing_shot_beyond_the_baseline_wins_before_its_second_bounce():
     fast = ((10.5, -3.0), 0.8)               # deep, away from the server who stands wide
     pos = rally_return(fast, server_after=(1.5, (12.5, 3.5)))

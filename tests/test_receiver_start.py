@@ -217,10 +217,16 @@ def test_waits_are_read_from_recorded_serves():
     assert len(st) == len(st.h) == len(st.server_id) and st.h.shape[1] == model.cfg.d_model
     assert (st.frames_after >= 1).all() and (st.frames_after <= rs.WAIT_FRAMES).all()
     # The generator's receivers stand until they read the serve, then start once: one start
-    # a rally at most, a few frames after the contact, and waits before it.
-    starts = st.rally_id[st.start]
+    # a rally at most in the wait that began at the serve, a few frames after the contact,
+    # and waits before it. (A receiver who reaches the ball early and stands for it waits
+    # again, read the same way, as a rollout reads it.)
+    began = st.frames_after - st.wait                     # the frame before each wait began
+    first = {r: began[st.rally_id == r].min() for r in set(st.rally_id.tolist())}
+    from_serve = began == np.array([first[r] for r in st.rally_id])
+    starts = st.rally_id[st.start & from_serve]
     assert 0 < len(starts) == len(set(starts.tolist())) <= len(data.rallies)
-    assert 2 <= np.median(st.frames_after[st.start]) <= 8
+    assert 2 <= np.median(st.frames_after[st.start & from_serve]) <= 8
+    assert (st.frames_after[~from_serve] > 8).all()
     assert st.start.mean() < 0.5
     servers = {vocab.player_index(n) for n in data.rallies["server"]}
     assert set(st.server_id.tolist()) <= servers

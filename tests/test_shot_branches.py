@@ -39,7 +39,7 @@ def test_shot_outcomes_agree_with_the_generators_shots_table():
     # lies in the server's singles court (a volleyed return has no bounce of its own).
     server_end = truth.rallies.set_index("rally_id")["server_end"]
     bounced = out[out["struck"] & out["bounce_x_m"].notna()]
-    assert len(bounced) > 20
+    assert len(bounced) > 12
     inside = is_in_singles(bounced["bounce_x_m"].to_numpy(), bounced["bounce_y_m"].to_numpy(),
                            server_end.loc[bounced.index].to_numpy())
     assert (inside == bounced["in_play"].to_numpy()).all()

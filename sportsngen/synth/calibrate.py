@@ -78,13 +78,13 @@ def profile_seeds(path: Path = SEEDS_JSON) -> dict[str, dict]:
 def initial_profile(name: str, target: pd.Series, seed: dict) -> PlayerProfile:
     """A named player's starting profile: his seed, serve speeds at the 2011 medians with the
     real spread (IQR = 1.349 sd, within reason)."""
-    kw = dict(seed)
+    kw = {**seed, "name": name}
     kw["first_serve_kmh"] = float(target["first_serve_kmh_median"])
     kw["second_serve_kmh"] = float(target["second_serve_kmh_median"])
     for key in ("first", "second"):
         iqr = float(target.get(f"{key}_serve_kmh_iqr", 11.0))
         kw[f"{key}_serve_kmh_sd"] = float(np.clip(iqr / 1.349, 5.0, 16.0))
-    return PlayerProfile(name=name, **kw)
+    return PlayerProfile.from_dict(kw)
 
 
 def service_outcomes(server: PlayerProfile, opponents: list[PlayerProfile], n_points: int,
@@ -173,6 +173,11 @@ def step_2011(p: PlayerProfile, sim: dict[str, float], tgt: pd.Series,
     )
 
 
+def _rounded(d: dict) -> dict:
+    return {k: _rounded(v) if isinstance(v, dict) else round(v, 4) if isinstance(v, float)
+            else v for k, v in d.items()}
+
+
 def write_profiles(named: dict[str, PlayerProfile], path: Path, note: str = "") -> None:
     """Write profiles as `profiles.json` holds them (floats to 4 decimals)."""
     payload = {
@@ -180,8 +185,7 @@ def write_profiles(named: dict[str, PlayerProfile], path: Path, note: str = "") 
                 "against sportsngen/synth/data/slam2011_targets.csv (2011 US Open + Wimbledon, "
                 "Jeff Sackmann / Tennis Abstract, CC BY-NC-SA 4.0) and the Hawk-Eye keypoint "
                 "figures of AO 2020 and RG 2019-2020 via CourtVision. " + note,
-        "players": [{k: (round(v, 4) if isinstance(v, float) else v)
-                     for k, v in p.to_dict().items()} for p in named.values()],
+        "players": [_rounded(p.to_dict()) for p in named.values()],
     }
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(payload, indent=1) + "\n")
@@ -336,34 +340,55 @@ def calibration_targets(targets: pd.DataFrame,
     return pd.concat(parts, ignore_index=True)
 
 
-def _player_figures(stats: pd.DataFrame, targets: pd.DataFrame,
-                    name: str) -> tuple[pd.Series, pd.Series]:
+def _player_figures(stats: pd.DataFrame, targets: pd.DataFrame, name: str,
+                    surfaces: set[str] | None = None) -> tuple[pd.Series, pd.Series]:
     """(generated, real) per statistic of one player, each the mean over the surfaces both
-    have (generated over at least `MIN_HAWKEYE_N` strikes)."""
+    have (generated over at least `MIN_HAWKEYE_N` strikes), or over those of `surfaces`."""
     key = ["surface", "statistic"]
     g = stats[stats["player"].astype(str) == name].astype({"surface": str, "statistic": str})
     t = targets[targets["player"].astype(str) == name].astype({"surface": str,
                                                                  "statistic": str})
     m = g.merge(t, on=key, suffixes=("_g", "_t"))
     m = m[m["value_g"].notna() & m["value_t"].notna() & (m["n_g"] >= MIN_HAWKEYE_N)]
+    if surfaces is not None:
+        m = m[m["surface"].isin(surfaces)]
     return m.groupby("statistic")["value_g"].mean(), m.groupby("statistic")["value_t"].mean()
+
+
+def _knob_step(value: float, err: float, mode: str, gain: float, lo: float, hi: float,
+               damping: float) -> float:
+    value = value + damping * gain * err if mode == "add" else \
+        value * math.exp(damping * gain * err)
+    return _clip(value, lo, hi)
 
 
 def step_hawkeye(p: PlayerProfile, stats: pd.DataFrame, targets: pd.DataFrame,
                  damping: float) -> PlayerProfile:
     """One damped update of the parameters the Hawk-Eye figures calibrate (`HAWKEYE_KNOBS`,
     and the first-serve placement mix from the zone shares); a player without real figures
-    keeps his."""
-    sim, real = _player_figures(stats, targets, p.name)
+    keeps his. A field one of the player's surfaces overrides
+    (`PlayerProfile.surface_overrides`) is stepped there on that surface's figures alone, its
+    base value on the other surfaces'."""
+    overrides = {surface: dict(values) for surface, values in p.surface_overrides}
     changes = {}
     for stat, param, mode, gain, lo, hi in HAWKEYE_KNOBS:
-        if stat not in sim.index:
-            continue
-        err = float(real[stat] - sim[stat])
-        value = getattr(p, param)
-        value = value + damping * gain * err if mode == "add" else \
-            value * math.exp(damping * gain * err)
-        changes[param] = _clip(value, lo, hi)
+        # A field a surface overrides follows that surface's figures; the base the others'.
+        split = {surface for surface, values in overrides.items() if param in values}
+        for surface in split:
+            sim, real = _player_figures(stats, targets, p.name, {surface})
+            if stat in sim.index:
+                overrides[surface][param] = _knob_step(
+                    overrides[surface][param], float(real[stat] - sim[stat]), mode, gain, lo,
+                    hi, damping)
+        rest = set(stats["surface"].astype(str)) - split
+        sim, real = _player_figures(stats, targets, p.name, rest)
+        if stat in sim.index:
+            changes[param] = _knob_step(getattr(p, param), float(real[stat] - sim[stat]),
+                                        mode, gain, lo, hi, damping)
+    if overrides:
+        changes["surface_overrides"] = tuple((surface, tuple(values.items()))
+                                             for surface, values in overrides.items())
+    sim, real = _player_figures(stats, targets, p.name)
     if all(s in sim.index for s in SERVE_ZONE_STATS):
         mix = np.array([getattr(p, f) for f in SERVE_ZONE_FIELDS])
         ratio = np.array([max(real[s], 0.005) / max(sim[s], 0.005) for s in SERVE_ZONE_STATS])

@@ -20,6 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+from sportsngen.data.tracking import SURFACES
+
 PROFILES_JSON = Path(__file__).with_name("data") / "profiles.json"
 
 HANDEDNESS = ("right", "left")
@@ -34,6 +36,8 @@ _UNIT_FIELDS = ("serve_wide", "serve_body", "serve_t", "aggression", "net_approa
 _SIGNED_FIELDS = ("first_serve_spin_mps", "second_serve_spin_mps", "serve_disguise_s",
                   "topspin_mps", "slice_spin_mps", "recovery_depth_m", "return_depth_m",
                   "second_return_depth_m")
+# Fields that say who the player is, not how he plays: no surface overrides them.
+_IDENTITY_FIELDS = ("name", "gender", "handedness", "style", "surface_overrides")
 
 
 @dataclass(frozen=True)
@@ -74,6 +78,13 @@ class PlayerProfile:
     (`behaviour.RUSHED_RETURN_EXPONENT`): how well the returner keeps his composure, which sets the
     high tail of his returns (Hawk-Eye: 90 % of Djokovic's cross the net below 2.47 m, of the
     ATP's below 2.94 m); ``return_pace`` the speed of a return as a share of the rally ball's.
+
+    Surfaces: ``surface_overrides`` ((surface, ((field, value), ...)), ...), in JSON
+    ``{"clay": {"field": value}}``, replaces fields on one surface (`on_surface`): where a
+    player's real figures run the other way between surfaces from the tour's (Nadal returns
+    higher and from deeper against second serves on hard than on clay; everyone else the
+    reverse), one value per player can place at most one surface. The generator plays a point
+    with the profile of its surface; the population and the 2011 calibration see the base.
     """
 
     name: str
@@ -124,6 +135,7 @@ class PlayerProfile:
     return_noise_deg: float = 1.4
     rushed_return_noise: float = 3.0
     return_pace: float = 0.85
+    surface_overrides: tuple[tuple[str, tuple[tuple[str, float], ...]], ...] = ()
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
@@ -138,7 +150,7 @@ class PlayerProfile:
             raise ValueError(f"profile {self.name!r}: style must be one of {STYLES}, "
                              f"got {self.style!r}")
         for f in fields(self):
-            if f.name in ("name", "gender", "handedness", "style"):
+            if f.name in _IDENTITY_FIELDS:
                 continue
             value = getattr(self, f.name)
             if not isinstance(value, (int, float)) or not np.isfinite(value):
@@ -162,6 +174,40 @@ class PlayerProfile:
             raise ValueError(f"profile {self.name!r}: contact_height_m must lie in "
                              f"[1.5, 3.5] m, got {self.contact_height_m}")
 
+        self._check_surface_overrides()
+
+    def _check_surface_overrides(self) -> None:
+        numeric = {f.name for f in fields(self)} - set(_IDENTITY_FIELDS)
+        seen = set()
+        for entry in self.surface_overrides:
+            if not (isinstance(entry, tuple) and len(entry) == 2):
+                raise ValueError(f"profile {self.name!r}: surface_overrides holds (surface, "
+                                 f"((field, value), ...)) pairs, got {entry!r}")
+            surface, values = entry
+            if surface not in SURFACES:
+                raise ValueError(f"profile {self.name!r}: surface_overrides names unknown "
+                                 f"surface {surface!r}; known: {list(SURFACES)}")
+            if surface in seen:
+                raise ValueError(f"profile {self.name!r}: surface_overrides names "
+                                 f"{surface!r} twice")
+            seen.add(surface)
+            unknown = sorted({k for k, _ in values} - numeric)
+            if unknown:
+                raise ValueError(f"profile {self.name!r}: surface_overrides[{surface!r}] "
+                                 f"names fields {unknown} that no surface can change; "
+                                 f"known: {sorted(numeric)}")
+            # The overridden profile must itself be valid (limits, probabilities).
+            replace(self, surface_overrides=(), name=f"{self.name} on {surface}",
+                    **dict(values))
+
+    def on_surface(self, surface: str) -> PlayerProfile:
+        """This player as he plays on `surface`: the base fields with that surface's
+        overrides (the same profile where there are none)."""
+        if surface not in SURFACES:
+            raise ValueError(f"unknown surface {surface!r}; known: {list(SURFACES)}")
+        values = dict(dict(self.surface_overrides).get(surface, ()))
+        return replace(self, **values) if values else self
+
     @property
     def serve_mix(self) -> np.ndarray:
         """First-serve placement probabilities (wide, body, T), normalised."""
@@ -169,7 +215,11 @@ class PlayerProfile:
         return mix / mix.sum()
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        d = asdict(self)
+        d["surface_overrides"] = {s: dict(v) for s, v in self.surface_overrides}
+        if not d["surface_overrides"]:
+            del d["surface_overrides"]
+        return d
 
     @classmethod
     def from_dict(cls, d: dict) -> PlayerProfile:
@@ -177,6 +227,14 @@ class PlayerProfile:
         unknown = sorted(set(d) - known)
         if unknown:
             raise ValueError(f"unknown profile fields {unknown}; known: {sorted(known)}")
+        d = dict(d)
+        overrides = d.pop("surface_overrides", {})
+        if not isinstance(overrides, dict) or not all(isinstance(v, dict)
+                                                      for v in overrides.values()):
+            raise ValueError(f"profile {d.get('name')!r}: surface_overrides must map a "
+                             f"surface to {{field: value}}, got {overrides!r}")
+        d["surface_overrides"] = tuple((s, tuple((k, float(x)) for k, x in v.items()))
+                                       for s, v in overrides.items())
         return cls(**d)
 
 
@@ -224,8 +282,7 @@ def average_profile(gender: str = "men", name: str = "Average",
         return base
     numeric = {f.name: float(np.mean([getattr(p, f.name) for p in group]))
                for f in fields(PlayerProfile)
-               if f.name not in ("name", "gender", "handedness", "style",
-                                 *_TOUR_DEFAULT_FIELDS)}
+               if f.name not in (*_IDENTITY_FIELDS, *_TOUR_DEFAULT_FIELDS)}
     return replace(base, **numeric)
 
 
@@ -272,7 +329,7 @@ def sample_population(n: int, seed: int = 0, gender: str = "men",
     for i in range(int(n)):
         style = STYLES[rng.choice(len(STYLES), p=_STYLE_WEIGHTS)]
         values = {f.name: getattr(base, f.name) for f in fields(PlayerProfile)
-                  if f.name not in ("name", "gender", "handedness", "style")}
+                  if f.name not in _IDENTITY_FIELDS}
         for key, off in _STYLE_OFFSETS[style].items():
             values[key] += off
         # Individual variation: a few percent on every speed/noise, a little on shares.

@@ -97,7 +97,7 @@ class ProfilePolicy:
                              f"{sorted(bh.SURFACE_DEPTH_M)}")
         self.server_end, self.serving_side = server_end, serving_side
         self.serve_number, self.surface = serve_number, surface
-        self.profiles = (server, receiver)
+        self.profiles = (server.on_surface(surface), receiver.on_surface(surface))
         self.ends = (server_end, -server_end)
         self.bodies = tuple(Body(p.max_speed_mps, p.max_accel_mps2, p.reach_m,
                                  IDEAL_CONTACT_Z_M, bh.rally_depth_m(p, surface),

@@ -427,7 +427,12 @@ class RallyTracker:
         # after their second bounce).
         dead = (np.maximum(ball[:, -2, 2], ball[:, -1, 2]) < ROLL_MAX_Z_M) & \
             (np.abs(vb[:, 2]) <= BOUNCE_MIN_VZ_OUT_MPS)
-        bounce = live & ~hit & (self.hitter >= 0) & (va[:, 2] < -BOUNCE_MIN_VZ_IN_MPS) & \
+        # A ball that comes back off the bottom of the net rises again too, but the ground
+        # never turns it around: near the net, a turn is the net's (a return driven into it
+        # 6 cm up read as landing 9 cm past it, in play).
+        off_net = (np.abs(p0[:, 0]) < NET_ZONE_M) & (va[:, 0] * vb[:, 0] < 0.0)
+        bounce = live & ~hit & ~off_net & (self.hitter >= 0) & \
+            (va[:, 2] < -BOUNCE_MIN_VZ_IN_MPS) & \
             ((vb[:, 2] > BOUNCE_MIN_VZ_OUT_MPS) | dead) & \
             (np.minimum(p0[:, 2], ball[:, -2, 2]) < BOUNCE_MAX_Z_M) & \
             (seg - self._last_bounce >= CONTACT_GAP_FRAMES) & \
