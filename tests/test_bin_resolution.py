@@ -21,7 +21,7 @@ def test_centre_bin_noise_is_integrated_three_times_by_the_track_acceleration():
 
 @pytest.fixture(scope="module")
 def truth(truth_data):
-    return truth_data(80, 2)
+    return truth_data(160, 2)
 
 
 def test_serves_redrawn_in_their_bins_land_in_the_box_less_often(truth):

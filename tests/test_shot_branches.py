@@ -28,7 +28,7 @@ def test_shot_outcomes_agree_with_the_generators_shots_table():
     shots = truth.shots
     ret = shots[shots["shot_index"] == 1].set_index("rally_id")
     third = set(shots.loc[shots["shot_index"] == 2, "rally_id"])
-    assert out["struck"].sum() == len(ret) > 20
+    assert out["struck"].sum() == len(ret) > 15
     assert 10 < out["in_play"].sum() < out["struck"].sum()     # some returns are errors
     for rid, row in out.iterrows():
         assert row["struck"] == (rid in ret.index)

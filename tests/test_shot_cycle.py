@@ -210,10 +210,10 @@ def test_fitted_physique_and_stances(model):
 
 
 def test_simulator_valid_rally_data_and_plausible_serving(model):
-    sim = simulate_points(model, FED, NADAL, "clay", n_points=80, seed=5)
+    sim = simulate_points(model, FED, NADAL, "clay", n_points=200, seed=5)
     RallyData.from_tables(sim.frames, sim.rallies, sim.shots, sim.fps)  # validates again
     pts = sim.points()
-    assert len(pts) == 80
+    assert len(pts) == 200
     assert set(sim.rallies["end_reason"]) <= set(END_REASONS)
     stats = serve_stats(pts)
     assert set(stats.index) == {FED, NADAL}

@@ -16,7 +16,7 @@ from sportsngen.eval.shot_profile import (
 
 @pytest.fixture(scope="module")
 def truth(truth_data):
-    data = truth_data(80, 5)
+    data = truth_data(300, 5)
     return data, analyse_rally_data(data)
 
 
