@@ -67,7 +67,7 @@ GENERATOR_VERSION = "6.3"  # bump when the generated tracks change (3: still thr
 #                           6.2: clay passes on less of the serve's weight, each returner's
 #                           composure under a rushed return, recalibrated;
 #                           6.3: per-surface profile fields (Nadal's second-serve return
-#                           depth and composure), Williams' flatter rally ball)
+#                           depth, composure, clay return pace), Williams' flatter ball)
 _ARROW = {"int64": pa.int64(), "float64": pa.float64(), "string": pa.string(), "bool": pa.bool_()}
 
 

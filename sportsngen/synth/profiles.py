@@ -84,7 +84,8 @@ class PlayerProfile:
     player's real figures run the other way between surfaces from the tour's (Nadal returns
     higher and from deeper against second serves on hard than on clay; everyone else the
     reverse), one value per player can place at most one surface. The generator plays a point
-    with the profile of its surface; the population and the 2011 calibration see the base.
+    with the profile of its surface (his own 2011 matches too, on hard); the population and
+    the average profile read the base.
     """
 
     name: str
