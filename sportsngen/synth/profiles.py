@@ -206,8 +206,9 @@ class PlayerProfile:
         overrides (the same profile where there are none)."""
         if surface not in SURFACES:
             raise ValueError(f"unknown surface {surface!r}; known: {list(SURFACES)}")
-        values = dict(dict(self.surface_overrides).get(surface, ()))
-        return replace(self, **values) if values else self
+        if not self.surface_overrides:
+            return self
+        return _resolved(self, surface)
 
     @property
     def serve_mix(self) -> np.ndarray:
@@ -237,6 +238,14 @@ class PlayerProfile:
         d["surface_overrides"] = tuple((s, tuple((k, float(x)) for k, x in v.items()))
                                        for s, v in overrides.items())
         return cls(**d)
+
+
+@lru_cache(maxsize=256)
+def _resolved(p: PlayerProfile, surface: str) -> PlayerProfile:
+    # The generator resolves every point's players; building (and validating) the overridden
+    # profile once a player and surface, not once a point.
+    values = dict(dict(p.surface_overrides).get(surface, ()))
+    return replace(p, **values) if values else p
 
 
 @lru_cache(maxsize=1)
