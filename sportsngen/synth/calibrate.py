@@ -149,7 +149,7 @@ def step_2011(p: PlayerProfile, sim: dict[str, float], tgt: pd.Series,
     margin = p.serve_margin_m
     if p.serve_disguise_s <= DISGUISE_RANGE_S[0] + 1e-9:
         margin = _clip(margin + 4.0 * d * ace_gap, *SERVE_MARGIN_RANGE_M)
-    return replace(
+    return _carry_overrides(p, replace(
         p,
         first_serve_noise_deg=_clip(p.first_serve_noise_deg * math.exp(
             2.5 * d * (sim["first_serve_in"] - fsi_t)), 0.05, 5.0),
@@ -170,7 +170,32 @@ def step_2011(p: PlayerProfile, sim: dict[str, float], tgt: pd.Series,
                                                  sim["first_serve_kmh_median"]),
         second_serve_kmh=p.second_serve_kmh + d * (float(tgt["second_serve_kmh_median"]) -
                                                    sim["second_serve_kmh_median"]),
-    )
+    ))
+
+
+# The 2011 steps that add to a field; the others multiply it.
+ADDITIVE_2011_FIELDS = ("serve_disguise_s", "serve_margin_m", "first_serve_kmh",
+                        "second_serve_kmh")
+
+
+def _carry_overrides(old: PlayerProfile, new: PlayerProfile) -> PlayerProfile:
+    """`new` with each surface override of a field the 2011 step moved moved alike (the same
+    difference for `ADDITIVE_2011_FIELDS`, the same ratio for the rest): the 2011 figures pool
+    hard and grass, so an override stays what it was set to be, an offset from the base (Federer
+    on hard, version 6.4: less rally noise and serve initiative than on grass)."""
+    if not old.surface_overrides:
+        return new
+    carried = []
+    for surface, values in old.surface_overrides:
+        moved = []
+        for field, value in values:
+            before, after = getattr(old, field), getattr(new, field)
+            if after != before:
+                value = value + (after - before) if field in ADDITIVE_2011_FIELDS else \
+                    value * (after / before if before else 1.0)
+            moved.append((field, float(value)))
+        carried.append((surface, tuple(moved)))
+    return replace(new, surface_overrides=tuple(carried))
 
 
 def _rounded(d: dict) -> dict:
@@ -385,16 +410,32 @@ def step_hawkeye(p: PlayerProfile, stats: pd.DataFrame, targets: pd.DataFrame,
         if stat in sim.index:
             changes[param] = _knob_step(getattr(p, param), float(real[stat] - sim[stat]),
                                         mode, gain, lo, hi, damping)
+    # The first-serve mix, a surface's own where it overrides any of the three fields.
+    split = {surface for surface, values in overrides.items()
+             if any(f in values for f in SERVE_ZONE_FIELDS)}
+    for surface in split:
+        base = [overrides[surface].get(f, getattr(p, f)) for f in SERVE_ZONE_FIELDS]
+        mix = _mix_step(base, *_player_figures(stats, targets, p.name, {surface}), damping)
+        if mix is not None:
+            overrides[surface].update(mix)
+    rest = set(stats["surface"].astype(str)) - split
+    mix = _mix_step([getattr(p, f) for f in SERVE_ZONE_FIELDS],
+                    *_player_figures(stats, targets, p.name, rest), damping)
+    changes.update(mix or {})
     if overrides:
         changes["surface_overrides"] = tuple((surface, tuple(values.items()))
                                              for surface, values in overrides.items())
-    sim, real = _player_figures(stats, targets, p.name)
-    if all(s in sim.index for s in SERVE_ZONE_STATS):
-        mix = np.array([getattr(p, f) for f in SERVE_ZONE_FIELDS])
-        ratio = np.array([max(real[s], 0.005) / max(sim[s], 0.005) for s in SERVE_ZONE_STATS])
-        mix = mix * ratio ** damping
-        changes.update(zip(SERVE_ZONE_FIELDS, (float(v) for v in mix / mix.sum())))
     return replace(p, **changes)
+
+
+def _mix_step(mix: list[float], sim: pd.Series, real: pd.Series,
+              damping: float) -> dict[str, float] | None:
+    """The first-serve placement mix moved toward the real zone shares (None: no figures)."""
+    if not all(s in sim.index for s in SERVE_ZONE_STATS):
+        return None
+    ratio = np.array([max(real[s], 0.005) / max(sim[s], 0.005) for s in SERVE_ZONE_STATS])
+    m = np.asarray(mix, dtype=float) * ratio ** damping
+    return dict(zip(SERVE_ZONE_FIELDS, (float(v) for v in m / m.sum())))
 
 
 def hawkeye_table(named: dict[str, PlayerProfile], stats: pd.DataFrame,
