@@ -91,7 +91,7 @@ def federer_points_and_head_model(truth_data):
     from sportsngen.data.tokens import Vocab
     from tests.test_head_fit import small_model
 
-    data = truth_data(80, 5)
+    data = truth_data(80, 6)
     model = small_model()
     return data, model, SimpleNamespace(vocab=Vocab.from_data(data), model=model,
                                         top_p_serve=1.0)

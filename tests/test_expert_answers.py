@@ -88,7 +88,7 @@ def test_a_flight_handed_over_early_is_read_after_its_contact_frame():
 
 @pytest.fixture(scope="module")
 def generated(truth_data):
-    return truth_data(80, 2)
+    return truth_data(80, 6)
 
 
 def test_expert_shots_on_the_record_agree_with_it(generated):

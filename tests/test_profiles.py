@@ -312,3 +312,58 @@ def test_hawkeye_step_moves_a_surface_override_on_that_surface_alone():
         2.0 * math.exp(0.5 * 1.7 * -0.2))                                            # clay
     # a field no surface overrides follows the mean over the surfaces, as before
     assert q.return_pace == pytest.approx(0.85 * math.exp(0.5 * -0.45 * 0.0))
+
+
+def test_2011_step_moves_a_surface_override_with_its_base():
+    import pandas as pd
+
+    from sportsngen.synth.calibrate import RALLY_BINS, STAT_KEYS, step_2011
+
+    keys = STAT_KEYS + RALLY_BINS
+    tgt = pd.Series({k: 0.1 for k in keys} | {"first_serve_kmh_median": 185.0,
+                                               "second_serve_kmh_median": 150.0,
+                                               "rally_mean": 4.0, "second_serve_won": 0.55})
+    # five points too many second serves won, four km/h too slow a first serve
+    sim = dict(tgt) | {"second_serve_won": 0.60, "first_serve_kmh_median": 181.0}
+    p = PlayerProfile.from_dict({"name": "Him", "second_serve_initiative": 1.4,
+                                 "first_serve_kmh": 190.0,
+                                 "surface_overrides": {"hard": {"second_serve_initiative": 0.8,
+                                                                "first_serve_kmh": 180.0,
+                                                                "reach_m": 1.7}}})
+    q = step_2011(p, sim, tgt, damping=0.5)
+    ratio = np.exp(4.0 * 0.5 * -0.05)
+    assert q.second_serve_initiative == pytest.approx(1.4 * ratio)
+    hard = q.on_surface("hard")
+    assert hard.second_serve_initiative == pytest.approx(0.8 * ratio)   # the same ratio
+    assert q.first_serve_kmh == pytest.approx(192.0)
+    assert hard.first_serve_kmh == pytest.approx(182.0)                 # the same difference
+    assert hard.reach_m == 1.7                                          # not a 2011 knob
+    # a profile without overrides steps exactly as before
+    plain = step_2011(dataclasses.replace(p, surface_overrides=()), sim, tgt, damping=0.5)
+    assert plain == dataclasses.replace(q, surface_overrides=())
+
+
+def test_hawkeye_step_moves_a_surface_serve_mix_on_that_surface_alone():
+    import pandas as pd
+
+    from sportsngen.synth.calibrate import step_hawkeye
+
+    p = PlayerProfile.from_dict({"name": "Him", "serve_wide": 0.5, "serve_body": 0.1,
+                                 "serve_t": 0.4,
+                                 "surface_overrides": {"clay": {"serve_wide": 0.6}}})
+
+    def table(rows):
+        return pd.DataFrame([("Him",) + r for r in rows],
+                            columns=["player", "surface", "statistic", "value", "n"])
+
+    zones = ("serve1_wide_share", "serve1_body_share", "serve1_t_share")
+    sim = table([("hard", z, v, 300) for z, v in zip(zones, (0.5, 0.1, 0.4))] +
+                [("clay", z, v, 300) for z, v in zip(zones, (0.6, 0.1, 0.3))])
+    real = table([("hard", z, v, 300) for z, v in zip(zones, (0.5, 0.1, 0.4))] +
+                 [("clay", z, v, 300) for z, v in zip(zones, (0.3, 0.1, 0.6))])
+    q = step_hawkeye(p, sim, real, damping=1.0)
+    # hard was right: the base mix stays; clay had too many wide serves: its mix moves
+    assert (q.serve_wide, q.serve_body, q.serve_t) == pytest.approx((0.5, 0.1, 0.4))
+    clay = q.on_surface("clay")
+    m = np.array([0.6 * 0.3 / 0.6, 0.1, 0.4 * 0.6 / 0.3])     # (fields on clay) x real / sim
+    assert (clay.serve_wide, clay.serve_body, clay.serve_t) == pytest.approx(tuple(m / m.sum()))

@@ -435,7 +435,7 @@ def test_serves_struck_anywhere_in_a_frame_are_found_once_and_read_where_they_bo
 
 
 def test_recorded_serves_are_found_once_and_read_where_they_bounced(truth_data):
-    data = truth_data(40, 4)
+    data = truth_data(60, 3)
     serves = data.shots[data.shots["shot_index"] == 0].set_index("rally_id")
     err, after, contact = [], [], []
     for rid, g, p, k, label, e in _found_serves(data):

@@ -58,7 +58,7 @@ from sportsngen.synth.profiles import (
 )
 from sportsngen.tennis.scoring import MatchFormat
 
-GENERATOR_VERSION = "6.3"  # bump when the generated tracks change (3: still through the toss;
+GENERATOR_VERSION = "6.4"  # bump when the generated tracks change (3: still through the toss;
 #                           4: players run at balls they cannot reach; 5: contacts from
 #                           0.3-1.2 m beside the body; 6: causal movement, one shot-cycle
 #                           kernel, ball flights and positions calibrated to Hawk-Eye;
@@ -67,7 +67,9 @@ GENERATOR_VERSION = "6.3"  # bump when the generated tracks change (3: still thr
 #                           6.2: clay passes on less of the serve's weight, each returner's
 #                           composure under a rushed return, recalibrated;
 #                           6.3: per-surface profile fields (Nadal's second-serve return
-#                           depth, composure, clay return pace), Williams' flatter ball)
+#                           depth, composure, clay return pace), Williams' flatter ball;
+#                           6.4: Federer per surface: less rally noise and serve initiative
+#                           on hard, more arc on clay, his serve mix on each)
 _ARROW = {"int64": pa.int64(), "float64": pa.float64(), "string": pa.string(), "bool": pa.bool_()}
 
 
