@@ -22,7 +22,7 @@ from tests.conftest import tiny_sim
 
 
 def test_shot_outcomes_agree_with_the_generators_shots_table():
-    truth = truth_points(DiagnosticsSetup(n_points=60, seed=4))
+    truth = truth_points(DiagnosticsSetup(n_points=80, seed=6))
     out = shot_outcomes(truth)
     assert shot_outcomes(truth, 1, analyse_rally_data(truth)).equals(out)   # rules read once
     shots = truth.shots
