@@ -69,7 +69,7 @@ GENERATOR_VERSION = "6.4"  # bump when the generated tracks change (3: still thr
 #                           6.3: per-surface profile fields (Nadal's second-serve return
 #                           depth, composure, clay return pace), Williams' flatter ball;
 #                           6.4: Federer per surface: less rally noise and serve initiative
-#                           on hard, more arc on clay, his serve mix on each;
+#                           on hard, more arc and more noise on clay, his serve mix on each;
 #                           Nadal's composure on hard 2.85 -> 3.1)
 _ARROW = {"int64": pa.int64(), "float64": pa.float64(), "string": pa.string(), "bool": pa.bool_()}
 
