@@ -397,35 +397,36 @@ def step_hawkeye(p: PlayerProfile, stats: pd.DataFrame, targets: pd.DataFrame,
     overrides = {surface: dict(values) for surface, values in p.surface_overrides}
     changes = {}
     for stat, param, mode, gain, lo, hi in HAWKEYE_KNOBS:
-        # A field a surface overrides follows that surface's figures; the base the others'.
-        split = {surface for surface, values in overrides.items() if param in values}
-        for surface in split:
-            sim, real = _player_figures(stats, targets, p.name, {surface})
-            if stat in sim.index:
-                overrides[surface][param] = _knob_step(
-                    overrides[surface][param], float(real[stat] - sim[stat]), mode, gain, lo,
-                    hi, damping)
-        rest = set(stats["surface"].astype(str)) - split
-        sim, real = _player_figures(stats, targets, p.name, rest)
-        if stat in sim.index:
-            changes[param] = _knob_step(getattr(p, param), float(real[stat] - sim[stat]),
-                                        mode, gain, lo, hi, damping)
-    # The first-serve mix, a surface's own where it overrides any of the three fields.
-    split = {surface for surface, values in overrides.items()
-             if any(f in values for f in SERVE_ZONE_FIELDS)}
-    for surface in split:
-        base = [overrides[surface].get(f, getattr(p, f)) for f in SERVE_ZONE_FIELDS]
-        mix = _mix_step(base, *_player_figures(stats, targets, p.name, {surface}), damping)
-        if mix is not None:
-            overrides[surface].update(mix)
-    rest = set(stats["surface"].astype(str)) - split
-    mix = _mix_step([getattr(p, f) for f in SERVE_ZONE_FIELDS],
-                    *_player_figures(stats, targets, p.name, rest), damping)
-    changes.update(mix or {})
+        def knob(values, sim, real, stat=stat, param=param, mode=mode, gain=gain, lo=lo, hi=hi):
+            if stat not in sim.index:
+                return None
+            return {param: _knob_step(values[param], float(real[stat] - sim[stat]), mode,
+                                      gain, lo, hi, damping)}
+        changes.update(_step_by_surface(p, overrides, stats, targets, (param,), knob))
+    changes.update(_step_by_surface(
+        p, overrides, stats, targets, SERVE_ZONE_FIELDS,
+        lambda values, sim, real: _mix_step(list(values.values()), sim, real, damping)))
     if overrides:
         changes["surface_overrides"] = tuple((surface, tuple(values.items()))
                                              for surface, values in overrides.items())
     return replace(p, **changes)
+
+
+def _step_by_surface(p: PlayerProfile, overrides: dict[str, dict[str, float]],
+                     stats: pd.DataFrame, targets: pd.DataFrame, names: tuple[str, ...],
+                     step) -> dict[str, float]:
+    """`step(values, sim, real)` (new values or None) of the fields `names`: on each surface
+    that overrides any of them, on that surface's figures alone (written into `overrides`);
+    the base values on the other surfaces' figures (returned)."""
+    split = {surface for surface, values in overrides.items()
+             if any(n in values for n in names)}
+    for surface in split:
+        values = {n: overrides[surface].get(n, getattr(p, n)) for n in names}
+        moved = step(values, *_player_figures(stats, targets, p.name, {surface}))
+        overrides[surface].update(moved or {})
+    rest = set(stats["surface"].astype(str)) - split
+    return step({n: getattr(p, n) for n in names},
+                *_player_figures(stats, targets, p.name, rest)) or {}
 
 
 def _mix_step(mix: list[float], sim: pd.Series, real: pd.Series,
