@@ -4,7 +4,7 @@ wide or into the net (`model.strike_bias`; `sportsngen.train.strike_bias`).
     .venv/bin/python scripts/fit_strike_bias.py --model FILE --out FILE [--more-data NAME]
         [--prior-strikes 200] [--width | --returns | --pressure | --shape | --shots |
         --players | --late | --depth | --return-surface] [--states FILE] [--view 8]
-        [--draws K] [--more-data-only]
+        [--draws K] [--more-data-only] [--surface]
         [--threads 2]
 
 The recorded rally strikes are the file's own training split (`extra.split`) and with
@@ -41,6 +41,11 @@ read before this part hold no surfaces: read them again).
 `--view 8` reads each strike's state from its own window ending 8 frames after it (the
 history a rollout gives it) and `--draws K` matches the odds at K of the head's own draws of
 the earlier dimensions (as a rollout draws) with `--pressure`, `--late` or `--depth`.
+`--surface` then adds a table per hitter, surface and stroke (rally balls, returns;
+`model.strike_surface`), fitted from zero on top of every other table as the file (or the fit
+before it) has them (`train.strike_surface.fit_strike_surface`): a named player's play by
+surface (generator version 6.3 on). It goes alone or after another flag's fit, e.g.
+`--pressure --view 8 --draws 4 --surface`.
 `--states FILE` keeps
 the decoder's states read (most of the time; they do not depend on the tables). Everything
 else in the file is copied unchanged.
@@ -76,6 +81,7 @@ from sportsngen.train.strike_inputs import (
     with_strike_players,
     with_strike_shots,
 )
+from sportsngen.train.strike_surface import fit_strike_surface, with_strike_surface
 from sportsngen.train.table_cli import open_table_run, table_parser
 
 
@@ -141,6 +147,10 @@ def main() -> None:
                     help="read the --more-data rallies alone, not the file's training split "
                          "(the named players' round robins: the rows of players only in the "
                          "split are left as they are)")
+    ap.add_argument("--surface", action="store_true",
+                    help="then add (or refit from zero) the hitters' surfaces table "
+                         "(model.strike_surface) on top of every other table: alone, or after "
+                         "the fit another flag names")
     ap.add_argument("--draws", type=int, default=0,
                     help="with --pressure, --late, --depth or --return-surface: match each "
                          "strike's odds at "
@@ -151,13 +161,28 @@ def main() -> None:
         ap.error("--late-only goes with --late")
     if args.more_data_only and not args.more_data:
         ap.error("--more-data-only goes with --more-data")
-    if args.draws and not (args.pressure or args.late or args.depth or args.return_surface):
-        ap.error("--draws goes with --pressure, --late, --depth or --return-surface")
+    if args.draws and not (args.pressure or args.late or args.depth or args.return_surface
+                           or args.surface):
+        ap.error("--draws goes with --pressure, --late, --depth, --return-surface or "
+                 "--surface")
     run = open_table_run(args, lambda m: None if m.strike_head is not None
                          else "no strike head (model.strike_head)")
     model, vocab = run.model, run.vocab
     states = _read_states(model, run, args)
     names = {N_SPECIAL_IDS + i: p for i, p in enumerate(vocab.players)}
+    if args.surface and model.strike_surface is not None:
+        # Refitted from zero: the other tables are fitted without it.
+        model.strike_surface.zero_()
+    if not args.surface or any(getattr(args, f[0][2:].replace("-", "_")) for f in FITS):
+        model = _fit(model, states, args, run, names)
+    if args.surface:
+        model = _fit_surface(model, states, args, names, vocab.surfaces)
+    run.save(model, args.out)
+
+
+def _fit(model, states, args, run, names: dict):
+    """The fit the exclusive flags name (the hitters' table where none) -> the model."""
+    vocab = run.vocab
     if args.return_surface:
         if model.strike_return is None:
             raise SystemExit(f"{run.path}: no model.strike_return: fit it first (--returns)")
@@ -174,8 +199,7 @@ def main() -> None:
         print(table[["table", "player", "serve", "n"] + [f"{k}_{w}" for k in KINDS
                                                        for w in ("record", "after", "shift")]]
               .round(3).to_string(index=False))
-        run.save(model, args.out)
-        return
+        return model
     if args.width and model.strike_pressure is not None:
         # The error tables split by returns and opponents: the width alone, then those tables
         # refitted with its tilt (`fit_strike_pressure` reads it, the returns' table last).
@@ -189,8 +213,7 @@ def main() -> None:
         table.insert(0, "player", table["id"].map(names))
         print(table[["table", "player", "receiver", "n", "wide_record", "wide_after",
                      "wide_shift"]].round(3).to_string(index=False))
-        run.save(model, args.out)
-        return
+        return model
     if args.shots or args.players:
         if model.strike_pressure is None:
             raise SystemExit(f"{run.path}: no model.strike_pressure: fit it first (--pressure)")
@@ -215,8 +238,7 @@ def main() -> None:
         print(table[["table", "player", "receiver", "n"] + [f"{k}_{w}" for k in KINDS
                                                           for w in ("record", "after", "shift")]]
               .round(3).to_string(index=False))
-        run.save(model, args.out)
-        return
+        return model
     if args.shape or args.pressure or args.late or args.depth:
         # Tables fitted in turn over the strikes that are not returns, on top of the one the
         # file must already have.
@@ -245,8 +267,7 @@ def main() -> None:
         if args.depth:
             print("centred table (band x role x long/wide/net):\n"
                   + str(model.strike_depth.numpy().round(3)))
-        run.save(model, args.out)
-        return
+        return model
     if args.returns:
         if model.strike_bias is None:
             raise SystemExit(f"{run.path}: no per-hitter table to split (model.strike_bias): "
@@ -272,7 +293,27 @@ def main() -> None:
         width = fit_strike_width(model, states, prior_strikes=args.prior_strikes)
         width.insert(0, "hitter", width["hitter_id"].map(names))
         print(width.drop(columns="hitter_id").round(3).to_string(index=False))
-    run.save(model, args.out)
+    return model
+
+
+def _fit_surface(model, states, args, names: dict, surfaces: list[str]):
+    """`--surface`: the hitters' surfaces table added (or zeroed) and fitted on top of the
+    model's other tables -> the model."""
+    if model.strike_bias is None:
+        raise SystemExit("--surface needs the hitters' table (model.strike_bias): fit it first")
+    model = with_strike_surface(model)
+    try:
+        table = fit_strike_surface(model, states, prior_strikes=args.prior_strikes,
+                                   draws=args.draws)
+    except ValueError as exc:
+        hint = f" (remove {args.states})" if args.states else ""
+        raise SystemExit(f"{exc}{hint}") from None
+    table.insert(0, "player", table.pop("id").map(names))
+    table["surface"] = table["surface"].map(dict(enumerate(surfaces)))
+    print(table[["player", "surface", "stroke", "n"] + [f"{k}_{w}" for k in KINDS
+                                                     for w in ("record", "after", "shift")]]
+          .round(3).to_string(index=False))
+    return model
 
 
 if __name__ == "__main__":

@@ -413,6 +413,14 @@ def test_the_lateral_shifts_match_each_servers_bands_and_keep_his_wide_odds():
         assert g["shift"].sum() == pytest.approx(0.0, abs=1e-4)
     two = table[table["server_id"] == 2].set_index("band")
     assert two.loc[[0, 6], "record"].sum() == pytest.approx(1.0) and two.loc[3, "head"] > 0.05
+    # A refit on the same serves changes nothing: it keeps the wide odds the file draws with its
+    # bands (read without them, the wide shift was moved a second time).
+    first = model.state_dict()
+    again = fit_serve_lateral(model, st, prior_serves=0.0)
+    for key in ("serve_bias", "serve_lateral"):
+        assert torch.allclose(model.state_dict()[key], first[key], atol=1e-3), key
+    assert again["wide_odds"].to_numpy() == pytest.approx(table["wide_odds"].to_numpy(),
+                                                          abs=1e-3)
     # Drawn with the tables: server 2's serves in the box go to the T or wide, server 3's do not.
     bias = model.serve_head_bias(torch.as_tensor(st.server_id), torch.as_tensor(st.serve),
                                  torch.as_tensor(st.contact_m, dtype=torch.float32))

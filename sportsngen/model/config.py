@@ -169,6 +169,14 @@ class ModelConfig:
     # robins' record and second serves' on hard 0.04 less (docs/evaluation.md, fifty-fifth
     # part).
     strike_return_surface: bool = False
+    # With the hitters' table, one more per hitter and surface of the same three shifts, a row
+    # for his rally balls and one for his returns, added on top of every other table
+    # (`model.strike_bias`, fitted by `train.strike_surface.fit_strike_surface`; zero until
+    # then): from generator version 6.3 a named player may play a surface his own way
+    # (`synth.profiles.PlayerProfile.surface_overrides`), and one row per player pools his
+    # surfaces: on version 6.4's hard court Nadal's returns err 0.318 of the time in the truth
+    # and 0.146 in the bundled file's rollouts (docs/evaluation.md, seventy-second part).
+    strike_surface: bool = False
     # With it and the returns' table, a per-opponent table of the same three shifts by the
     # hitter's role, added on every strike but the return (`model.strike_bias`, fitted by
     # `train.strike_bias.fit_strike_pressure`; zero until then): a hitter's errors depend on
@@ -298,6 +306,9 @@ class ModelConfig:
         if self.strike_return_surface and not self.strike_return:
             raise ValueError("model.strike_return_surface is fitted with the receivers' returns "
                              "table: it needs strike_return=True")
+        if self.strike_surface and not self.strike_bias:
+            raise ValueError("model.strike_surface is added on the strike head's error table: "
+                             "it needs strike_bias=True")
         if self.strike_return and not self.strike_bias:
             raise ValueError("model.strike_return is read with the strike head's error table: "
                              "it needs strike_bias=True")

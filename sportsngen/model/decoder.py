@@ -200,7 +200,7 @@ class SportsNGEN(nn.Module):
                            "strike_bias",
                            "strike_width", "strike_return", "strike_pressure",
                            "strike_shape", "strike_shape_opponent", "strike_player",
-                           "strike_opponent", "strike_late")
+                           "strike_opponent", "strike_late", "strike_surface")
 
     def __init__(self, cfg: ModelConfig):
         super().__init__()
@@ -260,6 +260,10 @@ class SportsNGEN(nn.Module):
                              torch.zeros(cfg.n_surfaces, serve_bias.N_SERVES,
                                          strike_bias_table.N_KINDS)
                              if cfg.strike_return_surface else None)
+        self.register_buffer("strike_surface",
+                             torch.zeros(cfg.n_ids, cfg.n_surfaces, strike_bias_table.N_STROKES,
+                                         strike_bias_table.N_KINDS)
+                             if cfg.strike_surface else None)
         self.register_buffer("strike_pressure",
                              torch.zeros(cfg.n_ids, strike_bias_table.N_ROLES,
                                          strike_bias_table.N_KINDS)
@@ -552,8 +556,9 @@ class SportsNGEN(nn.Module):
         `strike_bias.LATE_SHOT` or more where it has `strike_late`, and the depth table's row by
         where the ball is struck, `ball_x_m` (N,), on the rally strikes where it has
         `strike_depth`, and on the returns the row of `surface` (N,) (the surfaces' indices)
-        and `serve` (N,) (0 first, 1 second) where it has `strike_return_surface`); None where
-        the model has no table or the hitter is not given."""
+        and `serve` (N,) (0 first, 1 second) where it has `strike_return_surface`, and the
+        hitter's row for the surface and stroke (rally ball or return) where it has
+        `strike_surface`); None where the model has no table or the hitter is not given."""
         if self.strike_bias is None or hitter_ident is None or receiver is None:
             return None
         opponent = None if opponent_ident is None else self._ident(opponent_ident)
@@ -565,7 +570,8 @@ class SportsNGEN(nn.Module):
                                                  self.strike_shape_opponent,
                                                  self.strike_late, shot,
                                                  self.strike_depth, ball_x_m,
-                                                 self.strike_return_surface, serve, surface)
+                                                 self.strike_return_surface, serve, surface,
+                                                 self.strike_surface)
 
     def receiver_start_bias(self, server_ident: torch.Tensor | None,
                             serve: torch.Tensor | None,

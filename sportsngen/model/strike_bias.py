@@ -79,6 +79,10 @@ from sportsngen.tennis.court import BASELINE_X_M, SINGLES_HALF_WIDTH_M, net_heig
 
 LONG, WIDE, NET = 0, 1, 2      # the table's last axis: the kind of error
 N_KINDS = 3
+# The rows of the hitters' surfaces table (`ModelConfig.strike_surface`): his rally balls, his
+# returns.
+STROKE_RALLY, STROKE_RETURN = 0, 1
+N_STROKES = 2
 N_ROLES = 2                    # 0: the hitter serves this point; 1: he receives
 DEPTH, HEIGHT = 0, 1           # the shape tables' last axis: which dimension is tilted
 N_SHAPES = 2
@@ -182,7 +186,8 @@ def strike_dim_bias(table: torch.Tensor, hitter_id: torch.Tensor, receiver: torc
                     ball_x_m: torch.Tensor | None = None,
                     return_surface: torch.Tensor | None = None,
                     serve: torch.Tensor | None = None,
-                    surface: torch.Tensor | None = None) -> torch.Tensor:
+                    surface: torch.Tensor | None = None,
+                    player_surface: torch.Tensor | None = None) -> torch.Tensor:
     """The strike head's logit shifts for strikes of `hitter_id` (N,), who is the point's
     receiver where `receiver` (N,) bool, from `table` (n_ids, N_ROLES, N_KINDS) and the
     width's `width` (n_ids, N_ROLES) or None -> (N, 4, STRIKE_BINS): each kind's error bins
@@ -200,7 +205,10 @@ def strike_dim_bias(table: torch.Tensor, hitter_id: torch.Tensor, receiver: torc
     struck), its row by `depth_band` and the hitter's role is added on every strike but a
     return. With the surfaces' returns table `return_surface` (n_surfaces,
     `serve_bias.N_SERVES`, N_KINDS), `serve` (N,) (0 first, 1 second) and `surface` (N,)
-    (the surfaces' indices), the row of the surface and serve is added on the returns."""
+    (the surfaces' indices), the row of the surface and serve is added on the returns. With
+    the hitters' surfaces table `player_surface` (n_ids, n_surfaces, N_STROKES, N_KINDS) and
+    `surface`, the hitter's row for the surface and stroke (`STROKE_RALLY`, or
+    `STROKE_RETURN` where `returning`) is added on every strike."""
     shift = table[hitter_id.long(), receiver.long()]                      # (N, N_KINDS)
     if late is not None and shot is not None:
         shift = shift + late[hitter_id.long(), receiver.long()] * \
@@ -211,6 +219,10 @@ def strike_dim_bias(table: torch.Tensor, hitter_id: torch.Tensor, receiver: torc
             and surface is not None:
         shift = shift + return_surface[surface.long(), serve.long()] * \
             returning.to(shift.dtype)[:, None]
+    if player_surface is not None and surface is not None:
+        stroke = torch.zeros_like(hitter_id, dtype=torch.long) if returning is None \
+            else returning.long() * STROKE_RETURN
+        shift = shift + player_surface[hitter_id.long(), surface.long(), stroke]
     # The opponents' and depth tables add on every strike but a return.
     rally = torch.ones_like(shift[:, 0]) if returning is None else \
         (~returning.bool()).to(shift.dtype)

@@ -42,6 +42,14 @@ def with_strike_bias(model: SportsNGEN) -> SportsNGEN:
 
 
 @torch.no_grad()
+def check_prior(prior_strikes: float, min_strikes: int) -> None:
+    """A table fit's pseudo-strikes and smallest cell: `ValueError` where they make no
+    sense."""
+    if prior_strikes < 0 or min_strikes < 1:
+        raise ValueError(f"prior_strikes must be >= 0 and min_strikes >= 1, got "
+                         f"{prior_strikes} and {min_strikes}")
+
+
 def fit_strike_bias(model: SportsNGEN, states: HeadStates, prior_strikes: float = 200.0,
                     min_strikes: int = 50) -> pd.DataFrame:
     """Fill `model.strike_bias` (in place) from the recorded rally strikes `states` (with the
@@ -51,9 +59,7 @@ def fit_strike_bias(model: SportsNGEN, states: HeadStates, prior_strikes: float 
     if model.strike_bias is None:
         raise ValueError("the model has no per-hitter table (cfg.strike_bias): add it with "
                          "with_strike_bias")
-    if prior_strikes < 0 or min_strikes < 1:
-        raise ValueError(f"prior_strikes must be >= 0 and min_strikes >= 1, got "
-                         f"{prior_strikes} and {min_strikes}")
+    check_prior(prior_strikes, min_strikes)
     head = model.strike_head
     masks = torch.as_tensor(strike_bias.error_bins())
     keys = pd.DataFrame({"hitter_id": states.hitter_id(), "receiver": states.receiver})
