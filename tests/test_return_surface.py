@@ -67,22 +67,26 @@ SHARES = {(2, HARD, 0): 0.25, (2, CLAY, 0): 0.05, (3, HARD, 0): 0.40, (3, CLAY, 
           (2, HARD, 1): 0.12, (2, CLAY, 1): 0.05, (3, HARD, 1): 0.22, (3, CLAY, 1): 0.10}
 
 
-def _return_states(model, n=400, seed=0):
-    rng = np.random.default_rng(seed)
+def long_share_bins(rng: np.random.Generator, shares, n: int) -> np.ndarray:
+    """(len(shares) * n, 4) strike bins, `n` rows a share in turn, exactly that share of each
+    block's depth bins long (the blocks' records are the shares themselves), laterals in the
+    court, net heights clear."""
     masks = strike_bias.error_bins()
     long_b, deep_in = np.flatnonzero(masks[0])[:6], np.flatnonzero(~masks[0])[-20:]
     lat_in = np.flatnonzero(~masks[1])
-    recv, surface, serve, depth = [], [], [], []
-    for (r, sf, sv), p in SHARES.items():
-        recv += [r] * n
-        surface += [sf] * n
-        serve += [sv] * n
-        # Exactly the share long: the cells' records are the shares themselves.
+    depth = []
+    for p in shares:
         long = rng.permutation(n) < round(p * n)
         depth.append(np.where(long, rng.choice(long_b, n), rng.choice(deep_in, n)))
-    m = len(recv)
-    bins = np.stack([np.concatenate(depth), rng.choice(lat_in, m), rng.integers(20, 40, m),
+    m = len(shares) * n
+    return np.stack([np.concatenate(depth), rng.choice(lat_in, m), rng.integers(20, 40, m),
                      rng.integers(96, size=m)], -1)
+
+
+def _return_states(model, n=400, seed=0):
+    bins = long_share_bins(np.random.default_rng(seed), SHARES.values(), n)
+    recv, surface, serve = ([k[i] for k in SHARES for _ in range(n)] for i in range(3))
+    m = len(recv)
     return HeadStates(torch.randn(m, model.cfg.d_model), torch.as_tensor(bins), np.arange(m),
                       np.array(serve, dtype=np.int64), np.zeros((m, 3)), np.ones(m, dtype=bool),
                       np.full(m, 4, dtype=np.int64), np.array(recv, dtype=np.int64),

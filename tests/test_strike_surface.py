@@ -10,6 +10,7 @@ from sportsngen.model.config import ModelConfig
 from sportsngen.train.head_fit import HeadStates
 from sportsngen.train.strike_bias import with_strike_bias, with_strike_return
 from sportsngen.train.strike_surface import fit_strike_surface, with_strike_surface
+from tests.test_return_surface import long_share_bins
 from tests.test_strike_bias import _two_strikes_seen, small_model
 
 LONG = torch.as_tensor(strike_bias.error_bins()[0])
@@ -71,21 +72,9 @@ OPPONENT = 2
 
 
 def _strike_states(model, n=400, seed=0):
-    rng = np.random.default_rng(seed)
-    masks = strike_bias.error_bins()
-    long_b, deep_in = np.flatnonzero(masks[0])[:6], np.flatnonzero(~masks[0])[-20:]
-    lat_in = np.flatnonzero(~masks[1])
-    hitter, surface, is_return, depth = [], [], [], []
-    for (h, sf, stroke), p in SHARES.items():
-        hitter += [h] * n
-        surface += [sf] * n
-        is_return += [stroke == RETURN] * n
-        # Exactly the share long: the cells' records are the shares themselves.
-        long = rng.permutation(n) < round(p * n)
-        depth.append(np.where(long, rng.choice(long_b, n), rng.choice(deep_in, n)))
-    m = len(hitter)
-    bins = np.stack([np.concatenate(depth), rng.choice(lat_in, m), rng.integers(20, 40, m),
-                     rng.integers(96, size=m)], -1)
+    bins = long_share_bins(np.random.default_rng(seed), SHARES.values(), n)
+    hitter, surface, stroke = ([k[i] for k in SHARES for _ in range(n)] for i in range(3))
+    m, is_return = len(hitter), [s == RETURN for s in stroke]
     hitter, recv = np.array(hitter, dtype=np.int64), np.array(is_return)
     # Every row its own rally: a receiver's strike is that rally's return, a server's a rally
     # ball.

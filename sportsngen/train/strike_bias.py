@@ -96,17 +96,26 @@ def head_draws(model: SportsNGEN, states: HeadStates, rows: np.ndarray, x: torch
     rep = np.repeat(np.arange(len(rows)), draws)
     rows = np.asarray(rows)[rep]
     x = x[torch.as_tensor(rep)]
-    receiver = torch.as_tensor(states.receiver[rows].astype(bool))
-    shot = torch.as_tensor(states.shot_numbers()[rows])
-    bias = model.strike_head_bias(torch.as_tensor(states.hitter_id()[rows]), receiver,
-                                  torch.as_tensor(states.returns()[rows]),
-                                  torch.as_tensor(states.opponent_id()[rows]), shot,
-                                  torch.as_tensor(states.contact_m[rows, 0], dtype=x.dtype),
-                                  torch.as_tensor(states.serve[rows]),
-                                  None if states.surface is None
-                                  else torch.as_tensor(states.surface[rows]))
+    bias = states_strike_bias(model, states, rows, x.dtype)
     gen = torch.Generator().manual_seed(seed)
     return rows, x, model.strike_head.sample(x, 1.0, gen, dim_bias=bias)
+
+
+def states_strike_bias(model: SportsNGEN, states: HeadStates, rows: np.ndarray,
+                       dtype: torch.dtype) -> torch.Tensor | None:
+    """(len(rows), 4, bins): every table of the file's shift of the strike head's odds at the
+    recorded strikes `rows` of `states` (`SportsNGEN.strike_head_bias`: each strike's hitter,
+    role, return or not, opponent, number, depth, serve and, where read, surface); None where
+    the model has no table."""
+    return model.strike_head_bias(
+        torch.as_tensor(states.hitter_id()[rows]),
+        torch.as_tensor(states.receiver[rows].astype(bool)),
+        torch.as_tensor(states.returns()[rows]),
+        torch.as_tensor(states.opponent_id()[rows]),
+        torch.as_tensor(states.shot_numbers()[rows]),
+        torch.as_tensor(states.contact_m[rows, 0], dtype=dtype),
+        torch.as_tensor(states.serve[rows]),
+        None if states.surface is None else torch.as_tensor(states.surface[rows]))
 
 
 def with_strike_width(model: SportsNGEN) -> SportsNGEN:

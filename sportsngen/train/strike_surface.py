@@ -24,7 +24,12 @@ from sportsngen.model import strike_bias
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.train.finetune import with_flag
 from sportsngen.train.head_fit import HeadStates, head_inputs
-from sportsngen.train.strike_bias import check_prior, head_draws, match_cell
+from sportsngen.train.strike_bias import (
+    check_prior,
+    head_draws,
+    match_cell,
+    states_strike_bias,
+)
 
 
 def with_strike_surface(model: SportsNGEN) -> SportsNGEN:
@@ -32,20 +37,6 @@ def with_strike_surface(model: SportsNGEN) -> SportsNGEN:
     (`cfg.strike_surface`), at zero: it draws as before until `fit_strike_surface` fills it.
     -> a new model."""
     return with_flag(model, "strike_surface", ["strike_surface"])
-
-
-def _strike_bias(model: SportsNGEN, states: HeadStates, rows: np.ndarray,
-                 dtype: torch.dtype) -> torch.Tensor:
-    """(len(rows), 4, bins): every table's shift of the head's odds at the strikes `rows`."""
-    return model.strike_head_bias(
-        torch.as_tensor(states.hitter_id()[rows]),
-        torch.as_tensor(states.receiver[rows].astype(bool)),
-        torch.as_tensor(states.returns()[rows]),
-        torch.as_tensor(states.opponent_id()[rows]),
-        torch.as_tensor(states.shot_numbers()[rows]),
-        torch.as_tensor(states.contact_m[rows, 0], dtype=dtype),
-        torch.as_tensor(states.serve[rows]),
-        torch.as_tensor(states.surface[rows]))
 
 
 @torch.no_grad()
@@ -80,7 +71,7 @@ def fit_strike_surface(model: SportsNGEN, states: HeadStates, prior_strikes: flo
         bins = states.bins[torch.as_tensor(rows)]
         # A strike's draws together weigh as the strike did.
         prior_strikes, min_strikes = prior_strikes * draws, min_strikes * draws
-    bias = _strike_bias(model, states, rows, x.dtype)
+    bias = states_strike_bias(model, states, rows, x.dtype)
     # Each kind of error is read on the dimension of its index (depth, lateral, net height).
     logits = [head.dim_logits(x, prev, kind) + bias[:, kind]
               for kind in range(strike_bias.N_KINDS)]
