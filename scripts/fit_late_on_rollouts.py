@@ -2,7 +2,7 @@
 (`model.strike_late`; `sportsngen.train.rollout_tables`).
 
     .venv/bin/python scripts/fit_late_on_rollouts.py --model FILE --out FILE
-        --pair SIM_DIR TRUTH_DIR [--pair SIM_DIR TRUTH_DIR ...] [--prior-strikes 200]
+        --pair SIM_DIR TRUTH_DIR [--pair SIM_DIR TRUTH_DIR ...] [--prior-strikes 200] [--rally]
 
 Each `--pair` is one matchup: the file's rollouts saved by `scripts/check_simulation.py
 --save-sim DIR` (made with `--model FILE`) and a truth of the same players and surface
@@ -10,8 +10,10 @@ Each `--pair` is one matchup: the file's rollouts saved by `scripts/check_simula
 hitter and role the log-odds gap between the truth's share of his strikes from the rally's
 fifth on that ended the point as his error and the rollouts' share is pooled over the pairs,
 shrunk by n / (n + prior) and added to his late row (the table is added at zero where the file
-has none). Everything else in the file is copied unchanged. Run it again on new rollouts of
-the file it wrote to take a further step.
+has none). With `--rally` the gap is taken over every strike after the return and added to
+the player's own table (`model.strike_bias`), each receiver's step taken off his returns' row
+(`train.rollout_tables.add_rollout_rally_shift`). Everything else in the file is copied
+unchanged. Run it again on new rollouts of the file it wrote to take a further step.
 """
 
 from __future__ import annotations
@@ -22,7 +24,12 @@ from sportsngen.data.tracking import RallyData
 from sportsngen.eval.shot_profile import strike_endings
 from sportsngen.model.export import load_model, read_extra, save_model
 from sportsngen.sim.simulator import model_path
-from sportsngen.train.rollout_tables import add_rollout_late_shift, rollout_error_gaps
+from sportsngen.train.rollout_tables import (
+    RALLY_STAGES,
+    add_rollout_late_shift,
+    add_rollout_rally_shift,
+    rollout_error_gaps,
+)
 from sportsngen.train.strike_bias import with_strike_late
 
 
@@ -34,19 +41,26 @@ def main() -> None:
                     metavar=("SIM_DIR", "TRUTH_DIR"), help="a matchup's rollouts and truth")
     ap.add_argument("--prior-strikes", type=float, default=200.0,
                     help="pseudo-strikes at no change added to each hitter's rollouts")
+    ap.add_argument("--rally", action="store_true",
+                    help="every strike after the return, into the player's table")
     args = ap.parse_args()
     path = model_path(args.model)
     model, event_model, vocab, _ = load_model(path)
-    if model.strike_pressure is None:
-        raise SystemExit(f"{path}: no model.strike_pressure, which the late table needs")
-    model = with_strike_late(model)
+    if not args.rally:
+        if model.strike_pressure is None:
+            raise SystemExit(f"{path}: no model.strike_pressure, which the late table needs")
+        model = with_strike_late(model)
     pairs = []
     for sim_dir, truth_dir in args.pair:
         sim = strike_endings(RallyData.load(sim_dir, validate=False))
         pairs.append((sim, strike_endings(RallyData.load(truth_dir))))
     try:
-        table = add_rollout_late_shift(model, vocab, rollout_error_gaps(pairs),
-                                       prior_strikes=args.prior_strikes)
+        if args.rally:
+            table = add_rollout_rally_shift(model, vocab, rollout_error_gaps(pairs, RALLY_STAGES),
+                                            prior_strikes=args.prior_strikes)
+        else:
+            table = add_rollout_late_shift(model, vocab, rollout_error_gaps(pairs),
+                                           prior_strikes=args.prior_strikes)
     except ValueError as exc:
         raise SystemExit(str(exc)) from None
     print(table.round(3).to_string())

@@ -215,3 +215,48 @@ def test_the_command_line_refuses_bad_shots(tmp_path, capsys):
     assert "no tracking folder" in capsys.readouterr().err
     assert main(["expert", "--points", "20", "--shot", "1"]) == 2
     assert ">= 2" in capsys.readouterr().err
+
+
+def test_paired_expert_gaps_pair_by_rally_and_shot_and_count_only_both_struck():
+    import pandas as pd
+
+    from sportsngen.eval.expert_answers import paired_expert_gaps
+    rows = []
+
+    def pair(rid, shot, own_in, kernel_in, kernel_struck=True):
+        hitter = "R" if shot % 2 else "S"
+        base = {"rally_id": rid, "shot": shot, "server": "S", "receiver": "R", "hitter": hitter}
+        rows.append({**base, "who": "rally", "struck": True, "in_play": own_in})
+        rows.append({**base, "who": "expert", "struck": kernel_struck,
+                     "in_play": kernel_in and kernel_struck})
+    pair(1, 3, False, True)
+    pair(2, 3, True, True)
+    pair(3, 3, False, False)
+    pair(4, 3, True, False, kernel_struck=False)     # the kernel never struck: left out
+    pair(1, 2, True, False)
+    pair(2, 2, True, True)
+    got = paired_expert_gaps(pd.DataFrame(rows)).set_index("role")
+    assert got.loc["receiver", "n"] == 3 and got.loc["server", "n"] == 2
+    assert got.loc["receiver", "hitter"] == "R" and got.loc["server", "hitter"] == "S"
+    assert got.loc["receiver", "rally_in"] == pytest.approx(1 / 3)
+    assert got.loc["receiver", "kernel_in"] == pytest.approx(2 / 3)
+    assert got.loc["receiver", "gap"] == pytest.approx(-1 / 3)
+    assert got.loc["receiver", "gap_se"] == pytest.approx(np.std([-1, 0, 0], ddof=1) / np.sqrt(3))
+    assert got.loc["server", "gap"] == pytest.approx(0.5)
+    with pytest.raises(ValueError, match="struck both"):
+        paired_expert_gaps(pd.DataFrame(rows[6:8]))
+
+
+def test_expert_shots_answer_several_shots_with_their_hitters(generated):
+    rows = expert_shots(generated, shot=(2, 3), seed=0)
+    assert set(rows["shot"]) == {2, 3}
+    r = rows.iloc[0]
+    assert set(rows.loc[rows["shot"] == 2, "hitter"]) <= set(generated.rallies["server"])
+    odd = rows[rows["shot"] == 3]
+    assert (odd["hitter"] == odd["receiver"]).all()
+    even = rows[rows["shot"] == 2]
+    assert (even["hitter"] == even["server"]).all()
+    # One shot asked alone gives the same rows as within the pair.
+    alone = expert_shots(generated, shot=2, seed=0)
+    assert r["rally_id"] in set(alone["rally_id"])
+    assert len(alone) == len(even)

@@ -1,4 +1,4 @@
-"""The late strikes' table moved by the model's own rollouts
+"""The late strikes' table and the player's rally rows moved by the model's own rollouts
 (`sportsngen.train.rollout_tables`)."""
 
 import numpy as np
@@ -8,7 +8,12 @@ import torch
 
 from sportsngen.data.tokens import N_SPECIAL_IDS, Vocab
 from sportsngen.errors import ArgumentError
-from sportsngen.train.rollout_tables import add_rollout_late_shift, rollout_error_gaps
+from sportsngen.train.rollout_tables import (
+    RALLY_STAGES,
+    add_rollout_late_shift,
+    add_rollout_rally_shift,
+    rollout_error_gaps,
+)
 from sportsngen.train.serve_bias import MAX_SHIFT
 from sportsngen.train.strike_bias import (
     with_strike_bias,
@@ -89,3 +94,46 @@ def test_the_step_is_the_gap_shrunk_by_the_prior_on_all_three_kinds():
 
 def with_strike_bias_model(vocab: Vocab):
     return with_strike_bias(small_model(n_ids=vocab.n_ids))
+
+
+def test_several_stages_are_pooled_by_their_strikes():
+    sim = _endings([("A", "receiver", "shots 2-4", 100, 0.30), ("A", "receiver", "shots 5+", 300,
+                                                                  0.10),
+                    ("A", "receiver", "return", 400, 0.5)])
+    truth = _endings([("A", "receiver", "shots 2-4", 1000, 0.20),
+                      ("A", "receiver", "shots 5+", 3000, 0.20)])
+    got = rollout_error_gaps([(sim, truth)], RALLY_STAGES).loc[("A", "receiver")]
+    assert got["n"] == 400                                   # the return left out
+    assert got["error_sim"] == pytest.approx(0.15)
+    assert got["gap"] == pytest.approx(_logit(0.20) - _logit(0.15))
+
+
+def test_the_rally_shift_moves_the_players_rows_and_keeps_the_receivers_returns():
+    vocab = Vocab(players=("A", "B", "C"))
+    model = with_strike_return(with_strike_bias_model(vocab))
+    a, b, c = (N_SPECIAL_IDS + k for k in range(3))
+    model.strike_bias[c, 1] = torch.tensor([MAX_SHIFT - 0.1, 0.0, 0.0])
+    model.strike_return[a] = torch.tensor([0.2, 0.0, -0.1])
+    gaps = pd.DataFrame({"hitter": ["A", "B", "C"], "role": ["receiver", "server", "receiver"],
+                         "n": [600, 200, 200], "gap": [-0.4, 1.0, 0.4]}).set_index(
+        ["hitter", "role"])
+    bias, ret = model.strike_bias.clone(), model.strike_return.clone()
+    got = add_rollout_rally_shift(model, vocab, gaps, prior_strikes=200.0)
+    assert got["step"].tolist() == pytest.approx([-0.3, 0.5, 0.2])
+    torch.testing.assert_close(model.strike_bias[a, 1], torch.full((3,), -0.3))
+    torch.testing.assert_close(model.strike_bias[b, 0], torch.full((3,), 0.5))
+    # A receiver's return draws as before: its row sum (player's + returns') unchanged.
+    torch.testing.assert_close(model.strike_bias[a, 1] + model.strike_return[a],
+                               bias[a, 1] + ret[a])
+    # At the bound the cell moved less, and the return's row only by what it moved.
+    torch.testing.assert_close(model.strike_bias[c, 1],
+                               torch.tensor([MAX_SHIFT, 0.2, 0.2]))
+    torch.testing.assert_close(model.strike_return[c], torch.tensor([-0.1, -0.2, -0.2]))
+    torch.testing.assert_close(model.strike_return[b], ret[b])   # a server's: untouched
+    keep = torch.ones_like(bias, dtype=torch.bool)
+    keep[a, 1] = keep[b, 0] = keep[c, 1] = False
+    assert torch.equal(model.strike_bias[keep], bias[keep])
+    with pytest.raises(ValueError, match="cfg.strike_return"):
+        add_rollout_rally_shift(with_strike_bias_model(vocab), vocab, gaps)
+    with pytest.raises(ValueError, match="prior_strikes"):
+        add_rollout_rally_shift(model, vocab, gaps, prior_strikes=-1)

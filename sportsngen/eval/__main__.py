@@ -16,7 +16,7 @@
     python -m sportsngen.eval chase [--model PATH] [--points 400] [--seed 0] [--csv PATH]
     python -m sportsngen.eval interventions [--model PATH] [--points 400] [--own]
         [--arms free recorded still swapped] [--boot 1000] [--seed 0] [--csv PATH]
-    python -m sportsngen.eval expert [FOLDER] [--shot 3] [--after 8] [--unplayed]
+    python -m sportsngen.eval expert [FOLDER] [--shot 3 [4 ...]] [--after 8] [--unplayed]
         [--points 1000] [--seed 0] [--csv PATH]
 
 Folders are `RallyData.save` folders, read without physics validation (simulated rallies may
@@ -338,7 +338,11 @@ def run_expert(args: argparse.Namespace) -> int:
     """The kernel's next shot on a folder's (or generated points') own states: prints it."""
     import time
 
-    from sportsngen.eval.expert_answers import expert_shots, summarise_expert_shots
+    from sportsngen.eval.expert_answers import (
+        expert_shots,
+        paired_expert_gaps,
+        summarise_expert_shots,
+    )
 
     t0 = time.perf_counter()
     if args.folder is not None:
@@ -352,16 +356,21 @@ def run_expert(args: argparse.Namespace) -> int:
                                 n_points=args.points, seed=args.seed, workers=1)
         what = f"{args.points} generated points of {args.server} v {args.receiver}"
     try:
-        rows = expert_shots(data, shot=args.shot, after_frames=args.after, seed=args.seed,
-                            unplayed=args.unplayed)
+        rows = expert_shots(data, shot=tuple(args.shot), after_frames=args.after,
+                            seed=args.seed, unplayed=args.unplayed)
+        gaps = paired_expert_gaps(rows)
     except ValueError as exc:
         raise UsageError(f"expert: {exc}") from exc
     ends = rows.loc[rows["expert_end"] != "", "expert_end"].value_counts()
-    notes = ("the kernel struck nothing: " + ", ".join(f"{k} {v}" for k, v in ends.items()),
-             ) if len(ends) else ()
+    notes = ["the kernel struck nothing: " + ", ".join(f"{k} {v}" for k, v in ends.items())
+             ] if len(ends) else []
+    notes += ["", "in play of the shots both struck from the same states, by hitter and role "
+              "(gap: the rally's less the kernel's, with its standard error):",
+              gaps.to_string(index=False, float_format=lambda v: f"{v:.3f}")]
+    shots = " ".join(str(s) for s in args.shot)
     _print_table(summarise_expert_shots(rows), args.csv,
-                 f"({time.perf_counter() - t0:.0f} s, shot {args.shot} handed over "
-                 f"{args.after} frames after shot {args.shot - 1}, {what})", notes, rows)
+                 f"({time.perf_counter() - t0:.0f} s, shots {shots} each handed over "
+                 f"{args.after} frames after the shot before, {what})", tuple(notes), rows)
     return 0
 
 
@@ -551,8 +560,8 @@ def build_parser() -> argparse.ArgumentParser:
     expert.add_argument("folder", type=Path, nargs="?", default=None,
                         help="RallyData folder (default: generated points, the kernel's "
                              "fidelity)")
-    expert.add_argument("--shot", type=int, default=3,
-                        help="the shot answered, counted after the serve (default 3)")
+    expert.add_argument("--shot", type=int, nargs="+", default=[3],
+                        help="the shots answered, counted after the serve (default 3)")
     expert.add_argument("--after", type=int, default=8,
                         help="frames after the shot before it that the kernel takes over")
     expert.add_argument("--unplayed", action="store_true",

@@ -117,30 +117,33 @@ def kernel_answers(data: RallyData, shots: tuple[int, ...], after_frames: int = 
             yield ri, r, contacts, j, h, track, res
 
 
-def expert_shots(data: RallyData, shot: int = 3, after_frames: int = AFTER_FRAMES,
-                 seed: int = 0, profiles: dict | None = None,
+def expert_shots(data: RallyData, shot: int | tuple[int, ...] = 3,
+                 after_frames: int = AFTER_FRAMES, seed: int = 0, profiles: dict | None = None,
                  unplayed: bool = False) -> pd.DataFrame:
-    """Each rally of `data` that played shot `shot` (1 the return), handed to the kernel
-    `after_frames` frames after shot `shot - 1` (`kernel_answers`) -> two rows a rally, `who`
-    "rally" (its own shot from there) and "expert" (the kernel's), with `SHOT_COLUMNS`, the
-    rally's `server` and, for the kernel's rows that struck nothing, how its rally ended
-    (`expert_end`). `unplayed`: also the rallies whose ball was still in flight then but
-    whose shot `shot` never came (a ball let go, or missed: would the kernel have struck
+    """Each rally of `data` that played shot `shot` (1 the return; several shots: each of
+    them), handed to the kernel `after_frames` frames after the shot before
+    (`kernel_answers`) -> two rows a rally and shot, `who` "rally" (its own shot from there)
+    and "expert" (the kernel's), with `SHOT_COLUMNS`, the `shot`, the rally's `server` and
+    `receiver`, the shot's `hitter` and, for the kernel's rows that struck nothing, how its
+    rally ended (`expert_end`). `unplayed`: also the rallies whose ball was still in flight
+    then but whose shot never came (a ball let go, or missed: would the kernel have struck
     it?)."""
-    if shot < 2:
+    shots = (shot,) if isinstance(shot, (int, np.integer)) else tuple(int(s) for s in shot)
+    if not shots or min(shots) < 2:
         raise ValueError(f"shot counts contacts after the serve and needs one before it "
                          f"(>= 2), got {shot}")
     fps = float(data.fps)
     rows = []
-    for _, r, contacts, _, h, track, res in kernel_answers(data, (shot,), after_frames, seed,
+    for _, r, contacts, j, h, track, res in kernel_answers(data, shots, after_frames, seed,
                                                            profiles):
-        if len(contacts) <= shot and not unplayed:   # the rally's own shot never came
+        if len(contacts) <= j and not unplayed:      # the rally's own shot never came
             continue
         answer = np.concatenate([track[:h + 1], np.zeros((res.n_frames - 1, 3, 3))])
         answer[h + 1:, BALL] = res.ball_m[1:]
         answer[h + 1:, :BALL, :2] = np.transpose(res.players_m[:, 1:], (1, 0, 2))
         own, kernel = _shot_row(track, h, fps), _shot_row(answer, h, fps)
-        base = {"rally_id": int(r.name), "server": r["server"]}
+        base = {"rally_id": int(r.name), "shot": j, "server": r["server"],
+                "receiver": r["receiver"], "hitter": r["receiver"] if j % 2 else r["server"]}
         rows.append({**base, "who": "rally", **own, "expert_end": ""})
         end = "" if kernel["struck"] else f"{res.end_reason}: {res.end_detail}"
         rows.append({**base, "who": "expert", **kernel, "expert_end": end})
@@ -172,12 +175,35 @@ def simulated_expert_arrays(data: RallyData, vocab: Vocab, shots: tuple[int, ...
 
 
 def summarise_expert_shots(rows: pd.DataFrame) -> pd.DataFrame:
-    """`expert_shots` rows -> per server and `who`: n, the share struck, in play of those
-    struck, and the medians of the struck shots' net height, depth, distance from the centre
-    line and the hitter's distance behind his baseline."""
-    g = rows.groupby(["server", "who"])
+    """`expert_shots` rows -> per shot, server and `who`: n, the share struck, in play of
+    those struck, and the medians of the struck shots' net height, depth, distance from the
+    centre line and the hitter's distance behind his baseline."""
+    g = rows.groupby(["shot", "server", "who"])
     out = pd.concat([g.size().rename("n"), g["struck"].mean(),
                      g["in_play"].sum() / g["struck"].sum().clip(lower=1)
                      ] + [g[c].median() for c in SHOT_COLUMNS[2:]], axis=1)
     out.columns = ["n", "struck", "in_play_of_struck", *SHOT_COLUMNS[2:]]
+    return out.reset_index()
+
+
+def paired_expert_gaps(rows: pd.DataFrame) -> pd.DataFrame:
+    """`expert_shots` rows -> per hitter and role (the shot's hitter serving the point or
+    receiving it), over the shots struck both by the rally and by the kernel from the same
+    state: n, the rally's and the kernel's shares in play, the rally's less the kernel's
+    (`gap`) and that paired gap's standard error. A rally whose hitters err more than the
+    kernel's from the same states erred by its own choice, not by the states it reached;
+    the same table on recorded rallies measures the kernel's own bias."""
+    key = ["rally_id", "shot"]
+    own = rows[rows["who"] == "rally"].set_index(key)
+    kernel = rows[rows["who"] == "expert"].set_index(key)[["struck", "in_play"]]
+    both = own.join(kernel, rsuffix="_kernel", how="inner")
+    both = both[both["struck"] & both["struck_kernel"]].reset_index()
+    if both.empty:
+        raise ValueError("no shot was struck both by the rally and by the kernel")
+    both["role"] = np.where(both["hitter"] == both["server"], "server", "receiver")
+    both["diff"] = both["in_play"].astype(float) - both["in_play_kernel"].astype(float)
+    g = both.groupby(["hitter", "role"])
+    out = pd.DataFrame({"n": g.size(), "rally_in": g["in_play"].mean(),
+                        "kernel_in": g["in_play_kernel"].mean(), "gap": g["diff"].mean(),
+                        "gap_se": g["diff"].std(ddof=1) / np.sqrt(g.size())})
     return out.reset_index()

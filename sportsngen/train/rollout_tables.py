@@ -1,4 +1,5 @@
-"""The late strikes' error table fitted on the model's own rollouts (closed loop).
+"""The late strikes' error table, and the player's own rally rows, moved by the model's own
+rollouts (closed loop).
 
 `ModelConfig.strike_late` adds a shift per hitter and role on his strikes from the rally's fifth
 on. Matched to the record's strikes (`train.strike_bias.fit_strike_pressure`) it moved the
@@ -9,7 +10,10 @@ the table is moved by what the rollouts drew instead: per hitter and role, the l
 between a truth's share of his late strikes that ended the point as his error and his
 rollouts' share (`eval.shot_profile.strike_endings`), pooled over matchups, shrunk toward zero
 by `prior_strikes` pseudo-strikes and added to all three of his error kinds (for errors this
-rare a shift of every error bin by d multiplies his odds of an error by about e^d).
+rare a shift of every error bin by d multiplies his odds of an error by about e^d). The same
+gaps over every strike after the return move the player's own rows instead
+(`add_rollout_rally_shift`, docs/evaluation.md, seventy-third part): at the record's states
+the tables match his record, in rollouts Federer's and Nadal's rally balls erred more.
 """
 
 from __future__ import annotations
@@ -22,20 +26,26 @@ from sportsngen.model.decoder import SportsNGEN
 from sportsngen.train.serve_bias import MAX_SHIFT, share_logit
 
 LATE_STAGE = "shots 5+"            # `eval.shot_profile.STRIKE_STAGES`' stage the table covers
+RALLY_STAGES = ("shots 2-4", LATE_STAGE)   # every strike after the return
 ROLES = ("server", "receiver")     # `strike_endings`' roles, in the table's order
 
 
-def _at_stage(endings: pd.DataFrame, stage: str) -> pd.DataFrame:
-    """A `strike_endings` table's `n` and `error` on `stage`, indexed by hitter and role."""
-    rows = endings[endings.index.get_level_values("stage") == stage]
-    return rows[["n", "error"]].droplevel("stage")
+def _at_stage(endings: pd.DataFrame, stage: str | tuple[str, ...]) -> pd.DataFrame:
+    """A `strike_endings` table's `n` and `error` on `stage` (several: pooled), indexed by
+    hitter and role."""
+    stages = (stage,) if isinstance(stage, str) else tuple(stage)
+    rows = endings[endings.index.get_level_values("stage").isin(stages)]
+    rows = rows.assign(errors=rows["n"] * rows["error"]).groupby(["hitter", "role"])
+    out = rows[["n", "errors"]].sum()
+    return pd.DataFrame({"n": out["n"], "error": out["errors"] / out["n"]})
 
 
 def rollout_error_gaps(pairs: list[tuple[pd.DataFrame, pd.DataFrame]],
-                       stage: str = LATE_STAGE) -> pd.DataFrame:
+                       stage: str | tuple[str, ...] = LATE_STAGE) -> pd.DataFrame:
     """`pairs` of (a matchup's rollouts' `strike_endings`, the same matchup's truth's) -> per
-    hitter and role on `stage`: the rollouts' strikes `n`, their error share and the truth's
-    (each pooled over the matchups, weighted by the rollouts' strikes) and `gap`, the truth's
+    hitter and role on `stage` (several stages: pooled): the rollouts' strikes `n`, their
+    error share and the truth's (each pooled over the matchups, weighted by the rollouts'
+    strikes) and `gap`, the truth's
     log-odds less the rollouts', averaged over the matchups with the same weights. A hitter
     with strikes on one side only is left out."""
     if not pairs:
@@ -60,6 +70,37 @@ def rollout_error_gaps(pairs: list[tuple[pd.DataFrame, pd.DataFrame]],
                          "error_truth": out["et"] / out["n"], "gap": out["g"] / out["n"]})
 
 
+def _shrunk_steps(vocab: Vocab, gaps: pd.DataFrame, prior_strikes: float
+                  ) -> list[tuple[int, int, float]]:
+    """(identity, role index, step) per row of `gaps`: its `gap` shrunk by n / (n +
+    `prior_strikes`). Every row is checked before any cell moves."""
+    if prior_strikes < 0:
+        raise ValueError(f"prior_strikes must be >= 0, got {prior_strikes}")
+    out = []
+    for (hitter, role), row in gaps.iterrows():
+        if role not in ROLES:
+            raise ValueError(f"role must be one of {ROLES}, got {role!r}")
+        out.append((vocab.player_index(hitter, unknown="error"), ROLES.index(role),
+                     float(row["gap"]) * row["n"] / (row["n"] + prior_strikes)))
+    return out
+
+
+def _add_steps(table: torch.Tensor, steps: list[tuple[int, int, float]],
+               returns: torch.Tensor | None = None) -> list[float]:
+    """Add each step to all three kinds of its (identity, role) cell of `table`, kept within
+    `MAX_SHIFT`; with `returns`, what a receiver's cell moved is taken off his returns' row.
+    -> each cell's mean after."""
+    shifts = []
+    for ident, r, step in steps:
+        cell = table[ident, r]
+        before = cell.clone()
+        cell.add_(step).clamp_(-MAX_SHIFT, MAX_SHIFT)
+        if returns is not None and ROLES[r] == "receiver":
+            returns[ident].sub_(cell - before)
+        shifts.append(float(cell.mean()))
+    return shifts
+
+
 @torch.no_grad()
 def add_rollout_late_shift(model: SportsNGEN, vocab: Vocab, gaps: pd.DataFrame,
                            prior_strikes: float = 200.0) -> pd.DataFrame:
@@ -70,20 +111,23 @@ def add_rollout_late_shift(model: SportsNGEN, vocab: Vocab, gaps: pd.DataFrame,
     if model.strike_late is None:
         raise ValueError("the model has no late table (cfg.strike_late): add it with "
                          "train.strike_bias.with_strike_late")
-    if prior_strikes < 0:
-        raise ValueError(f"prior_strikes must be >= 0, got {prior_strikes}")
-    # Every row checked before any cell moves.
-    cells = []
-    for hitter, role in gaps.index:
-        if role not in ROLES:
-            raise ValueError(f"role must be one of {ROLES}, got {role!r}")
-        cells.append((vocab.player_index(hitter, unknown="error"), ROLES.index(role)))
-    out = gaps.copy()
-    steps, shifts = [], []
-    for (ident, r), (_, row) in zip(cells, gaps.iterrows()):
-        step = float(row["gap"]) * row["n"] / (row["n"] + prior_strikes)
-        cell = model.strike_late[ident, r]
-        cell.add_(step).clamp_(-MAX_SHIFT, MAX_SHIFT)
-        steps.append(step)
-        shifts.append(float(cell.mean()))
-    return out.assign(step=steps, shift=shifts)
+    steps = _shrunk_steps(vocab, gaps, prior_strikes)
+    return gaps.assign(step=[st for _, _, st in steps],
+                       shift=_add_steps(model.strike_late, steps))
+
+
+@torch.no_grad()
+def add_rollout_rally_shift(model: SportsNGEN, vocab: Vocab, gaps: pd.DataFrame,
+                            prior_strikes: float = 200.0) -> pd.DataFrame:
+    """Add to the player's table `model.strike_bias` (in place) each hitter's and role's `gap`
+    over the rally strikes (`rollout_error_gaps(..., RALLY_STAGES)`) shrunk by n / (n +
+    `prior_strikes`), on all three error kinds; a receiver's step is taken off his returns'
+    row (`model.strike_return`), so his returns draw as before and only his strikes after
+    the return move. The cell kept within `MAX_SHIFT` (the return's row moved by what the
+    cell moved). -> `gaps` with the `step` taken and the cell's mean `shift` after."""
+    if model.strike_bias is None or model.strike_return is None:
+        raise ValueError("the rally shift needs the player's table and the returns' "
+                         "(cfg.strike_bias and cfg.strike_return)")
+    steps = _shrunk_steps(vocab, gaps, prior_strikes)
+    return gaps.assign(step=[st for _, _, st in steps],
+                       shift=_add_steps(model.strike_bias, steps, model.strike_return))
