@@ -12,8 +12,9 @@ rollouts' share (`eval.shot_profile.strike_endings`), pooled over matchups, shru
 by `prior_strikes` pseudo-strikes and added to all three of his error kinds (for errors this
 rare a shift of every error bin by d multiplies his odds of an error by about e^d). The same
 gaps over every strike after the return move the player's own rows instead
-(`add_rollout_rally_shift`, docs/evaluation.md, seventy-third part): at the record's states
-the tables match his record, in rollouts Federer's and Nadal's rally balls erred more.
+(`add_rollout_rally_shift`, docs/evaluation.md, seventy-third part): in rollouts Federer's
+and Nadal's rally balls erred more than a truth's, and more than the generator's players
+from the same states.
 """
 
 from __future__ import annotations
