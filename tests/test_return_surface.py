@@ -93,14 +93,19 @@ def _return_states(model, n=400, seed=0):
                       surface=np.array(surface, dtype=np.int64))
 
 
+def long_odds_with(model, st, bias: torch.Tensor) -> torch.Tensor:
+    """The strike head's odds of a long ball at each of `st`'s states with the shifts `bias`."""
+    with torch.no_grad():
+        return (model.strike_head.dim_logits(st.h, st.bins, 0, bias).softmax(-1) * LONG).sum(-1)
+
+
 def _long_odds(model, st, with_surface=True):
     bias = model.strike_head_bias(torch.as_tensor(st.receiver_id),
                                   torch.ones(len(st), dtype=torch.bool),
                                   torch.ones(len(st), dtype=torch.bool),
                                   torch.as_tensor(st.server_id), serve=torch.as_tensor(st.serve),
                                   surface=torch.as_tensor(st.surface) if with_surface else None)
-    with torch.no_grad():
-        return (model.strike_head.dim_logits(st.h, st.bins, 0, bias).softmax(-1) * LONG).sum(-1)
+    return long_odds_with(model, st, bias)
 
 
 def test_the_fit_finds_each_surfaces_share_of_the_returns_errors_by_the_serve():

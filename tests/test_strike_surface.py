@@ -10,7 +10,7 @@ from sportsngen.model.config import ModelConfig
 from sportsngen.train.head_fit import HeadStates
 from sportsngen.train.strike_bias import with_strike_bias, with_strike_return
 from sportsngen.train.strike_surface import fit_strike_surface, with_strike_surface
-from tests.test_return_surface import long_share_bins
+from tests.test_return_surface import long_odds_with, long_share_bins
 from tests.test_strike_bias import _two_strikes_seen, small_model
 
 LONG = torch.as_tensor(strike_bias.error_bins()[0])
@@ -90,8 +90,7 @@ def _long_odds(model, st, with_surface=True):
                                   torch.as_tensor(st.opponent_id()),
                                   serve=torch.as_tensor(st.serve),
                                   surface=torch.as_tensor(st.surface) if with_surface else None)
-    with torch.no_grad():
-        return (model.strike_head.dim_logits(st.h, st.bins, 0, bias).softmax(-1) * LONG).sum(-1)
+    return long_odds_with(model, st, bias)
 
 
 def test_the_fit_finds_each_hitters_share_by_surface_and_stroke():
