@@ -3,7 +3,7 @@ P(server wins the point) from random frames of held-out rallies.
 
     .venv/bin/python scripts/rally_outcome_study.py [--model PATH] [--rallies 60] [--n 32]
         [--seed 0] [--workers 1 --threads 2] [--out docs/figures/outcome]
-        [--calibrator logistic|isotonic] [--save-calibrator] [--from-points CSV]
+        [--calibrator logistic|isotonic] [--save-calibrator] [--from-points CSV] [--kernel-n 64]
 
 Held-out rallies: freshly generated synthetic points (a generator seed the training data never
 used) of Roger Federer v Rafael Nadal on hard. For each sampled rally, branch points at a few
@@ -22,7 +22,10 @@ half's rollout probabilities are mapped by a calibrator fitted on the other half
 (`sportsngen.eval.calibration.cross_fitted`), for both kinds: logistic on the log-odds (two
 numbers) and isotonic. Every row of the table is over all branch points. Writes
 reliability.png (diagram + histogram), outcome.md, outcome.json and branch_points.csv (every
-branch point's rollout share `p`, its count `n` and the outcome) into --out.
+branch point's rollout share `p`, its count `n` and the outcome) into --out. Beside them the
+generator's players' share from each branch point (`--kernel-n` plays, `p_kernel`:
+`sportsngen.eval.expert_outcomes`), what the data's players win from there: the rollouts'
+gap to it is the model's own error, without the outcomes' luck.
 `--save-calibrator` also stores a `--calibrator` map fitted on all branch points in the model
 file, where `Simulator.rally_win_probability(..., calibrated=True)` uses it. `--from-points`
 reads the branch points an earlier run of the same model wrote instead of rolling out again
@@ -40,6 +43,7 @@ import numpy as np
 import pandas as pd
 import torch
 
+from sportsngen.eval.branch_points import study_branch_points, truth_rates, with_truth_rates
 from sportsngen.eval.calibration import (
     CALIBRATORS,
     brier_score,
@@ -49,7 +53,7 @@ from sportsngen.eval.calibration import (
     fit_calibrator,
     plot_reliability,
 )
-from sportsngen.eval.rules import analyse_rally_data
+from sportsngen.eval.expert_outcomes import kernel_win_shares, paired_reference_gaps
 from sportsngen.sim import Simulator
 from sportsngen.sim.cli import serve_model
 from sportsngen.sim.outcome_pool import pooled_rally_win_probabilities
@@ -57,12 +61,6 @@ from sportsngen.sim.simulator import model_path
 from sportsngen.synth.generate import generate_matches
 
 PLAYERS = ("Roger Federer", "Rafael Nadal")
-BRANCH_S = (1.0, 2.0, 3.0, 4.0, 6.0)
-# The rallies are picked for having a winner, so a first serve's rally is one whose serve went
-# in: branched before its contact, the rollouts serve it themselves and may fault it (30 % of
-# the 1 s branches, every serve being struck at 1.08 s), against an outcome that assumed it in
-# (docs/evaluation.md, twenty-eighth part). Branched once it is struck, the serve is the record's.
-AFTER_SERVE_FRAMES = 3
 
 
 def main() -> None:
@@ -82,6 +80,10 @@ def main() -> None:
                     help="the map --save-calibrator stores (fitted on all branch points)")
     ap.add_argument("--save-calibrator", action="store_true",
                     help="store the --calibrator map in the model file (outcome_calibrator)")
+    ap.add_argument("--kernel-n", type=int, default=64,
+                    help="plays of the generator's players from each branch point's hand-over "
+                         "(sportsngen.eval.expert_outcomes), the reference without the "
+                         "outcomes' luck; 0: none")
     ap.add_argument("--from-points", type=Path, default=None,
                     help="branch_points.csv of an earlier run of this model: no rollouts")
     args = ap.parse_args()
@@ -92,45 +94,30 @@ def main() -> None:
     model_file = str(model_path(args.model))
     Simulator.from_pretrained(model_file)          # fails early on a file it cannot simulate
     truth = generate_matches([PLAYERS], "hard", 3000, seed=10_000 + args.seed, workers=2)
+    held = generate_matches([PLAYERS], "hard", 4 * args.rallies, seed=20_000 + args.seed,
+                            workers=1)
     if args.from_points is not None:
         points, wall = pd.read_csv(args.from_points), float("nan")
         n_rallies = points["rally_id"].nunique()
     else:
-        points, wall, n_rallies = _branch_points(model_file, args)
+        points, wall, n_rallies = _branch_points(model_file, held, args)
+    if args.kernel_n > 0:
+        points = kernel_win_shares(held, points, n=args.kernel_n, seed=args.seed, progress=True)
     base = float((truth.points()["winner"] == truth.points()["server"]).mean())
+    points = with_truth_rates(points, truth_rates(truth))
     _report(points, base, model_file, wall, n_rallies, args)
 
 
-def _branch_points(model_file: str, args) -> tuple[pd.DataFrame, float, int]:
+def _branch_points(model_file: str, held, args) -> tuple[pd.DataFrame, float, int]:
     """Branch points of held-out rallies and their rollouts' share of server wins."""
-    held = generate_matches([PLAYERS], "hard", 4 * args.rallies, seed=20_000 + args.seed,
-                            workers=1)
-    r = held.rallies[held.rallies["winner"] != ""]     # decided rallies (no first-serve faults)
-    rng = np.random.default_rng(args.seed)
-    pick = r.iloc[rng.permutation(len(r))[:args.rallies]]
-    length = held.frames.groupby("rally_id")["frame"].max()
-    contacts = analyse_rally_data(held)["contact_frames"]
-    rows = []
-    for k, (_, row) in enumerate(pick.iterrows()):
-        served = list(contacts.loc[row["rally_id"]])
-        for b in BRANCH_S:
-            f = int(round(b * held.fps))
-            if served:
-                f = max(f, int(served[0]) + AFTER_SERVE_FRAMES)
-            if f < int(length[row["rally_id"]]) - 2:
-                rows.append({"rally_id": int(row["rally_id"]), "frame": f,
-                             "server": row["server"], "receiver": row["receiver"],
-                             "serve_number": int(row["serve_number"]), "branch_s": b,
-                             "half": k % 2,
-                             "server_won": float(row["winner"] == row["server"])})
-    points = pd.DataFrame(rows)
+    points = study_branch_points(held, args.rallies, args.seed)
     t0 = time.perf_counter()
     res = pooled_rally_win_probabilities(
         model_file, held, list(zip(points["rally_id"], points["frame"])), n=args.n,
         seed=args.seed, workers=args.workers, threads=args.threads or 1,
         chunk_items=args.chunk_items)
     points = points.assign(p=res["p"].to_numpy(), n=res["n"].to_numpy())
-    return points, time.perf_counter() - t0, len(pick)
+    return points, time.perf_counter() - t0, args.rallies
 
 
 def _report(points: pd.DataFrame, base: float, model_file: str, wall: float, n_rallies: int,
@@ -170,7 +157,7 @@ def _report(points: pd.DataFrame, base: float, model_file: str, wall: float, n_r
               f"rollouts' shares taken as the truth, {args.n} rollouts a point; a lower bound, "
               f"since a rally's branch points share its outcome), mean (90th percentile): "
               f"{floor.mean():.3f} ({np.percentile(floor, 90):.3f}).",
-              "", "![reliability](reliability.png)"]
+              *_reference_lines(points), "", "![reliability](reliability.png)"]
     cal = fit_calibrator(args.calibrator, p_model, y)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "outcome.md").write_text("\n".join(lines) + "\n")
@@ -192,6 +179,52 @@ def _report(points: pd.DataFrame, base: float, model_file: str, wall: float, n_r
 
         path = update_extra(model_file, outcome_calibrator=cal.to_dict())
         print(f"stored the {args.calibrator} calibrator in {path}")
+
+
+def _reference_lines(points: pd.DataFrame) -> list[str]:
+    """The rollouts beside the truth's rates of the same kinds of branch points and beside the
+    generator's players from the same branch points (--kernel-n)."""
+    lines = []
+    if "p_truth" in points:
+        lines += ["", "**Beside the truth's own rates** (`eval.branch_points.truth_rates`: the "
+                  "server's share won from the branch points of the 3,000 base-rate points, by "
+                  "server, serve and branch time; a calibrated predictor's mean over a group "
+                  "comes to its rate). Over the undecided branch points, weighted as they "
+                  "fall (standard errors clustered by rally):", "",
+                  "| mean over the branch points | less the truth's rate | se |",
+                  "|---|---:|---:|"]
+        for name, col in (("rollouts", "p"), ("recorded outcomes", "server_won"),
+                          ("generator's players", "p_kernel")):
+            if col in points:
+                g = paired_reference_gaps(points, pred=col, reference="p_truth").loc["all"]
+                lines.append(f"| {name} | {g['gap']:+.3f} | {g['se']:.3f} |")
+    if "p_kernel" not in points:
+        return lines
+    both = points[points["p"].notna() & points["p_kernel"].notna()]
+    live = both[~both["decided"].astype(bool)]
+    y = both["server_won"].to_numpy()
+    lines += ["", f"**Beside the generator's players** (`sportsngen.eval.expert_outcomes`: "
+             f"the kernel played on from each branch point's hand-over state, its plays still "
+             f"going at the branch frame; a branch frame after the point's end is decided). "
+             f"On the {len(both)} branch points it answers ({int(both['decided'].sum())} "
+             f"decided): ECE / Brier of the rollouts "
+             f"{expected_calibration_error(both['p'].to_numpy(), y):.3f} / "
+             f"{brier_score(both['p'].to_numpy(), y):.3f}, of the generator's players "
+             f"{expected_calibration_error(both['p_kernel'].to_numpy(), y):.3f} / "
+             f"{brier_score(both['p_kernel'].to_numpy(), y):.3f} (a calibrated predictor on "
+             f"this sample, less sharp). Rollouts less the generator's players on the "
+             f"{len(live)} undecided points (standard error clustered by rally):", "",
+             "| branch points | n | rollouts | generator's players | outcomes | gap | se |",
+             "|---|---:|---:|---:|---:|---:|---:|"]
+    tables = [paired_reference_gaps(live)]
+    for by in ("branch_s", ["server", "serve_number"]):
+        tables.append(paired_reference_gaps(live, by=by))
+    for t in tables:
+        for key, r in t.iterrows():
+            name = ", ".join(map(str, key)) if isinstance(key, tuple) else str(key)
+            lines.append(f"| {name} | {int(r['n'])} | {r['pred']:.3f} | {r['reference']:.3f} "
+                         f"| {r['outcome']:.3f} | {r['gap']:+.3f} | {r['se']:.3f} |")
+    return lines
 
 
 def _markov(server: str, receiver: str, serve_number: int) -> float:

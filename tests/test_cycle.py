@@ -249,3 +249,70 @@ def test_a_serve_continued_mid_flight_is_returned_as_often_as_played():
     assert len(played) > 150 and played.mean() > 0.7
     assert np.mean(played & ~continued) <= 0.06
     assert np.mean(continued & ~played) <= 0.03
+
+
+class _Recording(ProfilePolicy):
+    """The generator's policy, noting the rally's memory of the last ball at each plan."""
+
+    def __init__(self, *args) -> None:
+        super().__init__(*args)
+        self.seen: list[tuple[int, float]] = []
+
+    def plan(self, role, hit, opponent_m, n_shots, rng):
+        out = super().plan(role, hit, opponent_m, n_shots, rng)
+        self.seen.append((n_shots, self.incoming))
+        return out
+
+
+@pytest.mark.parametrize("serve_number,surface", [(1, "hard"), (2, "clay")])
+def test_a_continued_rally_carries_the_serves_initiative_as_played(serve_number, surface):
+    # A rally played on from a state with n contacts made holds the memory the played rally
+    # held there: from the neutral 1.0 the kernel forgot the serve's heaviness and initiative.
+    args = (get_profile("Roger Federer"), get_profile("Rafael Nadal"), 1, "deuce",
+            serve_number, surface)
+    from sportsngen.synth import cycle
+
+    checked = 0
+    for seed in range(40):
+        played = _Recording(*args)
+        cycle.play(played, np.random.default_rng(seed), render=False)
+        for n_shots, incoming in played.seen:
+            fresh = ProfilePolicy(*args)
+            fresh.carry_to(n_shots + 1)        # the memory after the plan made at n_shots
+            assert fresh.incoming == incoming
+            checked += 1
+    assert checked > 60
+    fresh = ProfilePolicy(*args)
+    fresh.carry_to(1)                          # the serve in the air: nothing planned yet
+    assert fresh.incoming == 1.0
+
+
+def test_continue_rally_plays_on_with_the_carried_memory():
+    from sportsngen.synth import cycle
+    from sportsngen.train.expert import rally_state
+
+    fed, nad = get_profile("Roger Federer"), get_profile("Rafael Nadal")
+    differ = 0
+    for seed in range(30):
+        res = play_rally(fed, nad, 1, "ad", 1, "hard", np.random.default_rng(seed))
+        if len(res.shots) < 4:
+            continue
+        pos = np.zeros((res.n_frames, 3, 3))
+        pos[:, :2, :2] = np.transpose(res.players_m, (1, 0, 2))
+        pos[:, 2] = res.ball_m
+        kc = int(np.ceil(res.shots[2].t_s * 25.0))
+        state = rally_state(pos, kc + 8, kc, 0, 3, 25.0)
+        if state is None:
+            continue
+        got = continue_rally(fed, nad, state, 1, "ad", 1, "hard", np.random.default_rng(seed),
+                             render=False)
+        carried = ProfilePolicy(fed, nad, 1, "ad", 1, "hard")
+        carried.carry_to(3)
+        want = cycle.continue_rally(carried, state, np.random.default_rng(seed), render=False)
+        neutral = cycle.continue_rally(ProfilePolicy(fed, nad, 1, "ad", 1, "hard"), state,
+                                       np.random.default_rng(seed), render=False)
+        assert (got.winner_role, got.rally_length, got.n_frames) == \
+            (want.winner_role, want.rally_length, want.n_frames)
+        differ += (neutral.winner_role, neutral.n_frames) != (want.winner_role, want.n_frames)
+    assert differ >= 1
+

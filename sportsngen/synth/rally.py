@@ -107,6 +107,18 @@ class ProfilePolicy:
         self.incoming = 1.0
         self.stroke = ["forehand", "forehand"]
 
+    def carry_to(self, n_shots: int) -> None:
+        """Set the rally's memory of how hard the last ball was (`incoming`) as a rally with
+        `n_shots` contacts made has it. It depends only on the shot count, the players, the
+        serve and the surface, so a rally played on from a state (`continue_rally`) carries the
+        serve's heaviness and initiative as the played rally did (docs/evaluation.md,
+        seventy-fourth part)."""
+        self.incoming = 1.0
+        for k in range(1, n_shots):     # the plan of contact k + 1, facing contact k's hitter
+            self.incoming = _difficulty(k, self.incoming, self.profiles[0], self.serve_number,
+                                        self.profiles[(k - 1) % 2].rally_pressure,
+                                        self.surface)
+
     def serve(self, rng: np.random.Generator):
         server, receiver = self.profiles
         stance = bh.serve_stance(self.server_end, self.serving_side)
@@ -213,4 +225,5 @@ def continue_rally(server: PlayerProfile, receiver: PlayerProfile, state: RallyS
     """Play a rally on from any mid-rally `state` with the generator's players: what these
     players would do from there (times and frames count from the state)."""
     policy = ProfilePolicy(server, receiver, server_end, serving_side, serve_number, surface)
+    policy.carry_to(state.n_shots)
     return cycle.continue_rally(policy, state, rng, fps=fps, render=render, noise=noise)
