@@ -9,6 +9,7 @@ import pytest
 from sportsngen.eval.branch_points import (
     AFTER_SERVE_FRAMES,
     BRANCH_S,
+    pool_branch_points,
     study_branch_points,
     truth_rates,
     with_truth_rates,
@@ -126,3 +127,14 @@ def test_with_truth_rates_takes_each_points_group_rate():
     assert got["p_truth"].tolist()[:2] == [0.4, 0.7]
     assert np.isnan(got["p_truth"].tolist()[2:]).all()     # decided; a group the truth lacks
     assert got.drop(columns="p_truth").equals(points)
+
+
+def test_pooled_branch_points_keep_each_runs_rallies_apart():
+    a = pd.DataFrame({"rally_id": [0, 0, 7], "p": [0.1, 0.2, 0.3]})
+    b = pd.DataFrame({"rally_id": [0, 3], "p": [0.4, 0.5]})
+    got = pool_branch_points([a, b])
+    assert got["rally_id"].tolist() == [0, 0, 7, 8, 11]
+    assert got["p"].tolist() == [0.1, 0.2, 0.3, 0.4, 0.5]
+    assert a["rally_id"].tolist() == [0, 0, 7]              # the parts are not changed
+    with pytest.raises(ValueError, match="no branch points"):
+        pool_branch_points([])

@@ -82,3 +82,16 @@ def with_truth_rates(points: pd.DataFrame, rates: pd.DataFrame,
     if "decided" in out:
         out.loc[out["decided"].astype(bool), "p_truth"] = float("nan")
     return out
+
+
+def pool_branch_points(parts: list[pd.DataFrame]) -> pd.DataFrame:
+    """Several runs' branch points (other seeds' held-out rallies) as one table, each part's
+    rally ids moved past the previous part's largest, so pooled rallies stay apart in the folds
+    and in errors clustered by rally."""
+    if not parts:
+        raise ValueError("no branch points to pool")
+    out, offset = [], 0
+    for part in parts:
+        out.append(part.assign(rally_id=part["rally_id"] + offset))
+        offset += int(part["rally_id"].max()) + 1
+    return pd.concat(out, ignore_index=True)
