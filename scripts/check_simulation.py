@@ -265,6 +265,10 @@ def main() -> None:
     print("\nstrikes that ended the point as the hitter's error or winner, by hitter, role and "
           "stage, sim / truth (z: the gap in standard errors of both):\n"
           + format_strike_endings(strike_endings(simd), strike_endings(truth)))
+    # The same by the point's serve (docs/evaluation.md, seventy-fourth part).
+    print("\nthe same by the point's serve (1 first, 2 second), sim / truth:\n"
+          + format_strike_endings(strike_endings(simd, by_serve=True),
+                                  strike_endings(truth, by_serve=True)))
     # From which states: where the rally balls are met (docs/evaluation.md, forty-ninth part).
     states = {"sim": strike_states(simd), "truth": strike_states(truth)}
     print(f"\nrally strikes from the server's first rally ball by where they are met, sim / "

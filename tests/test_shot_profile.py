@@ -133,3 +133,12 @@ def test_strike_endings_count_each_hitters_strikes_by_role_and_stage():
     assert stages[stages["stage"] == "shots 5+"]["n"].sum() == 2
     text = format_strike_endings(got, every).splitlines()
     assert len(text) == 5 and "0.000 / 0.500" in text[3]
+    # Split by the point's serve: rally 0 a second serve, rally 1 a first.
+    served = SimpleNamespace(rallies=rallies.assign(serve_number=[2, 1, 1]), shots=shots)
+    split = strike_endings(served, by_serve=True)
+    assert list(split.index) == [("A", "receiver", 1, "return"), ("A", "server", 2, "shots 2-4"),
+                                 ("B", "receiver", 2, "return"),
+                                 ("B", "receiver", 2, "shots 2-4")]
+    assert split["error"].tolist() == got["error"].tolist()
+    lines = format_strike_endings(split, split).splitlines()
+    assert "serve" in lines[0] and lines[4].split()[:5] == ["B", "receiver", "2", "shots", "2-4"]

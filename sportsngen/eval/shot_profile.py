@@ -189,16 +189,22 @@ def format_profiles(sim: pd.DataFrame, truth: pd.DataFrame) -> str:
     return "\n".join(lines)
 
 
-def strike_endings(data: RallyData, realistic_only: bool = True) -> pd.DataFrame:
+def strike_endings(data: RallyData, realistic_only: bool = True,
+                   by_serve: bool = False) -> pd.DataFrame:
     """Every strike after the serve from `data`'s shots table, by hitter, his role in the point
     ("server" or "receiver") and stage (`STRIKE_STAGES`). -> indexed by those three: `n`
     strikes, the shares that were his `error` and his `winner`, each with its binomial standard
     error (`error_se`, `winner_se`). `realistic_only` leaves out rallies flagged non-realistic
-    (simulated data; recorded data has no flag and keeps every rally)."""
+    (simulated data; recorded data has no flag and keeps every rally). `by_serve` splits each
+    row by the point's serve (`serve_number`, a level between role and stage): the generator's
+    server carries a first or a second serve's initiative through the whole rally, and the
+    bundled file's receivers erred 0.04-0.05 too often in second-serve rallies only
+    (docs/evaluation.md, seventy-fourth part)."""
     rallies = data.rallies
     if realistic_only and "realistic" in rallies:
         rallies = rallies[rallies["realistic"].astype(bool)]
-    shots = data.shots.merge(rallies[["rally_id", "server"]], on="rally_id")
+    cols = ["rally_id", "server"] + (["serve_number"] if by_serve else [])
+    shots = data.shots.merge(rallies[cols], on="rally_id")
     shots = shots[shots["shot_index"] >= 1]
     role = np.where(shots["hitter"] == shots["server"], "server", "receiver")
     # Stages as an ordered categorical, so the groups come out in rally order.
@@ -209,7 +215,11 @@ def strike_endings(data: RallyData, realistic_only: bool = True) -> pd.DataFrame
     frame = pd.DataFrame({"hitter": shots["hitter"].to_numpy(), "role": role, "stage": stage,
                           "error": (shots["outcome"] == "error").to_numpy(),
                           "winner": (shots["outcome"] == "winner").to_numpy()})
-    out = frame.groupby(["hitter", "role", "stage"], observed=True).agg(
+    keys = ["hitter", "role", "stage"]
+    if by_serve:
+        frame.insert(2, "serve_number", shots["serve_number"].to_numpy())
+        keys.insert(2, "serve_number")
+    out = frame.groupby(keys, observed=True).agg(
         n=("error", "size"), error=("error", "mean"), winner=("winner", "mean"))
     for c in ("error", "winner"):
         out[f"{c}_se"] = np.sqrt(out[c] * (1 - out[c]) / out["n"])
@@ -218,9 +228,11 @@ def strike_endings(data: RallyData, realistic_only: bool = True) -> pd.DataFrame
 
 def format_strike_endings(sim: pd.DataFrame, truth: pd.DataFrame) -> str:
     """Two `strike_endings` tables side by side ("sim / truth"), with each share's gap in
-    standard errors of both sides (z) where both have strikes."""
-    lines = [f"{'hitter':<17} {'role':<9} {'stage':<10} {'n':>13} {'error':>13} {'z':>5} "
-             f"{'winner':>13} {'z':>5}"]
+    standard errors of both sides (z) where both have strikes (split by serve: a serve
+    column)."""
+    serve = "serve_number" in sim.index.names
+    lines = [f"{'hitter':<17} {'role':<9} " + ("serve " if serve else "")
+             + f"{'stage':<10} {'n':>13} {'error':>13} {'z':>5} {'winner':>13} {'z':>5}"]
     for key in sim.index.union(truth.index, sort=False):
         a = sim.loc[key] if key in sim.index else None
         b = truth.loc[key] if key in truth.index else None
@@ -232,6 +244,7 @@ def format_strike_endings(sim: pd.DataFrame, truth: pd.DataFrame) -> str:
                 else np.nan
             z = (va - vb) / se if se and np.isfinite(se) and se > 0 else np.nan
             cells += [f"{va:.3f} / {vb:.3f}", f"{z:+.1f}"]
-        lines.append(f"{key[0]:<17} {key[1]:<9} {key[2]:<10} {cells[0]:>13} {cells[1]:>13} "
+        head = f"{key[0]:<17} {key[1]:<9} " + (f"{key[2]:<5} " if serve else "")
+        lines.append(f"{head}{key[-1]:<10} {cells[0]:>13} {cells[1]:>13} "
                      f"{cells[2]:>5} {cells[3]:>13} {cells[4]:>5}")
     return "\n".join(lines)
