@@ -137,3 +137,49 @@ def test_the_rally_shift_moves_the_players_rows_and_keeps_the_receivers_returns(
         add_rollout_rally_shift(with_strike_bias_model(vocab), vocab, gaps)
     with pytest.raises(ValueError, match="prior_strikes"):
         add_rollout_rally_shift(model, vocab, gaps, prior_strikes=-1)
+
+
+def test_the_second_serves_shift_moves_only_that_table():
+    from sportsngen.train.rollout_tables import add_rollout_second_shift
+    from sportsngen.train.strike_bias import with_strike_second
+
+    vocab = Vocab(players=("A", "B"))
+    model = with_strike_second(with_strike_return(with_strike_bias_model(vocab)))
+    a = N_SPECIAL_IDS
+    bias, ret = model.strike_bias.clone(), model.strike_return.clone()
+    gaps = pd.DataFrame({"hitter": ["A"], "role": ["receiver"], "n": [600],
+                         "gap": [-0.4]}).set_index(["hitter", "role"])
+    got = add_rollout_second_shift(model, vocab, gaps, prior_strikes=200.0)
+    assert got["step"].tolist() == pytest.approx([-0.3])
+    torch.testing.assert_close(model.strike_second[a, 1], torch.full((3,), -0.3))
+    assert float(model.strike_second.abs().sum()) == pytest.approx(0.9)
+    assert torch.equal(model.strike_bias, bias) and torch.equal(model.strike_return, ret)
+    with pytest.raises(ValueError, match="cfg.strike_second"):
+        add_rollout_second_shift(with_strike_bias_model(vocab), vocab, gaps)
+    with pytest.raises(ValueError, match="strike_second adds to the player's table"):
+        small_model(n_ids=vocab.n_ids, strike_second=True)
+
+
+def test_the_second_serves_row_shifts_rally_strikes_of_second_serve_points_only():
+    from sportsngen.model import strike_bias as table
+    from sportsngen.train.strike_bias import with_strike_second
+
+    vocab = Vocab(players=("A", "B"))
+    model = with_strike_second(with_strike_bias_model(vocab))
+    a = N_SPECIAL_IDS
+    model.strike_second[a, 1] = torch.tensor([0.5, -0.2, 0.1])
+    hitter = torch.full((4,), a)
+    receiver = torch.ones(4, dtype=torch.bool)
+    returning = torch.tensor([False, False, True, True])
+    serve = torch.tensor([0, 1, 0, 1])              # 0 first, 1 second
+    with_row = model.strike_head_bias(hitter, receiver, returning, serve=serve)
+    model.strike_second.zero_()
+    without = model.strike_head_bias(hitter, receiver, returning, serve=serve)
+    moved = (with_row - without).abs().sum(dim=(1, 2))
+    assert moved[1] > 0 and moved[[0, 2, 3]].tolist() == [0.0, 0.0, 0.0]
+    errs = torch.as_tensor(table.error_bins()[table.LONG], dtype=torch.bool)
+    diff = with_row[1, 0] - without[1, 0]      # the depth dimension: long bins by 0.5
+    assert torch.allclose(diff[errs], torch.tensor(0.5)) and (diff[~errs] == 0).all()
+    # Without the serve given, the table is not read.
+    model.strike_second[a, 1] = torch.tensor([0.5, -0.2, 0.1])
+    assert torch.equal(model.strike_head_bias(hitter, receiver, returning), without)

@@ -402,10 +402,13 @@ def test_a_player_added_for_fine_tuning_gets_a_zero_row_in_every_per_identity_ta
     from sportsngen.train.strike_surface import with_strike_surface
 
     vocab = Vocab(players=("A", "B", "C", "D"))
-    model = with_strike_surface(with_strike_late(with_strike_players(with_strike_shape(
+    from sportsngen.train.strike_bias import with_strike_second
+
+    model = with_strike_late(with_strike_players(with_strike_shape(
         with_strike_pressure(with_strike_return(with_strike_width(with_strike_bias(
             with_receiver_start(with_serve_lateral(with_serve_short(with_serve_aim(
-                with_serve_bias(small_model(n_ids=vocab.n_ids, strike_roles=True))))))))))))))
+                with_serve_bias(small_model(n_ids=vocab.n_ids, strike_roles=True)))))))))))))
+    model = with_strike_second(with_strike_surface(model))
     # The tables are buffers, the players' input shifts parameters of the model itself (the
     # identity embedding's rows are copied, not zeroed: not a table).
     per_identity = sorted(name for name, b in [*model.named_buffers(), *model.named_parameters()]

@@ -198,6 +198,13 @@ class ModelConfig:
     # some men's late balls err more than the truth's (docs/evaluation.md, forty-seventh and
     # forty-eighth parts). An option, off in the bundled file.
     strike_late: bool = False
+    # With the player's table, one more per hitter and role of the same three shifts, added on
+    # his strikes after the return in points of a second serve (moved by the model's own
+    # rollouts, `train.rollout_tables.add_rollout_second_shift`; zero until then): the
+    # generator's server carries a weaker initiative through a second serve's rally, and in the
+    # bundled file's rollouts the receivers' rally balls erred 0.04-0.05 too often after second
+    # serves only (docs/evaluation.md, seventy-fourth part). An option, off in the bundled file.
+    strike_second: bool = False
     # With the opponents' table, one more by where the ball is struck: per band of the
     # contact's distance behind the baseline (`model.strike_bias.DEPTH_EDGES_M`) and the
     # hitter's role, the same three shifts on every strike but the return (fitted on the
@@ -300,6 +307,9 @@ class ModelConfig:
         if self.strike_depth and not self.strike_pressure:
             raise ValueError("model.strike_depth is fitted with the opponents' table: it needs "
                              "strike_pressure=True")
+        if self.strike_second and not self.strike_bias:
+            raise ValueError("model.strike_second adds to the player's table: it needs "
+                             "model.strike_bias")
         if self.strike_late and not self.strike_pressure:
             raise ValueError("model.strike_late is fitted with the opponents' table: it needs "
                              "strike_pressure=True")

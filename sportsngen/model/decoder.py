@@ -200,7 +200,8 @@ class SportsNGEN(nn.Module):
                            "strike_bias",
                            "strike_width", "strike_return", "strike_pressure",
                            "strike_shape", "strike_shape_opponent", "strike_player",
-                           "strike_opponent", "strike_late", "strike_surface")
+                           "strike_opponent", "strike_late", "strike_surface",
+                           "strike_second")
 
     def __init__(self, cfg: ModelConfig):
         super().__init__()
@@ -272,6 +273,10 @@ class SportsNGEN(nn.Module):
                              torch.zeros(cfg.n_ids, strike_bias_table.N_ROLES,
                                          strike_bias_table.N_KINDS)
                              if cfg.strike_late else None)
+        self.register_buffer("strike_second",
+                             torch.zeros(cfg.n_ids, strike_bias_table.N_ROLES,
+                                         strike_bias_table.N_KINDS)
+                             if cfg.strike_second else None)
         # By band of the contact's depth, not by identity: not among PER_IDENTITY_TABLES.
         self.register_buffer("strike_depth",
                              torch.zeros(strike_bias_table.N_DEPTH_BANDS,
@@ -558,7 +563,9 @@ class SportsNGEN(nn.Module):
         `strike_depth`, and on the returns the row of `surface` (N,) (the surfaces' indices)
         and `serve` (N,) (0 first, 1 second) where it has `strike_return_surface`, and the
         hitter's row for the surface and stroke (rally ball or return) where it has
-        `strike_surface`); None where the model has no table or the hitter is not given."""
+        `strike_surface`, and his second serves' row on the rally strikes of points whose
+        `serve` is the second where it has `strike_second`); None where the model has no table
+        or the hitter is not given."""
         if self.strike_bias is None or hitter_ident is None or receiver is None:
             return None
         opponent = None if opponent_ident is None else self._ident(opponent_ident)
@@ -571,7 +578,7 @@ class SportsNGEN(nn.Module):
                                                  self.strike_late, shot,
                                                  self.strike_depth, ball_x_m,
                                                  self.strike_return_surface, serve, surface,
-                                                 self.strike_surface)
+                                                 self.strike_surface, self.strike_second)
 
     def receiver_start_bias(self, server_ident: torch.Tensor | None,
                             serve: torch.Tensor | None,

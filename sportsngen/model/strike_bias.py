@@ -187,7 +187,8 @@ def strike_dim_bias(table: torch.Tensor, hitter_id: torch.Tensor, receiver: torc
                     return_surface: torch.Tensor | None = None,
                     serve: torch.Tensor | None = None,
                     surface: torch.Tensor | None = None,
-                    player_surface: torch.Tensor | None = None) -> torch.Tensor:
+                    player_surface: torch.Tensor | None = None,
+                    second: torch.Tensor | None = None) -> torch.Tensor:
     """The strike head's logit shifts for strikes of `hitter_id` (N,), who is the point's
     receiver where `receiver` (N,) bool, from `table` (n_ids, N_ROLES, N_KINDS) and the
     width's `width` (n_ids, N_ROLES) or None -> (N, 4, STRIKE_BINS): each kind's error bins
@@ -208,7 +209,9 @@ def strike_dim_bias(table: torch.Tensor, hitter_id: torch.Tensor, receiver: torc
     (the surfaces' indices), the row of the surface and serve is added on the returns. With
     the hitters' surfaces table `player_surface` (n_ids, n_surfaces, N_STROKES, N_KINDS) and
     `surface`, the hitter's row for the surface and stroke (`STROKE_RALLY`, or
-    `STROKE_RETURN` where `returning`) is added on every strike."""
+    `STROKE_RETURN` where `returning`) is added on every strike. With the second serves'
+    table `second` (n_ids, N_ROLES, N_KINDS) and `serve`, the hitter's row by role is added on
+    every strike but the return of points whose serve is the second (`serve` 1)."""
     shift = table[hitter_id.long(), receiver.long()]                      # (N, N_KINDS)
     if late is not None and shot is not None:
         shift = shift + late[hitter_id.long(), receiver.long()] * \
@@ -228,6 +231,9 @@ def strike_dim_bias(table: torch.Tensor, hitter_id: torch.Tensor, receiver: torc
         (~returning.bool()).to(shift.dtype)
     if pressure is not None and opponent_id is not None:
         shift = shift + pressure[opponent_id.long(), receiver.long()] * rally[:, None]
+    if second is not None and serve is not None:
+        shift = shift + second[hitter_id.long(), receiver.long()] * \
+            (rally * (serve == 1).to(shift.dtype))[:, None]
     if depth is not None and ball_x_m is not None:
         shift = shift + depth[depth_band(ball_x_m), receiver.long()] * rally[:, None]
     out = torch.zeros(len(hitter_id), 4, strike.STRIKE_BINS, dtype=table.dtype,

@@ -14,7 +14,10 @@ rare a shift of every error bin by d multiplies his odds of an error by about e^
 gaps over every strike after the return move the player's own rows instead
 (`add_rollout_rally_shift`, docs/evaluation.md, seventy-third part): in rollouts Federer's
 and Nadal's rally balls erred more than a truth's, and more than the generator's players
-from the same states.
+from the same states. The same gaps over a second serve's rally strikes alone move the second
+serves' table (`add_rollout_second_shift`, `ModelConfig.strike_second`; docs/evaluation.md,
+seventy-fourth part): there the receivers' rally balls erred 0.04-0.05 more than a truth's,
+after first serves as the truth's.
 """
 
 from __future__ import annotations
@@ -29,6 +32,14 @@ from sportsngen.train.serve_bias import MAX_SHIFT, share_logit
 LATE_STAGE = "shots 5+"            # `eval.shot_profile.STRIKE_STAGES`' stage the table covers
 RALLY_STAGES = ("shots 2-4", LATE_STAGE)   # every strike after the return
 ROLES = ("server", "receiver")     # `strike_endings`' roles, in the table's order
+
+
+def at_serve(endings: pd.DataFrame, serve_number: int) -> pd.DataFrame:
+    """The rows of one serve (1 first, 2 second) of a `strike_endings(..., by_serve=True)`
+    table, indexed as a table without the split."""
+    if "serve_number" not in endings.index.names:
+        raise ValueError("not a strike_endings table split by serve (by_serve=True)")
+    return endings.xs(serve_number, level="serve_number")
 
 
 def _at_stage(endings: pd.DataFrame, stage: str | tuple[str, ...]) -> pd.DataFrame:
@@ -102,6 +113,15 @@ def _add_steps(table: torch.Tensor, steps: list[tuple[int, int, float]],
     return shifts
 
 
+def _moved(gaps: pd.DataFrame, vocab: Vocab, prior_strikes: float, table: torch.Tensor,
+           returns: torch.Tensor | None = None) -> pd.DataFrame:
+    """`_add_steps` of `gaps`' shrunk steps into `table` -> `gaps` with each `step` and the
+    cell's mean `shift` after."""
+    steps = _shrunk_steps(vocab, gaps, prior_strikes)
+    return gaps.assign(step=[st for _, _, st in steps],
+                       shift=_add_steps(table, steps, returns))
+
+
 @torch.no_grad()
 def add_rollout_late_shift(model: SportsNGEN, vocab: Vocab, gaps: pd.DataFrame,
                            prior_strikes: float = 200.0) -> pd.DataFrame:
@@ -112,9 +132,7 @@ def add_rollout_late_shift(model: SportsNGEN, vocab: Vocab, gaps: pd.DataFrame,
     if model.strike_late is None:
         raise ValueError("the model has no late table (cfg.strike_late): add it with "
                          "train.strike_bias.with_strike_late")
-    steps = _shrunk_steps(vocab, gaps, prior_strikes)
-    return gaps.assign(step=[st for _, _, st in steps],
-                       shift=_add_steps(model.strike_late, steps))
+    return _moved(gaps, vocab, prior_strikes, model.strike_late)
 
 
 @torch.no_grad()
@@ -129,6 +147,18 @@ def add_rollout_rally_shift(model: SportsNGEN, vocab: Vocab, gaps: pd.DataFrame,
     if model.strike_bias is None or model.strike_return is None:
         raise ValueError("the rally shift needs the player's table and the returns' "
                          "(cfg.strike_bias and cfg.strike_return)")
-    steps = _shrunk_steps(vocab, gaps, prior_strikes)
-    return gaps.assign(step=[st for _, _, st in steps],
-                       shift=_add_steps(model.strike_bias, steps, model.strike_return))
+    return _moved(gaps, vocab, prior_strikes, model.strike_bias, model.strike_return)
+
+
+@torch.no_grad()
+def add_rollout_second_shift(model: SportsNGEN, vocab: Vocab, gaps: pd.DataFrame,
+                             prior_strikes: float = 200.0) -> pd.DataFrame:
+    """Add to the second serves' table `model.strike_second` (in place) each hitter's and
+    role's `gap` over the rally strikes of second-serve points (`rollout_error_gaps` of
+    `at_serve(..., 2)` tables, `RALLY_STAGES`) shrunk by n / (n + `prior_strikes`), on all
+    three error kinds, kept within `MAX_SHIFT`: first serves' rallies and every return draw as
+    before. -> `gaps` with the `step` taken and the cell's mean `shift` after."""
+    if model.strike_second is None:
+        raise ValueError("the model has no second serves' table (cfg.strike_second): add it "
+                         "with train.strike_bias.with_strike_second")
+    return _moved(gaps, vocab, prior_strikes, model.strike_second)

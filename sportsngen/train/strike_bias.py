@@ -444,6 +444,13 @@ def with_strike_late(model: SportsNGEN) -> SportsNGEN:
     return with_flag(model, "strike_late", ["strike_late"])
 
 
+def with_strike_second(model: SportsNGEN) -> SportsNGEN:
+    """`model` (with the player's table) with the second serves' rally table added
+    (`cfg.strike_second`), at zero: it draws as before until its own rollouts move it
+    (`train.rollout_tables.add_rollout_second_shift`). -> a new model."""
+    return with_flag(model, "strike_second", ["strike_second"])
+
+
 def error_shares(table: pd.DataFrame) -> pd.DataFrame:
     """`fit_strike_bias`'s (or `fit_strike_return`'s) table -> per row the share of strikes in
     error (long, or else wide, or else into the net) by the record, the head before and after,
