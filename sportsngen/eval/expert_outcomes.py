@@ -15,11 +15,11 @@ contact, so handed a state late in a flight it leaves the chaser where he stands
 0.64; from the hand-over states 0.67). The hand-over state knows less than the branch frame,
 but the true probability is a martingale: over the branch frames reached from a hand-over
 state, its mean is that state's probability of a win among the plays still going at the
-branch frame. So the kernel's plays that ended before the branch frame are dropped (and first-serve
-faults: the study's rallies are decided ones), and the
-answers have the same mean as the true probabilities at the branch frames over any set of
-branch points chosen by time, server or serve; they are less sharp, so compare means (and
-the ECE a calibrated predictor scores on the sample), not single points. A branch frame at
+branch frame. So the kernel's plays that ended before the branch frame are dropped (and
+first-serve faults: the study's rallies are decided ones), and the answers have the same mean
+as the true probabilities at the branch frames over any set of branch points chosen by time,
+server or serve; they are less sharp, so compare means (and the ECE a calibrated predictor
+scores on the sample), not single points. A branch frame at
 or after the point's end (`rules.analyse_rally_data`'s `end_frame`: the study branches up to
 the tracks' end, a second after it) is decided: its answer is the recorded winner.
 """
