@@ -108,8 +108,10 @@ def main() -> None:
     model_file = str(model_path(args.model))
     Simulator.from_pretrained(model_file)          # fails early on a file it cannot simulate
     truth = generate_matches([PLAYERS], "hard", 3000, seed=10_000 + args.seed, workers=2)
-    held = generate_matches([PLAYERS], "hard", 4 * args.rallies, seed=20_000 + args.seed,
-                            workers=1)
+    held = None                   # the held-out rallies: for new rollouts or the kernel only
+    if args.from_points is None or args.kernel_n > 0:
+        held = generate_matches([PLAYERS], "hard", 4 * args.rallies, seed=20_000 + args.seed,
+                                workers=1)
     if args.from_points is not None:
         points = pool_branch_points([pd.read_csv(f) for f in args.from_points])
         wall = float("nan")
