@@ -260,6 +260,32 @@ def test_rules_shot_outcome_labels_shots_as_the_generator_does():
         rules_shot_outcome("ace", 1, 1)
 
 
+def test_a_serves_direction_is_its_bounces_third_of_the_box_not_the_classifiers_label():
+    from sportsngen.data.tracking import DIRECTIONS
+    from sportsngen.sim.assemble import PLAN_COLUMNS, assemble
+
+    plan = make_toy_rallies(3, seed=0).rallies.iloc[:3][PLAN_COLUMNS].reset_index(drop=True)
+    n = 10
+    pos = np.zeros((3, n, 3, 3))
+    # The classifier calls every frame "T" (what it said of every cut-short fault).
+    labels = np.zeros((3, n, 4), dtype=np.int64)
+    labels[:, :, 1] = DIRECTIONS.index("T")
+    results = pd.DataFrame({
+        "contact_frames": [[1], [1], [1, 6]], "hitters": [[0], [0], [0, 1]],
+        "contacts_m": [[[11.9, 1.0, 2.8]]] * 2 + [[[11.9, 1.0, 2.8], [-12.0, -3.0, 1.0]]],
+        # a fault past the sideline, a serve into the net (no bounce), a serve to the body
+        "bounce_frames": [[4], [], [4]],
+        "bounces_m": [[[-5.0, -4.5]], [], [[-5.0, -2.0]]],
+        "end_reason": ["fault", "fault", "none"], "end_detail": ["out", "net", "none"],
+        "winner": [1, 1, -1], "n_shots": [1, 1, 2], "realistic": [True] * 3,
+        "failed_checks": [[], [], []]})
+    shots = assemble(plan, pos, np.full(3, n), results, labels, fps=25.0).shots
+    serves = shots[shots["shot_index"] == 0].set_index("rally_id")["direction"]
+    assert serves.tolist() == ["wide", "T", "body"]
+    # Rally shots keep the classifier's label.
+    assert shots.loc[shots["shot_index"] == 1, "direction"].tolist() == ["T"]
+
+
 def test_wilson_interval_known_values():
     from sportsngen.sim.whatif import wilson_interval
 
