@@ -33,7 +33,9 @@ if contact frame + k is strictly before its pair's visible frame. k is in frames
 (scaled to the data's fps).
 
 Stratified by what both players could see: positives are compared only with negatives of the
-same stratum (the hitter and opponent, the serve number, the shot's direction label, the
+same stratum (the hitter and opponent, the serve number, the shot's direction label (of a
+simulated serve its bounce's third of the box, `sim.assemble`: the event classifier's label had
+put wide aces beside returned T serves), the
 hitter's depth behind his baseline at the contact in `CONTACT_DEPTH_BINS_M`, for a serve where
 in its frame interval it was struck (`contact_phase`: the labelled frame is the contact
 rounded), the role's speed
