@@ -12,9 +12,11 @@ import torch
 from sportsngen.eval import diagnostics
 from sportsngen.eval.contact_odds import REVERSAL_M, approach_frames, far_probability
 from sportsngen.eval.diagnostics import (
+    LEAK_READ_POINTS,
     WIDE_SERVE_Y_M,
     DiagnosticsSetup,
     contact_calibration,
+    leak_rows_advice,
     leak_rows_summary,
     paired_return_gap,
     run_diagnostics,
@@ -145,6 +147,12 @@ def test_leak_rows_summary_counts_outside_and_unsure_rows():
                                                                np.nan, 0.2]})
     assert leak_rows_summary(table) == ("leak rows outside [0.4, 0.6]: 3 of 4 read (1 unsure: "
                                         "their 95 % interval holds 0.5)")
+
+
+def test_leak_rows_advice_asks_for_more_points_below_the_reading_size():
+    assert leak_rows_advice(400) == ("(at 400 points the leak rows rest on few pairs and move "
+                                     "from seed to seed: read them with --points 1600)")
+    assert leak_rows_advice(LEAK_READ_POINTS) is None and leak_rows_advice(5000) is None
 
 
 def _strike_frames_after_rounding(data):

@@ -229,12 +229,14 @@ def _run_model_table(args: argparse.Namespace, name: str, compute, notes=None,
 
 def run_diagnose(args: argparse.Namespace) -> int:
     """The rollout diagnostics of a model: prints the table (and writes the CSV)."""
-    from sportsngen.eval.diagnostics import leak_rows_summary, run_diagnostics
+    from sportsngen.eval.diagnostics import leak_rows_advice, leak_rows_summary, run_diagnostics
 
     if args.boot < 0:
         raise UsageError(f"--boot must be >= 0, got {args.boot}")
+    advice = leak_rows_advice(args.points)
     return _run_model_table(args, "diagnose", run_diagnostics,
-                            notes=lambda t: (leak_rows_summary(t),), leak_boot=args.boot)
+                            notes=lambda t: (leak_rows_summary(t),) + ((advice,) if advice else ()),
+                            leak_boot=args.boot)
 
 
 def run_strikes(args: argparse.Namespace) -> int:

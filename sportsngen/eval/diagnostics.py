@@ -487,6 +487,20 @@ def leak_rows_summary(table: pd.DataFrame, band=(0.4, 0.6)) -> str:
             f"interval holds 0.5)")
 
 
+# Points at which the leak rows are read: at 400 each rests on 70-900 pairs and the one row
+# outside with an interval leaving out 0.5 changed from seed to seed; at 1,600 (3 1/2 min here)
+# the same row sat outside on two seeds (docs/evaluation.md, seventy-fifth part).
+LEAK_READ_POINTS = 1600
+
+
+def leak_rows_advice(n_points: int) -> str | None:
+    """A line under the leak rows when `n_points` is too few to read them, else None."""
+    if n_points >= LEAK_READ_POINTS:
+        return None
+    return (f"(at {n_points} points the leak rows rest on few pairs and move from seed to seed: "
+            f"read them with --points {LEAK_READ_POINTS})")
+
+
 def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.DataFrame:
     """Every diagnostic of the module doc -> a table: signal, model, data (NaN where the
     signal has no data side), n (serves, frames or, for a leak AUC, comparable pairs) and, for
