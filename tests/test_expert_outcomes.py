@@ -138,3 +138,8 @@ def test_pooled_branch_points_keep_each_runs_rallies_apart():
     assert a["rally_id"].tolist() == [0, 0, 7]              # the parts are not changed
     with pytest.raises(ValueError, match="no branch points"):
         pool_branch_points([])
+    # A part written before the decided flag existed drops the flag from the pool (it would
+    # read NaN, and NaN as True).
+    c = a.assign(decided=[False, True, False])
+    assert list(pool_branch_points([c, b]).columns) == ["rally_id", "p"]
+    assert pool_branch_points([c, c])["decided"].tolist() == [False, True, False] * 2
