@@ -487,9 +487,10 @@ def leak_rows_summary(table: pd.DataFrame, band=(0.4, 0.6)) -> str:
             f"interval holds 0.5)")
 
 
-# Points at which the leak rows are read: at 400 each rests on 70-900 pairs and the one row
+# Points at which the leak rows are read: at 400 each rests on 70-900 pairs and the rows
 # outside with an interval leaving out 0.5 changed from seed to seed; at 1,600 (3 1/2 min here)
-# the same row sat outside on two seeds (docs/evaluation.md, seventy-fifth part).
+# an interval is about +-0.1 and the rows outside on five seeds were all one family, the
+# receiver 12 frames into an ace (docs/evaluation.md, seventy-fifth part).
 LEAK_READ_POINTS = 1600
 
 
