@@ -162,6 +162,8 @@ def main() -> None:
              if sim.rally_reach_draw and sim.rally_reach is not None else "")
           + (", each player within his top speed"
              if sim.player_top_speed and sim.top_speeds is not None else "")
+          + (", players' draws placed in their bins as the record's"
+             if sim.player_quantiles_used() is not None else "")
           + (", the net in the ball's step" if sim.model.cfg.ball_net else "")
           + (", the surface's bounce" if sim.physical_bounce else "")
           + (f", players within {sim.player_accel_mps2:g} m/s²" if sim.player_accel_mps2

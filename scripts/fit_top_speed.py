@@ -19,12 +19,10 @@ from sportsngen.train.table_cli import rule_table_parser, write_rule_tables
 
 
 def main() -> None:
-    ap = rule_table_parser(__doc__)
-    ap.add_argument("--quantile", type=float, default=QUANTILE,
-                    help="a player's top speed: this quantile of his frame speeds")
-    ap.add_argument("--min-frames", type=int, default=MIN_FRAMES,
-                    help="a player's frames for his own row (fewer: the pooled one)")
-    args = ap.parse_args()
+    args = rule_table_parser(__doc__, (
+        ("--quantile", float, QUANTILE, "a player's top speed: this quantile of his frame speeds"),
+        ("--min-frames", int, MIN_FRAMES,
+         "a player's frames for his own row (fewer: the pooled one)"))).parse_args()
     src = model_path(args.model)
     try:
         parts = training_rally_data(src, args.more_data)

@@ -115,18 +115,23 @@ def test_a_strike_struck_where_its_step_barely_moves_is_found_once_at_the_frame_
          "early": [9.4, 10.2, 9.6, 8.8, 8.0],
          "stopped": [9.4, 10.2, 10.21, 10.21, 10.21],
          "slowed": [9.4, 10.2, 10.22, 10.9, 11.6]}
-    found = {}
+    found, begun = {}, {}
     for name, xs in x.items():
         b = np.array([[v, 0.5, 1.0] for v in xs])
         vel = np.zeros_like(b)
         vel[1:] = (b[1:] - b[:-1]) * FPS
         t = np.arange(1, 3)
         found[name] = S.is_strike_across(b[t], vel[t], b[t + 1], b[t + 2], FPS).tolist()
+        begun[name] = S.is_strike_begun(b[t], vel[t], b[t + 1], FPS).tolist()
         one = S.is_strike(b[t], vel[t], b[t + 1], FPS).tolist()
         if name == "across":
             assert one == [False, False]        # the single step sees no strike at all
     assert found == {"across": [True, False], "early": [True, False],
                      "stopped": [False, False], "slowed": [False, False]}
+    # Its first step alone, which a rollout reads before the frame after exists: every ball
+    # stopped in a step, whatever comes next.
+    assert begun == {"across": [True, False], "early": [False, False],
+                     "stopped": [True, False], "slowed": [True, False]}
 
 
 def test_a_serve_is_a_tossed_ball_sent_over_the_net_and_no_rally_strike_is_one():
@@ -321,11 +326,35 @@ def test_a_sampled_strike_is_placed_on_its_solved_flight(monkeypatch):
     prev = pos
     for _ in range(2):
         vel, prev = (out - prev) * FPS, out
-        out, plan = _follow_strikes(model, h, out, vel, out.clone(), plan, g)
+        draw = out + vel / FPS                        # the model's draws fly on as they were
+        out, plan = _follow_strikes(model, h, out, vel, draw, plan, g)
         frames.append(out[0, 2].double().numpy())
     assert torch.isnan(plan).all()
     read = S.strike_labels(np.array(frames)[None], np.array([1.0]), FPS)
     assert S.strike_bin_index(read).tolist() == want.tolist()
+
+
+def test_a_draw_that_stops_the_incoming_ball_is_struck_on_the_heads_flight(monkeypatch):
+    from sportsngen.sim.rollout import _follow_strikes
+
+    model, want, ball, pos, vel = _two_incoming_balls(monkeypatch)
+    monkeypatch.setattr("sportsngen.model.strike_heads.uniform_in_bin",    # bin centres: exact
+                        lambda shape, device, gen: torch.full(shape, 0.5, device=device))
+    nxt = pos.clone()
+    nxt[0, 2, 0] += 0.01                              # the ball stopped: struck inside the step
+    nxt[1, 2, 0] += 0.9                               # ... and one that flies on
+    h = torch.randn(2, 3, model.cfg.d_model)
+    g = torch.Generator().manual_seed(0)
+    plan = torch.full((2, 2, 3), float("nan"))
+    out, plan = _follow_strikes(model, h, pos, vel, nxt, plan, g)
+    assert torch.equal(out[1], nxt[1]) and torch.isnan(plan[1]).all()
+    value = S.strike_bin_value(want.numpy(), np.full((1, 4), 0.5))
+    contact = ball[2][None].astype(np.float64)
+    v0, found = S.solve_launch(contact, np.array([1.0]), value, FPS)
+    launch = S.launch_frames(contact, v0, value[:, 3], FPS)[0]
+    assert found.all() and out[0, 2, 0] < pos[0, 2, 0]
+    np.testing.assert_allclose(out[0, 2].numpy(), launch[0], atol=1e-5)
+    np.testing.assert_allclose(plan[0].numpy(), launch[1:], atol=1e-5)
 
 
 def test_a_forced_strike_is_struck_from_where_the_ball_is(monkeypatch):

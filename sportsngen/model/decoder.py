@@ -28,6 +28,7 @@ from torch import nn
 from sportsngen.data.tokens import BALL, GENERIC_ID, N_FEATURES, N_OBJECTS, N_SPECIAL_IDS
 from sportsngen.model import contact_reach, receiver_start, serve_bias, strike, strike_heads
 from sportsngen.model import strike_bias as strike_bias_table
+from sportsngen.model.bin_quantiles import place_in_bins
 from sportsngen.model.bins import Bins
 from sportsngen.model.centre import object_centres_m
 from sportsngen.model.config import FEATURE_GROUPS, ModelConfig
@@ -688,11 +689,14 @@ class SportsNGEN(nn.Module):
                     prev_vel_mps: torch.Tensor | None = None,
                     contact_odds: bool = False,
                     top_p_contact: float | None = None,
-                    player_bias: torch.Tensor | None = None) -> torch.Tensor:
+                    player_bias: torch.Tensor | None = None,
+                    player_quantiles: torch.Tensor | None = None) -> torch.Tensor:
         """Next positions (..., 3, 3) from output states h (..., 3, d): nucleus per object
         kind, then uniform inside the chosen bin. Players stay on the ground (z = 0).
         `player_bias` (..., 2, 2, n_bins): added to the players' head's logits (the
-        receiver's start, `receiver_start_bias`). With `cfg.contact_reach` the ball's odds of
+        receiver's start, `receiver_start_bias`). `player_quantiles` (2, n_bins, Q + 1): a
+        player's draw lands inside its bin with the record's spread there, not uniformly
+        (`bin_quantiles.place_in_bins`). With `cfg.contact_reach` the ball's odds of
         a contact are shifted by where it is from its hitter (`contact_reach_bias`).
 
         With the physics centre, a ball dimension that falls in the centre bin takes the
@@ -716,7 +720,9 @@ class SportsNGEN(nn.Module):
                                    self.contact_bins() if contact_odds else None,
                                    top_p_contact if contact_odds else None,
                                    **({} if reach is None else {"dim_bias": reach}))
-        p_off = self.player_bins.value(pi, uniform_in_bin(pi.shape, h.device, generator))
+        u_player = uniform_in_bin(pi.shape, h.device, generator)
+        p_off = self.player_bins.value(pi, u_player) if player_quantiles is None else \
+            place_in_bins(player_quantiles, pi, u_player).to(centre.dtype)
         u_ball = uniform_in_bin(bi.shape, h.device, generator)
         if self.ball_sub_head is not None:
             # Under the physics centre a ball in the centre bin on every axis (free flight,

@@ -328,6 +328,16 @@ def is_strike(pos_m: np.ndarray, vel_mps: np.ndarray, next_pos_m: np.ndarray,
     return (side * vel_mps[..., 0] > MIN_INCOMING_MPS) & (side * v_out < -MIN_INCOMING_MPS)
 
 
+def is_strike_begun(pos_m: np.ndarray, vel_mps: np.ndarray, next_pos_m: np.ndarray,
+                    fps: float) -> np.ndarray:
+    """(..., 3) as `is_strike` -> (...) bool: the step stops a ball coming to the hitter's
+    half along x (it moves no faster than `MIN_INCOMING_MPS` either way): the first step of a
+    strike struck inside it (`is_strike_across`), which the frame after sends back."""
+    side = np.sign(pos_m[..., 0])
+    v_mid = side * (next_pos_m[..., 0] - pos_m[..., 0]) * fps
+    return (side * vel_mps[..., 0] > MIN_INCOMING_MPS) & (np.abs(v_mid) <= MIN_INCOMING_MPS)
+
+
 def is_strike_across(pos_m: np.ndarray, vel_mps: np.ndarray, next_pos_m: np.ndarray,
                      after_next_pos_m: np.ndarray, fps: float) -> np.ndarray:
     """(..., 3) the ball's position and backward velocity at a frame, its next position and
@@ -338,10 +348,8 @@ def is_strike_across(pos_m: np.ndarray, vel_mps: np.ndarray, next_pos_m: np.ndar
     players' round robins the single step missed 13.7 % (all found this way), the slower ones
     (median 23.7 against 28.2 m/s), and a head trained on the strikes found never saw them."""
     side = np.sign(pos_m[..., 0])
-    v_mid = side * (next_pos_m[..., 0] - pos_m[..., 0]) * fps
     v_after = side * (after_next_pos_m[..., 0] - next_pos_m[..., 0]) * fps
-    across = ((side * vel_mps[..., 0] > MIN_INCOMING_MPS) & (np.abs(v_mid) <= MIN_INCOMING_MPS)
-              & (v_after < -MIN_INCOMING_MPS))
+    across = is_strike_begun(pos_m, vel_mps, next_pos_m, fps) & (v_after < -MIN_INCOMING_MPS)
     return is_strike(pos_m, vel_mps, next_pos_m, fps) | across
 
 

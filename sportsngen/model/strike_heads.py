@@ -103,13 +103,14 @@ def place_strikes(strike_head, serve_head, h: torch.Tensor, pos_m: torch.Tensor,
                   serve_bias: Callable[[torch.Tensor], torch.Tensor] | None = None,
                   strike_bias: Callable[[torch.Tensor], torch.Tensor] | None = None
                   ) -> tuple[torch.Tensor, torch.Tensor]:
-    """Where the sampled next frames `nxt` (B, 3, 3) hold a rally strike, or in the rows
-    `forced` (B,) bool whatever they hold (in the rows `allowed`, (B,) bool, default all),
-    `strike_head`'s draw from the decoder's states `h` (B, 3, D) instead: its bins (nucleus
-    `top_p`), uniform inside them, the launch solved from the current ball and its first frame
-    put in `nxt`; where they hold a serve, `serve_head`'s draw the same way (nucleus
-    `top_p_serve`; `strike.solve_serve`). Either head may be None. Returns (nxt, the launch's
-    next two frames (B, 2, 3), NaN for rows without a strike or whose launch was not found).
+    """Where the sampled next frames `nxt` (B, 3, 3) hold a rally strike (the ball sent back,
+    or stopped: `strike.is_strike_begun`), or in the rows `forced` (B,) bool whatever they
+    hold (in the rows `allowed`, (B,) bool, default all), `strike_head`'s draw from the
+    decoder's states `h` (B, 3, D) instead: its bins (nucleus `top_p`), uniform inside them,
+    the launch solved from the current ball and its first frame put in `nxt`; where they hold
+    a serve, `serve_head`'s draw the same way (nucleus `top_p_serve`; `strike.solve_serve`).
+    Either head may be None. Returns (nxt, the launch's next two frames (B, 2, 3), NaN for
+    rows without a strike or whose launch was not found).
     `strike_h` (B, D): the strike head's input where it is not the ball token's state
     (`SportsNGEN.strike_input`); `serve_bias`: the served rows (R,) -> the shifts of the serve
     head's logits for them (R, 4, bins) (`SportsNGEN.serve_head_bias`), asked only on a frame
@@ -123,8 +124,16 @@ def place_strikes(strike_head, serve_head, h: torch.Tensor, pos_m: torch.Tensor,
     nxt_ball = nxt[:, BALL].double().cpu().numpy()
     allow = np.ones(len(nxt), dtype=bool) if allowed is None else allowed.cpu().numpy()
     parts = []
+    must = np.zeros(len(nxt), dtype=bool) if forced is None else forced.cpu().numpy().copy()
     if strike_head is not None:
-        struck = strike.is_strike(ball, vel, nxt_ball, fps)
+        # A draw that stops the incoming ball is a strike struck inside the step, as the head
+        # was trained on (`strike_targets`): left to the decoder, it let 10 of 29 such balls
+        # in 1,037 own serves fall dead beside a receiver in reach, 4 of them called aces
+        # (docs/evaluation.md, seventy-sixth part). Out of reach, `sim.constraints`'
+        # `PhysicalLimits` rejects such a draw as a jolt.
+        begun = strike.is_strike_begun(ball, vel, nxt_ball, fps) & allow
+        struck = strike.is_strike(ball, vel, nxt_ball, fps) | begun
+        must |= begun                            # a stopped ball is no frame to fall back on
         if forced is not None:
             struck |= forced.cpu().numpy()
         parts.append((struck & allow, strike_head, None, strike.solve_launch, top_p,
@@ -133,12 +142,12 @@ def place_strikes(strike_head, serve_head, h: torch.Tensor, pos_m: torch.Tensor,
         served = strike.is_serve(ball, vel, nxt_ball, fps) & allow
         parts.append((served, serve_head, strike.serve_edges(), strike.solve_serve, top_p_serve,
                       h[:, BALL], serve_bias))
-    must = np.zeros(len(nxt), dtype=bool) if forced is None else forced.cpu().numpy()
     for struck, head, edges, solve, p, states, bias in parts:
         rows = np.flatnonzero(struck)
-        # A forced strike has no sampled frame to fall back on: a draw whose launch is not
-        # found is drawn again (from 4 m behind the baseline 3 % were not, and the ball flew
-        # past a receiver who had it in reach: docs/evaluation.md, twenty-sixth part).
+        # A forced strike (or a stopped ball) has no sampled frame to fall back on: a draw
+        # whose launch is not found is drawn again (from 4 m behind the baseline 3 % were not,
+        # and the ball flew past a receiver who had it in reach: docs/evaluation.md,
+        # twenty-sixth part).
         for _ in range(FORCED_DRAWS if edges is None else 1):
             if len(rows) == 0:
                 break

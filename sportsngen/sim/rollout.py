@@ -132,7 +132,8 @@ class Constraint(Protocol):
 
 def redraw_rejected(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top_p_player,
                     top_p_ball, generator, contact_odds=False, top_p_contact=None,
-                    player_bias=None, player_accel_mps2=None, player_top_speed_mps=None):
+                    player_bias=None, player_accel_mps2=None, player_top_speed_mps=None,
+                    player_quantiles=None):
     """Resample the rows `constraint` rejects: up to its max_tries from the nucleus, then as
     many from the whole distribution (each draw within `player_accel_mps2`, where given, and
     every row's final frame within its players' `player_top_speed_mps` (B, 2), where given). ->
@@ -149,7 +150,8 @@ def redraw_rejected(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top
                                   1.0 if wide else top_p_player, 1.0 if wide else top_p_ball,
                                   generator, prev_vel[idx], contact_odds,
                                   1.0 if wide else top_p_contact,
-                                  None if player_bias is None else player_bias[idx])
+                                  None if player_bias is None else player_bias[idx],
+                                  player_quantiles)
         if player_accel_mps2 is not None:
             again = limit_player_acceleration(again, pos[idx], vel[idx], model.cfg.fps,
                                               player_accel_mps2)
@@ -288,7 +290,8 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             bounce_surfaces: np.ndarray | None = None,
             player_accel_mps2: float | None = None,
             player_top_speed_mps: np.ndarray | None = None,
-            forced_pos_m: np.ndarray | None = None) -> Rollout:
+            forced_pos_m: np.ndarray | None = None,
+            player_quantiles: torch.Tensor | None = None) -> Rollout:
     """Roll `inputs` forward until the tracker ends each rally or it has `max_frames` frames.
 
     The tracker sees every frame of every rally in order, the initial ones included, and
@@ -311,7 +314,8 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
     `forced_pos_m` (B, T, 3, 3), NaN where free: a player's finite position at frame n (counted
     as `init_pos_m`'s) replaces his sampled one, after every rule, so the others react to a
     track chosen by hand (an intervention: does the receiver read the server?). Players only:
-    the ball's flight stays the model's and the physics'. Cached rollouts of up to
+    the ball's flight stays the model's and the physics'. `player_quantiles`: where inside
+    their bins the players' draws land (`SportsNGEN.sample_next`). Cached rollouts of up to
     `SINGLE_THREAD_ROWS` rallies run on one CPU thread.
     """
     small = (mode == "cache" and len(inputs.init_pos_m) <= SINGLE_THREAD_ROWS
@@ -371,7 +375,7 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             """The next frame of the batch rows `rows` (indices as first given), drawn by the
             decoder with every rule applied -> (frames, their strike plans)."""
             nxt = model.sample_next(h, pos, vel, top_p_player, top_p_ball, generator, prev_vel,
-                                    contact_odds, top_p_contact, p_bias)
+                                    contact_odds, top_p_contact, p_bias, player_quantiles)
             if player_accel_mps2 is not None:
                 nxt = limit_player_acceleration(nxt, pos, vel, fps, player_accel_mps2)
             if top is not None:
@@ -381,7 +385,8 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                 nxt, drawn, forced = redraw_rejected(model, constraint, rows, n, h, pos, vel,
                                                      prev_vel, nxt, top_p_player, top_p_ball,
                                                      generator, contact_odds, top_p_contact,
-                                                     p_bias, player_accel_mps2, top)
+                                                     p_bias, player_accel_mps2, top,
+                                                     player_quantiles)
                 resampled[rows] += drawn
                 if model.strike_head is not None:
                     forced_strikes[rows] += forced

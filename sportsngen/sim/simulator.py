@@ -128,7 +128,8 @@ class Simulator:
                  strike_in_reach_return_m: float | None = None,
                  physical_bounce: bool = False, player_accel_mps2: float | None = None,
                  chase_high_balls: bool = False, return_reach_draw: bool = False,
-                 rally_reach_draw: bool = False, player_top_speed: bool = False):
+                 rally_reach_draw: bool = False, player_top_speed: bool = False,
+                 player_bin_quantiles: bool = False):
         if abs(initial.fps - model.cfg.fps) > 1e-6:
             raise ValueError(f"initial conditions at {initial.fps} Hz, model at {model.cfg.fps}")
         for name, p in (("top_p_player", top_p_player), ("top_p_ball", top_p_ball),
@@ -230,6 +231,10 @@ class Simulator:
         # file has the table (`from_pretrained`): every frame and the chase rule's cap.
         self.player_top_speed = bool(player_top_speed)
         self.top_speeds: TopSpeeds | None = None
+        # A player's draw lands inside its bin with the record's spread there, where the file
+        # has the table (`model.bin_quantiles`, `from_pretrained`); without one, uniformly.
+        self.player_bin_quantiles = bool(player_bin_quantiles)
+        self.player_quantiles: torch.Tensor | None = None
         self._warned: set[str] = set()    # unknown players already warned about
         # Raw rollout win probabilities -> observed frequencies, when the model file has one
         # (`scripts/rally_outcome_study.py --save-calibrator`).
@@ -259,7 +264,24 @@ class Simulator:
             sim.rally_reach = ReachTable.from_dict(extra["rally_reach"])
         if extra.get("top_speed") is not None:
             sim.top_speeds = TopSpeeds.from_dict(extra["top_speed"])
+        if extra.get("player_bin_quantiles") is not None:
+            sim.set_player_quantiles(extra["player_bin_quantiles"])
         return sim
+
+    def set_player_quantiles(self, table) -> None:
+        """The players' within-bin quantiles (`model.bin_quantiles.fit_bin_quantiles`'s table,
+        (2, n_bins, Q + 1), any nested sequence) that `player_bin_quantiles` draws from."""
+        t = torch.as_tensor(np.asarray(table, dtype=np.float32),
+                            device=next(self.model.parameters()).device)
+        n_bins = self.model.player_bins.edges.shape[1] - 1
+        if t.ndim != 3 or t.shape[:2] != (2, n_bins) or t.shape[2] < 2:
+            raise ArgumentError(f"player bin quantiles must be (2, {n_bins}, Q + 1), got "
+                                f"{tuple(t.shape)}")
+        self.player_quantiles = t
+
+    def player_quantiles_used(self) -> torch.Tensor | None:
+        """The within-bin table the rollouts place player draws by (None: uniformly)."""
+        return self.player_quantiles if self.player_bin_quantiles else None
 
     @staticmethod
     def set_defaults(path: str | Path, **values) -> dict:
@@ -422,7 +444,8 @@ class Simulator:
                            if self.physical_bounce else None,
                            player_accel_mps2=self.player_accel_mps2,
                            player_top_speed_mps=top,
-                           forced_pos_m=rows(forced_pos_m, lo))
+                           forced_pos_m=rows(forced_pos_m, lo),
+                           player_quantiles=self.player_quantiles_used())
             labels = None if self.event_model is None or not label_events else frame_labels(
                 self.event_model, roll.pos_m, roll.length, self.fps, self.model.cfg.window_frames)
             data = assemble(part, roll.pos_m, roll.length, tracker.results(), labels, self.fps)

@@ -36,13 +36,16 @@ def table_parser(doc: str, prior_flag: str | None = None, prior_default: float =
     return ap
 
 
-def rule_table_parser(doc: str) -> argparse.ArgumentParser:
-    """--model, --out and --more-data of a script that writes a rule's table."""
+def rule_table_parser(doc: str, options: tuple = ()) -> argparse.ArgumentParser:
+    """--model, --out and --more-data of a script that writes a rule's table, and its own
+    `options`: (flag, type, default, help) each."""
     ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument("--model", default=None, help="model file (default: the bundled one)")
     ap.add_argument("--out", required=True, help="where to write the model file")
     ap.add_argument("--more-data", default=None,
                     help="also read every rally of this data config (conf/data/NAME.yaml)")
+    for flag, kind, default, text in options:
+        ap.add_argument(flag, type=kind, default=default, help=text)
     return ap
 
 
