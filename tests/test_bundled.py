@@ -2,6 +2,7 @@
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 import torch
 
@@ -223,3 +224,21 @@ def test_bundled_model_lets_nadal_return_on_hard_as_his_record_does():
     gap = bias[0, 0][long] - bias[1, 0][long]
     want = float(returns[hard, 0] - returns[clay, 0])
     torch.testing.assert_close(gap, torch.full_like(gap, want))
+
+
+def test_bundled_model_places_players_draws_inside_their_bins_as_the_record():
+    """The seventy-sixth part's file: per dimension and bin of the player head, the quantiles of
+    the training offsets inside it (`model.bin_quantiles`), on by default. The bin that holds
+    the generator's flat-out start (6 m/s², 0.0096 m a frame from constant velocity) holds the
+    record's offsets at its cap, not spread to 0.0130 m."""
+    from sportsngen.sim import Simulator
+
+    sim = Simulator.from_pretrained()
+    table = sim.player_quantiles_used()
+    assert table is not None and tuple(table.shape) == (2, 61, 17)
+    edges = sim.model.player_bins.edges
+    k = int(torch.searchsorted(edges[1], torch.tensor(0.0096))) - 1
+    assert edges[1, k] < 0.0096 < edges[1, k + 1] and edges[1, k + 1] > 0.0125
+    np.testing.assert_allclose(table[1, k, [8, 12, 16]].numpy(), [0.0094, 0.0096, 0.0096],
+                               atol=5e-5)
+    assert Simulator.from_pretrained(player_bin_quantiles=False).player_quantiles_used() is None

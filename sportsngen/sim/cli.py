@@ -160,6 +160,8 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
         kw["rally_reach_draw"] = bool(cfg.rally_reach_draw)
     if cfg.get("player_top_speed") is not None:
         kw["player_top_speed"] = bool(cfg.player_top_speed)
+    if cfg.get("player_bin_quantiles") is not None:
+        kw["player_bin_quantiles"] = bool(cfg.player_bin_quantiles)
     if cfg.get("top_p_contact") is not None:
         kw["top_p_contact"] = float(cfg.top_p_contact)
     if cfg.get("top_p_serve") is not None:
