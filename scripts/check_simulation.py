@@ -167,7 +167,9 @@ def main() -> None:
           + (", the net in the ball's step" if sim.model.cfg.ball_net else "")
           + (", the surface's bounce" if sim.physical_bounce else "")
           + (f", players within {sim.player_accel_mps2:g} m/s²" if sim.player_accel_mps2
-             else ""))
+             else "")
+          + (f", flat out from {sim.player_accel_full_frac:g} of it"
+             if sim.player_accel_mps2 and sim.player_accel_full_frac else ""))
     t0 = time.perf_counter()
     simd = sim.simulate_both_serving(*players, args.surface, args.points, seed=args.seed)
     if args.save_sim is not None:

@@ -43,6 +43,26 @@ def test_a_player_within_the_limit_or_braking_within_it_keeps_his_frame():
     assert float(speed) == pytest.approx(5.0 - 0.24)
 
 
+def test_a_change_near_the_limit_is_flat_out_and_one_well_short_is_kept():
+    # Player 0 asks 5.5 m/s² (0.22 m/s in a frame) at 3-4-5, player 1 5.0 m/s²; from 0.9 of
+    # the 6 m/s² limit (5.4) a change is the limit's, its direction kept.
+    nxt, pos, vel = frames([[1.0, 0.0], [0.0, -2.0]], [[0.132, 0.176], [0.2, 0.0]])
+    out = limit_player_acceleration(nxt, pos, vel, FPS, 6.0, full_from_frac=0.9)
+    dv = (out[0, :2, :2] - pos[0, :2, :2]) * FPS - vel[0, :2, :2]
+    torch.testing.assert_close(dv[0], torch.tensor([0.144, 0.192]))   # 0.24 m/s, 3-4-5
+    torch.testing.assert_close(dv[1], torch.tensor([0.2, 0.0]))
+    torch.testing.assert_close(out[0, 2], nxt[0, 2])                  # the ball untouched
+    # Without it (the default) both are kept; beyond the limit it scales down as before.
+    torch.testing.assert_close(limit_player_acceleration(nxt, pos, vel, FPS, 6.0), nxt)
+    nxt, pos, vel = frames([[1.0, 0.0], [0.0, 0.0]], [[0.24, 0.32], [0.0, 0.0]])
+    out = limit_player_acceleration(nxt, pos, vel, FPS, 6.0, full_from_frac=0.9)
+    dv = (out[0, :2, :2] - pos[0, :2, :2]) * FPS - vel[0, :2, :2]
+    torch.testing.assert_close(dv[0], torch.tensor([0.144, 0.192]))
+    torch.testing.assert_close(dv[1], torch.tensor([0.0, 0.0]))       # standing stays
+    with pytest.raises(ValueError, match="full_from_frac"):
+        limit_player_acceleration(nxt, pos, vel, FPS, 6.0, full_from_frac=1.5)
+
+
 def test_the_limit_must_be_positive():
     nxt, pos, vel = frames([[0.0, 0.0], [0.0, 0.0]], [[0.0, 0.0], [0.0, 0.0]])
     with pytest.raises(ValueError, match="positive"):
@@ -77,6 +97,35 @@ def test_rollout_players_never_change_velocity_faster_than_the_limit():
     assert largest(Simulator.from_pretrained(**kw)) <= 6.0 + 1e-3
     with pytest.raises(ArgumentError, match="player_accel_mps2"):
         Simulator.from_pretrained(player_accel_mps2=-1.0)
+    with pytest.raises(ArgumentError, match="player_accel_full_frac"):
+        Simulator.from_pretrained(player_accel_full_frac=0.0)
+
+
+def test_rollout_players_near_the_limit_run_flat_out():
+    """With the bundled defaults (the limit, and flat out from 0.9 of it) no player's frame
+    changes his velocity by 5.4-5.99 m/s², where the uniform draws inside the bins put about a
+    quarter of them; the chase rule, which acts after the draw, is off."""
+    import numpy as np
+
+    from sportsngen.sim import Simulator
+
+    def shares(sim):
+        data = sim.simulate_points("Roger Federer", "Rafael Nadal", "hard", 12, seed=3,
+                                   serve_number=1)
+        acc = []
+        players = data.frames[data.frames["object"] != "ball"]
+        for _, g in players.groupby(["rally_id", "object"]):
+            xy = g.sort_values("frame")[["x", "y"]].to_numpy(float)
+            acc.append(np.linalg.norm(np.diff(xy, 2, axis=0), axis=-1) * FPS * FPS)
+        acc = np.concatenate(acc)
+        return ((acc >= 5.4 + 1e-3) & (acc < 6.0 - 1e-3)).mean(), (acc > 6.0 - 1e-3).mean()
+
+    kw = dict(max_duration_s=2.5, keep_chasing=False)
+    assert Simulator.from_pretrained(**kw).player_accel_full_frac == 0.9
+    near, full = shares(Simulator.from_pretrained(**kw))
+    assert near == 0.0 and full > 0.3
+    near, full = shares(Simulator.from_pretrained(player_accel_full_frac=None, **kw))
+    assert near > 0.1
 
 
 def test_a_step_beyond_a_players_top_speed_is_scaled_to_it_in_its_own_direction():

@@ -129,7 +129,8 @@ class Simulator:
                  physical_bounce: bool = False, player_accel_mps2: float | None = None,
                  chase_high_balls: bool = False, return_reach_draw: bool = False,
                  rally_reach_draw: bool = False, player_top_speed: bool = False,
-                 player_bin_quantiles: bool = False):
+                 player_bin_quantiles: bool = False,
+                 player_accel_full_frac: float | None = None):
         if abs(initial.fps - model.cfg.fps) > 1e-6:
             raise ValueError(f"initial conditions at {initial.fps} Hz, model at {model.cfg.fps}")
         for name, p in (("top_p_player", top_p_player), ("top_p_ball", top_p_ball),
@@ -219,6 +220,13 @@ class Simulator:
         if player_accel_mps2 is not None and not float(player_accel_mps2) > 0:
             raise ArgumentError(f"player_accel_mps2 must be positive, got {player_accel_mps2!r}")
         self.player_accel_mps2 = None if player_accel_mps2 is None else float(player_accel_mps2)
+        # ... and a change of at least this fraction of it is flat out (`sim.kinematics`:
+        # the generator's players run at the limit or well short of it; None: as drawn).
+        if player_accel_full_frac is not None and not 0 < float(player_accel_full_frac) <= 1:
+            raise ArgumentError(f"player_accel_full_frac must be in (0, 1], got "
+                                f"{player_accel_full_frac!r}")
+        self.player_accel_full_frac = None if player_accel_full_frac is None \
+            else float(player_accel_full_frac)
         # Each serve's return reach (the contact limit's and the strike rule's) drawn from its
         # receiver's row of `return_reach` (`sim.reach_table`), and each rally ball's from the
         # row of the player due in `rally_reach`, where the file has the tables
@@ -443,6 +451,7 @@ class Simulator:
                            bounce_surfaces=part["surface"].astype(str).to_numpy()
                            if self.physical_bounce else None,
                            player_accel_mps2=self.player_accel_mps2,
+                           player_accel_full_frac=self.player_accel_full_frac,
                            player_top_speed_mps=top,
                            forced_pos_m=rows(forced_pos_m, lo),
                            player_quantiles=self.player_quantiles_used())
