@@ -169,7 +169,9 @@ def main() -> None:
           + (f", players within {sim.player_accel_mps2:g} m/s²" if sim.player_accel_mps2
              else "")
           + (f", flat out from {sim.player_accel_full_frac:g} of it"
-             if sim.player_accel_mps2 and sim.player_accel_full_frac else ""))
+             if sim.player_accel_mps2 and sim.player_accel_full_frac else "")
+          + (f", running along his heading within {sim.player_keep_heading_deg:g}°"
+             if sim.player_accel_mps2 and sim.player_keep_heading_deg else ""))
     t0 = time.perf_counter()
     simd = sim.simulate_both_serving(*players, args.surface, args.points, seed=args.seed)
     if args.save_sim is not None:

@@ -3,6 +3,7 @@
 import pytest
 import torch
 
+from sportsngen.errors import ArgumentError
 from sportsngen.sim.kinematics import limit_player_acceleration, limit_player_speed
 
 FPS = 25.0
@@ -76,7 +77,6 @@ def test_rollout_players_never_change_velocity_faster_than_the_limit():
     own 6 m/s² along his way to the ball, so it is off here."""
     import numpy as np
 
-    from sportsngen.errors import ArgumentError
     from sportsngen.sim import Simulator
 
     def largest(sim):
@@ -101,10 +101,12 @@ def test_rollout_players_never_change_velocity_faster_than_the_limit():
         Simulator.from_pretrained(player_accel_full_frac=0.0)
 
 
-def test_rollout_players_near_the_limit_run_flat_out():
-    """With the bundled defaults (the limit, and flat out from 0.9 of it) no player's frame
-    changes his velocity by 5.4-5.99 m/s², where the uniform draws inside the bins put about a
-    quarter of them; the chase rule, which acts after the draw, is off."""
+def test_rollout_players_near_the_limit_run_flat_out_along_their_heading():
+    """With the bundled defaults (the limit, flat out from 0.9 of it, along the heading within
+    30°) no player's frame changes his velocity by 5.4-5.99 m/s², where the uniform draws
+    inside the bins put about a quarter of them, and no running player's flat-out frame turns
+    him by 0.5-29.5°, where the x and y draws put a share of them; the chase rule, which acts
+    after the draw, is off."""
     import numpy as np
 
     from sportsngen.sim import Simulator
@@ -112,20 +114,68 @@ def test_rollout_players_near_the_limit_run_flat_out():
     def shares(sim):
         data = sim.simulate_points("Roger Federer", "Rafael Nadal", "hard", 12, seed=3,
                                    serve_number=1)
-        acc = []
+        acc, turn = [], []
         players = data.frames[data.frames["object"] != "ball"]
         for _, g in players.groupby(["rally_id", "object"]):
-            xy = g.sort_values("frame")[["x", "y"]].to_numpy(float)
-            acc.append(np.linalg.norm(np.diff(xy, 2, axis=0), axis=-1) * FPS * FPS)
-        acc = np.concatenate(acc)
-        return ((acc >= 5.4 + 1e-3) & (acc < 6.0 - 1e-3)).mean(), (acc > 6.0 - 1e-3).mean()
+            v = np.diff(g.sort_values("frame")[["x", "y"]].to_numpy(float), axis=0) * FPS
+            dv = np.diff(v, axis=0)
+            size, speed = np.linalg.norm(dv, axis=-1), np.linalg.norm(v[:-1], axis=-1)
+            acc.append(size * FPS)
+            cos = (dv * v[:-1]).sum(-1) / np.maximum(size * speed, 1e-12)
+            flat = (size * FPS > 6.0 - 1e-3) & (speed >= 0.5 + 1e-3)
+            turn.append(np.degrees(np.arccos(np.clip(cos[flat], -1, 1))))
+        acc, turn = np.concatenate(acc), np.concatenate(turn)
+        return (((acc >= 5.4 + 1e-3) & (acc < 6.0 - 1e-3)).mean(), (acc > 6.0 - 1e-3).mean(),
+                ((turn > 0.5) & (turn < 29.5)).mean(), len(turn))
 
     kw = dict(max_duration_s=2.5, keep_chasing=False)
-    assert Simulator.from_pretrained(**kw).player_accel_full_frac == 0.9
-    near, full = shares(Simulator.from_pretrained(**kw))
-    assert near == 0.0 and full > 0.3
-    near, full = shares(Simulator.from_pretrained(player_accel_full_frac=None, **kw))
-    assert near > 0.1
+    near, full, turned, n = shares(Simulator.from_pretrained(**kw))
+    assert near == 0.0 and full > 0.3 and turned == 0.0 and n > 100
+    near, full, turned, n = shares(Simulator.from_pretrained(
+        player_accel_full_frac=None, player_keep_heading_deg=None, **kw))
+    assert near > 0.1 and turned > 0.05 and n > 50
+
+
+def test_a_flat_out_change_near_a_runners_heading_runs_along_it():
+    # Player 0 runs at 3 m/s along x and asks the full 0.24 m/s at 20° off it: it is turned
+    # onto his heading, its size kept. Player 1 runs at 2 m/s along -y and turns 45° flat out:
+    # a turn wider than 30° stays as drawn.
+    c20, s20 = 0.24 * torch.cos(torch.deg2rad(torch.tensor(20.0))), \
+        0.24 * torch.sin(torch.deg2rad(torch.tensor(20.0)))
+    h45 = 0.24 / 2 ** 0.5
+    nxt, pos, vel = frames([[3.0, 0.0], [0.0, -2.0]], [[c20, s20], [h45, -h45]])
+    out = limit_player_acceleration(nxt, pos, vel, FPS, 6.0, keep_heading_deg=30.0)
+    dv = (out[0, :2, :2] - pos[0, :2, :2]) * FPS - vel[0, :2, :2]
+    torch.testing.assert_close(dv[0], torch.tensor([0.24, 0.0]))
+    torch.testing.assert_close(dv[1], torch.tensor([h45, -h45]))
+    torch.testing.assert_close(out[0, 2], nxt[0, 2])                  # the ball untouched
+    # Kept as drawn: a change short of the limit, a player slower than 0.5 m/s, braking.
+    for vel_xy, dv_xy in (([[3.0, 0.0], [0.0, 0.0]], [[0.19, 0.05], [0.0, 0.0]]),
+                          ([[0.4, 0.0], [0.0, 0.0]], [[c20, s20], [0.0, 0.0]]),
+                          ([[3.0, 0.0], [0.0, 0.0]], [[-c20, s20], [0.0, 0.0]])):
+        nxt, pos, vel = frames(vel_xy, dv_xy)
+        torch.testing.assert_close(
+            limit_player_acceleration(nxt, pos, vel, FPS, 6.0, keep_heading_deg=30.0), nxt)
+    # With full_from_frac a change drawn at 0.9 of the limit is first set to it, then turned.
+    nxt, pos, vel = frames([[3.0, 0.0], [0.0, 0.0]], [[0.9 * c20, 0.9 * s20], [0.0, 0.0]])
+    out = limit_player_acceleration(nxt, pos, vel, FPS, 6.0, full_from_frac=0.9,
+                                    keep_heading_deg=30.0)
+    dv = (out[0, 0, :2] - pos[0, 0, :2]) * FPS - vel[0, 0, :2]
+    torch.testing.assert_close(dv, torch.tensor([0.24, 0.0]))
+    for bad in (0.0, 180.0, -5.0):
+        with pytest.raises(ValueError, match="keep_heading_deg"):
+            limit_player_acceleration(nxt, pos, vel, FPS, 6.0, keep_heading_deg=bad)
+
+
+def test_the_bundled_defaults_are_the_modules_constants():
+    from sportsngen.sim import Simulator
+    from sportsngen.sim.kinematics import FULL_ACCEL_FROM_FRAC, KEEP_HEADING_DEG
+
+    sim = Simulator.from_pretrained()
+    assert sim.player_accel_full_frac == FULL_ACCEL_FROM_FRAC
+    assert sim.player_keep_heading_deg == KEEP_HEADING_DEG
+    with pytest.raises(ArgumentError, match="player_keep_heading_deg"):
+        Simulator.from_pretrained(player_keep_heading_deg=180.0)
 
 
 def test_a_step_beyond_a_players_top_speed_is_scaled_to_it_in_its_own_direction():

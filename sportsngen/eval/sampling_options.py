@@ -13,7 +13,7 @@ _FLAGS = ("contact_odds", "strike_in_reach", "strike_in_reach_from", "strike_in_
           "strike_in_reach_m", "ball_net", "keep_chasing", "contact_reach_m",
           "return_reach_m", "strike_in_reach_return_m", "physical_bounce",
           "player_accel_mps2", "chase_high_balls", "return_reach_draw", "rally_reach_draw",
-          "player_top_speed", "player_accel_full_frac")
+          "player_top_speed", "player_accel_full_frac", "player_keep_heading_deg")
 
 # The rules that read a table of the model file's extra, switched on and off by name.
 _TABLE_SWITCHES = (
@@ -84,6 +84,10 @@ def add_sampling_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--player-accel-full-frac", type=float, default=None,
                         help="with --player-accel-mps2, a change of at least this fraction of "
                              "it is set to it: flat out (default: the model file's, else none)")
+    parser.add_argument("--player-keep-heading-deg", type=float, default=None,
+                        help="with --player-accel-mps2, a flat-out change within this angle "
+                             "of a running player's heading runs along it (default: the model "
+                             "file's, else none)")
     parser.add_argument("--ball-net", action=argparse.BooleanOptionalAction, default=None,
                         help="the ball's physics centre meets the net (default: the model "
                              "file's, else as it was trained)")
@@ -109,6 +113,9 @@ def sampling_kwargs(args: argparse.Namespace) -> dict:
     if not 0 < kw.get("player_accel_full_frac", 1.0) <= 1:
         raise ArgumentError(f"--player-accel-full-frac must be in (0, 1], got "
                             f"{kw['player_accel_full_frac']}")
+    if not 0 < kw.get("player_keep_heading_deg", 1.0) < 180:
+        raise ArgumentError(f"--player-keep-heading-deg must be in (0, 180), got "
+                            f"{kw['player_keep_heading_deg']}")
     if not kw.get("strike_in_reach_m", 1.0) > 0:
         raise ArgumentError(f"--strike-in-reach-m must be positive, got "
                             f"{kw['strike_in_reach_m']}")

@@ -152,6 +152,8 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
         kw["player_accel_mps2"] = float(cfg.player_accel_mps2)
     if cfg.get("player_accel_full_frac") is not None:
         kw["player_accel_full_frac"] = float(cfg.player_accel_full_frac)
+    if cfg.get("player_keep_heading_deg") is not None:
+        kw["player_keep_heading_deg"] = float(cfg.player_keep_heading_deg)
     if cfg.get("keep_chasing") is not None:
         kw["keep_chasing"] = bool(cfg.keep_chasing)
     if cfg.get("chase_high_balls") is not None:

@@ -133,7 +133,8 @@ class Constraint(Protocol):
 def redraw_rejected(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top_p_player,
                     top_p_ball, generator, contact_odds=False, top_p_contact=None,
                     player_bias=None, player_accel_mps2=None, player_top_speed_mps=None,
-                    player_quantiles=None, player_accel_full_frac=None):
+                    player_quantiles=None, player_accel_full_frac=None,
+                    player_keep_heading_deg=None):
     """Resample the rows `constraint` rejects: up to its max_tries from the nucleus, then as
     many from the whole distribution (each draw within `player_accel_mps2`, where given, and
     every row's final frame within its players' `player_top_speed_mps` (B, 2), where given). ->
@@ -154,7 +155,8 @@ def redraw_rejected(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top
                                   player_quantiles)
         if player_accel_mps2 is not None:
             again = limit_player_acceleration(again, pos[idx], vel[idx], model.cfg.fps,
-                                              player_accel_mps2, player_accel_full_frac)
+                                              player_accel_mps2, player_accel_full_frac,
+                                              player_keep_heading_deg)
         if player_top_speed_mps is not None:
             again = limit_player_speed(again, pos[idx], model.cfg.fps,
                                        player_top_speed_mps[idx])
@@ -292,7 +294,8 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             player_top_speed_mps: np.ndarray | None = None,
             forced_pos_m: np.ndarray | None = None,
             player_quantiles: torch.Tensor | None = None,
-            player_accel_full_frac: float | None = None) -> Rollout:
+            player_accel_full_frac: float | None = None,
+            player_keep_heading_deg: float | None = None) -> Rollout:
     """Roll `inputs` forward until the tracker ends each rally or it has `max_frames` frames.
 
     The tracker sees every frame of every rally in order, the initial ones included, and
@@ -311,7 +314,8 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
     ball's bounces are the surface's physics, not the model's draw (`sim.bounce`).
     `player_accel_mps2`: every sampled frame changes a player's velocity by at most this
     acceleration (`sim.kinematics`), and one of at least `player_accel_full_frac` of it is
-    set to it (None: as drawn); `player_top_speed_mps` (B, 2): the server's and the
+    set to it (None: as drawn), and a flat-out one within `player_keep_heading_deg` of a
+    running player's heading is turned onto it; `player_top_speed_mps` (B, 2): the server's and the
     receiver's top speed, which no frame of theirs exceeds (`sim.top_speed`).
     `forced_pos_m` (B, T, 3, 3), NaN where free: a player's finite position at frame n (counted
     as `init_pos_m`'s) replaces his sampled one, after every rule, so the others react to a
@@ -380,7 +384,7 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                                     contact_odds, top_p_contact, p_bias, player_quantiles)
             if player_accel_mps2 is not None:
                 nxt = limit_player_acceleration(nxt, pos, vel, fps, player_accel_mps2,
-                                                player_accel_full_frac)
+                                                player_accel_full_frac, player_keep_heading_deg)
             if top is not None:
                 nxt = limit_player_speed(nxt, pos, fps, top)
             forced = None
@@ -389,7 +393,8 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                                                      prev_vel, nxt, top_p_player, top_p_ball,
                                                      generator, contact_odds, top_p_contact,
                                                      p_bias, player_accel_mps2, top,
-                                                     player_quantiles, player_accel_full_frac)
+                                                     player_quantiles, player_accel_full_frac,
+                                                     player_keep_heading_deg)
                 resampled[rows] += drawn
                 if model.strike_head is not None:
                     forced_strikes[rows] += forced

@@ -130,7 +130,8 @@ class Simulator:
                  chase_high_balls: bool = False, return_reach_draw: bool = False,
                  rally_reach_draw: bool = False, player_top_speed: bool = False,
                  player_bin_quantiles: bool = False,
-                 player_accel_full_frac: float | None = None):
+                 player_accel_full_frac: float | None = None,
+                 player_keep_heading_deg: float | None = None):
         if abs(initial.fps - model.cfg.fps) > 1e-6:
             raise ValueError(f"initial conditions at {initial.fps} Hz, model at {model.cfg.fps}")
         for name, p in (("top_p_player", top_p_player), ("top_p_ball", top_p_ball),
@@ -227,6 +228,13 @@ class Simulator:
                                 f"{player_accel_full_frac!r}")
         self.player_accel_full_frac = None if player_accel_full_frac is None \
             else float(player_accel_full_frac)
+        # ... and a flat-out change within this angle of a running player's heading runs
+        # along it (`sim.kinematics`: the model's x and y draws turn him; None: as drawn).
+        if player_keep_heading_deg is not None and not 0 < float(player_keep_heading_deg) < 180:
+            raise ArgumentError(f"player_keep_heading_deg must be in (0, 180), got "
+                                f"{player_keep_heading_deg!r}")
+        self.player_keep_heading_deg = None if player_keep_heading_deg is None \
+            else float(player_keep_heading_deg)
         # Each serve's return reach (the contact limit's and the strike rule's) drawn from its
         # receiver's row of `return_reach` (`sim.reach_table`), and each rally ball's from the
         # row of the player due in `rally_reach`, where the file has the tables
@@ -452,6 +460,7 @@ class Simulator:
                            if self.physical_bounce else None,
                            player_accel_mps2=self.player_accel_mps2,
                            player_accel_full_frac=self.player_accel_full_frac,
+                           player_keep_heading_deg=self.player_keep_heading_deg,
                            player_top_speed_mps=top,
                            forced_pos_m=rows(forced_pos_m, lo),
                            player_quantiles=self.player_quantiles_used())
