@@ -32,6 +32,9 @@ def test_each_flag_becomes_its_simulator_argument():
     assert sampling_kwargs(_parse("--no-physical-bounce")) == {"physical_bounce": False}
     assert sampling_kwargs(_parse("--keep-chasing", "--chase-high-balls")) == {
         "keep_chasing": True, "chase_high_balls": True}
+    assert sampling_kwargs(_parse("--player-accel-mps2", "6", "--player-accel-full-frac", "0.9",
+                                  "--player-keep-heading-deg", "30")) == {
+        "player_accel_mps2": 6.0, "player_accel_full_frac": 0.9, "player_keep_heading_deg": 30.0}
 
 
 @pytest.mark.parametrize("argv, match", [
@@ -39,7 +42,10 @@ def test_each_flag_becomes_its_simulator_argument():
     (("--top-p-contact", "-0.1"), "--top-p-contact"),
     (("--strike-in-reach-from", "0"), "counts contacts"),
     (("--strike-in-reach-m", "0"), "--strike-in-reach-m"),
-    (("--contact-reach-m", "-1"), "--contact-reach-m")])
+    (("--contact-reach-m", "-1"), "--contact-reach-m"),
+    (("--player-accel-full-frac", "0"), "--player-accel-full-frac"),
+    (("--player-keep-heading-deg", "180"), "--player-keep-heading-deg"),
+    (("--player-keep-heading-deg", "0"), "--player-keep-heading-deg")])
 def test_a_flag_out_of_its_range_is_refused(argv, match):
     with pytest.raises(ArgumentError, match=match):
         sampling_kwargs(_parse(*argv))
