@@ -4,7 +4,11 @@ import pytest
 import torch
 
 from sportsngen.errors import ArgumentError
-from sportsngen.sim.kinematics import limit_player_acceleration, limit_player_speed
+from sportsngen.sim.kinematics import (
+    check_player_rules,
+    limit_player_acceleration,
+    limit_player_speed,
+)
 
 FPS = 25.0
 
@@ -66,8 +70,27 @@ def test_a_change_near_the_limit_is_flat_out_and_one_well_short_is_kept():
 
 def test_the_limit_must_be_positive():
     nxt, pos, vel = frames([[0.0, 0.0], [0.0, 0.0]], [[0.0, 0.0], [0.0, 0.0]])
-    with pytest.raises(ValueError, match="positive"):
+    with pytest.raises(ValueError, match="max_accel_mps2 must be positive, got 0.0"):
         limit_player_acceleration(nxt, pos, vel, FPS, 0.0)
+
+
+def test_the_player_rules_are_checked_in_one_place_by_their_ranges():
+    assert check_player_rules(accel_mps2=6, full_from_frac=1, keep_heading_deg=None) == {
+        "accel_mps2": 6.0, "full_from_frac": 1.0, "keep_heading_deg": None}
+    assert check_player_rules(keep_heading_deg="179.5") == {"keep_heading_deg": 179.5}
+    bad = [({"accel_mps2": 0.0}, "accel_mps2 must be positive, got 0.0"),
+           ({"accel_mps2": float("inf")}, "accel_mps2 must be positive, got inf"),
+           ({"full_from_frac": 0.0}, r"full_from_frac must be in \(0, 1\], got 0.0"),
+           ({"full_from_frac": 1.01}, r"full_from_frac must be in \(0, 1\], got 1.01"),
+           ({"keep_heading_deg": 180}, r"keep_heading_deg must be in \(0, 180\), got 180"),
+           ({"keep_heading_deg": -1.0}, r"keep_heading_deg must be in \(0, 180\)"),
+           ({"keep_heading_deg": "wide"}, "keep_heading_deg must be a number, got 'wide'"),
+           ({"top_speed": 1.0}, "not a player rule: 'top_speed'")]
+    for values, message in bad:
+        with pytest.raises(ArgumentError, match=message):
+            check_player_rules(**values)
+    with pytest.raises(ArgumentError, match=r"^--flag must be in \(0, 1\], got 2$"):
+        check_player_rules({"full_from_frac": "--flag"}, full_from_frac=2)
 
 
 def test_rollout_players_never_change_velocity_faster_than_the_limit():
@@ -176,6 +199,8 @@ def test_the_bundled_defaults_are_the_modules_constants():
     assert sim.player_keep_heading_deg == KEEP_HEADING_DEG
     with pytest.raises(ArgumentError, match="player_keep_heading_deg"):
         Simulator.from_pretrained(player_keep_heading_deg=180.0)
+    with pytest.raises(ArgumentError, match=r"player_accel_full_frac must be in \(0, 1\]"):
+        Simulator.from_pretrained(player_accel_full_frac=0.0)
 
 
 def test_a_step_beyond_a_players_top_speed_is_scaled_to_it_in_its_own_direction():

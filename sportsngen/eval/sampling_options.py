@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 
 from sportsngen.errors import ArgumentError
+from sportsngen.sim.kinematics import check_player_rules
 
 _NUCLEI = ("top_p_ball", "top_p_contact", "top_p_serve")
 _FLAGS = ("contact_odds", "strike_in_reach", "strike_in_reach_from", "strike_in_reach_force",
@@ -107,15 +108,12 @@ def sampling_kwargs(args: argparse.Namespace) -> dict:
         value = getattr(args, name, None)
         if value is not None:
             kw[name] = value
-    if not kw.get("player_accel_mps2", 1.0) > 0:
-        raise ArgumentError(f"--player-accel-mps2 must be positive, got "
-                            f"{kw['player_accel_mps2']}")
-    if not 0 < kw.get("player_accel_full_frac", 1.0) <= 1:
-        raise ArgumentError(f"--player-accel-full-frac must be in (0, 1], got "
-                            f"{kw['player_accel_full_frac']}")
-    if not 0 < kw.get("player_keep_heading_deg", 1.0) < 180:
-        raise ArgumentError(f"--player-keep-heading-deg must be in (0, 180), got "
-                            f"{kw['player_keep_heading_deg']}")
+    check_player_rules({"accel_mps2": "--player-accel-mps2",
+                        "full_from_frac": "--player-accel-full-frac",
+                        "keep_heading_deg": "--player-keep-heading-deg"},
+                       accel_mps2=kw.get("player_accel_mps2"),
+                       full_from_frac=kw.get("player_accel_full_frac"),
+                       keep_heading_deg=kw.get("player_keep_heading_deg"))
     if not kw.get("strike_in_reach_m", 1.0) > 0:
         raise ArgumentError(f"--strike-in-reach-m must be positive, got "
                             f"{kw['strike_in_reach_m']}")

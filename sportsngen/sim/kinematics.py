@@ -41,6 +41,7 @@ import math
 import torch
 
 from sportsngen.data.tokens import BALL
+from sportsngen.errors import ArgumentError
 
 # A velocity change of at least this share of the limit is flat out: the generator's players'
 # frames between it and the limit are 0.3 % of their frames, the bundled model's draws 26 %.
@@ -49,6 +50,38 @@ FULL_ACCEL_FROM_FRAC = 0.9
 # players at least this fast: below it the heading is the last frame's jitter.
 KEEP_HEADING_DEG = 30.0
 HEADING_FROM_MPS = 0.5
+# The player rules' parameters and their ranges, as (lowest, highest, highest allowed): the one
+# place the sampler, the `Simulator` and the command-line flags check them.
+PLAYER_RULE_RANGES = {"accel_mps2": (0.0, math.inf, False),
+                      "full_from_frac": (0.0, 1.0, True),
+                      "keep_heading_deg": (0.0, 180.0, False)}
+
+
+def check_player_rules(names: dict[str, str] | None = None, **values: float | None
+                       ) -> dict[str, float | None]:
+    """The player rules' parameters (`PLAYER_RULE_RANGES`' keys) -> the same as floats, None
+    kept (the rule off); an `ArgumentError` names the first out of its range, by `names[key]`
+    where given (a flag, say), else by its key."""
+    out = {}
+    for key, value in values.items():
+        if key not in PLAYER_RULE_RANGES:
+            raise ArgumentError(f"not a player rule: {key!r} (rules: {list(PLAYER_RULE_RANGES)})")
+        if value is None:
+            out[key] = None
+            continue
+        lo, hi, hi_allowed = PLAYER_RULE_RANGES[key]
+        label = (names or {}).get(key, key)
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            raise ArgumentError(f"{label} must be a number, got {value!r}") from None
+        inside = lo < number and (number <= hi if hi_allowed else number < hi)
+        if not inside:
+            bounds = "positive" if hi == math.inf else \
+                f"in ({lo:g}, {hi:g}{']' if hi_allowed else ')'}"
+            raise ArgumentError(f"{label} must be {bounds}, got {value!r}")
+        out[key] = number
+    return out
 
 
 def limit_player_acceleration(next_pos_m: torch.Tensor, pos_m: torch.Tensor,
@@ -61,12 +94,8 @@ def limit_player_acceleration(next_pos_m: torch.Tensor, pos_m: torch.Tensor,
     (next - pos) * fps - vel scaled down to at most `max_accel_mps2` / fps, its direction
     kept; the ball and players within the limit unchanged. `full_from_frac` (0, 1]: a change
     of at least this fraction of the limit is set to the limit (`FULL_ACCEL_FROM_FRAC`)."""
-    if not max_accel_mps2 > 0:
-        raise ValueError(f"max_accel_mps2 must be positive, got {max_accel_mps2!r}")
-    if full_from_frac is not None and not 0 < full_from_frac <= 1:
-        raise ValueError(f"full_from_frac must be in (0, 1], got {full_from_frac!r}")
-    if keep_heading_deg is not None and not 0 < keep_heading_deg < 180:
-        raise ValueError(f"keep_heading_deg must be in (0, 180), got {keep_heading_deg!r}")
+    check_player_rules({"accel_mps2": "max_accel_mps2"}, accel_mps2=max_accel_mps2,
+                       full_from_frac=full_from_frac, keep_heading_deg=keep_heading_deg)
     step = next_pos_m[:, :BALL, :2] - pos_m[:, :BALL, :2]
     dv = step * fps - vel_mps[:, :BALL, :2]
     norm = dv.norm(dim=-1, keepdim=True)

@@ -49,6 +49,7 @@ from sportsngen.sim.constraints import (
 )
 from sportsngen.sim.events import frame_labels
 from sportsngen.sim.initial import InitialConditions
+from sportsngen.sim.kinematics import check_player_rules
 from sportsngen.sim.match import MatchResult, simulate_matches
 from sportsngen.sim.reach_table import ReachTable
 from sportsngen.sim.rollout import Constraint, RolloutInputs, rollout
@@ -218,23 +219,18 @@ class Simulator:
         self.physical_bounce = bool(physical_bounce)
         # A sampled frame changes a player's velocity by at most this acceleration
         # (`sim.kinematics`; None: as drawn).
-        if player_accel_mps2 is not None and not float(player_accel_mps2) > 0:
-            raise ArgumentError(f"player_accel_mps2 must be positive, got {player_accel_mps2!r}")
-        self.player_accel_mps2 = None if player_accel_mps2 is None else float(player_accel_mps2)
+        rules = check_player_rules(
+            {"accel_mps2": "player_accel_mps2", "full_from_frac": "player_accel_full_frac",
+             "keep_heading_deg": "player_keep_heading_deg"},
+            accel_mps2=player_accel_mps2, full_from_frac=player_accel_full_frac,
+            keep_heading_deg=player_keep_heading_deg)
+        self.player_accel_mps2 = rules["accel_mps2"]
         # ... and a change of at least this fraction of it is flat out (`sim.kinematics`:
-        # the generator's players run at the limit or well short of it; None: as drawn).
-        if player_accel_full_frac is not None and not 0 < float(player_accel_full_frac) <= 1:
-            raise ArgumentError(f"player_accel_full_frac must be in (0, 1], got "
-                                f"{player_accel_full_frac!r}")
-        self.player_accel_full_frac = None if player_accel_full_frac is None \
-            else float(player_accel_full_frac)
+        # the generator's players run at the limit or well short of it; None: as drawn) ...
+        self.player_accel_full_frac = rules["full_from_frac"]
         # ... and a flat-out change within this angle of a running player's heading runs
         # along it (`sim.kinematics`: the model's x and y draws turn him; None: as drawn).
-        if player_keep_heading_deg is not None and not 0 < float(player_keep_heading_deg) < 180:
-            raise ArgumentError(f"player_keep_heading_deg must be in (0, 180), got "
-                                f"{player_keep_heading_deg!r}")
-        self.player_keep_heading_deg = None if player_keep_heading_deg is None \
-            else float(player_keep_heading_deg)
+        self.player_keep_heading_deg = rules["keep_heading_deg"]
         # Each serve's return reach (the contact limit's and the strike rule's) drawn from its
         # receiver's row of `return_reach` (`sim.reach_table`), and each rally ball's from the
         # row of the player due in `rally_reach`, where the file has the tables
