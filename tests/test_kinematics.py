@@ -5,6 +5,7 @@ import torch
 
 from sportsngen.errors import ArgumentError
 from sportsngen.sim.kinematics import (
+    PlayerLimits,
     check_player_rules,
     limit_player_acceleration,
     limit_player_speed,
@@ -26,10 +27,15 @@ def frames(vel_xy, dv_xy):
     return nxt, pos, vel
 
 
+def limited(nxt, pos, vel, accel_mps2, **rules):
+    """`limit_player_acceleration` of one row under `PlayerLimits(accel_mps2, **rules)`."""
+    return limit_player_acceleration(nxt, pos, vel, FPS, PlayerLimits(accel_mps2, **rules))
+
+
 def test_a_change_beyond_the_limit_is_scaled_to_it_in_its_own_direction():
     # Player 0 asks 10 m/s² (0.4 m/s in a frame) at 3-4-5, player 1 2 m/s², within 6.
     nxt, pos, vel = frames([[1.0, 0.0], [0.0, -2.0]], [[0.24, 0.32], [0.08, 0.0]])
-    out = limit_player_acceleration(nxt, pos, vel, FPS, 6.0)
+    out = limited(nxt, pos, vel, 6.0)
     dv = (out[0, :2, :2] - pos[0, :2, :2]) * FPS - vel[0, :2, :2]
     torch.testing.assert_close(dv[0], torch.tensor([0.144, 0.192]))   # 0.24 m/s, 3-4-5
     torch.testing.assert_close(dv[1], torch.tensor([0.08, 0.0]))
@@ -39,11 +45,11 @@ def test_a_change_beyond_the_limit_is_scaled_to_it_in_its_own_direction():
 
 def test_a_player_within_the_limit_or_braking_within_it_keeps_his_frame():
     nxt, pos, vel = frames([[5.0, 0.0], [0.0, 0.0]], [[-0.2, 0.0], [0.0, 0.0]])
-    out = limit_player_acceleration(nxt, pos, vel, FPS, 6.0)
+    out = limited(nxt, pos, vel, 6.0)
     torch.testing.assert_close(out, nxt)
     # Braking beyond it: a stop from 5 m/s takes 0.83 s at 6 m/s², not one frame.
     nxt, pos, vel = frames([[5.0, 0.0], [0.0, 0.0]], [[-5.0, 0.0], [0.0, 0.0]])
-    out = limit_player_acceleration(nxt, pos, vel, FPS, 6.0)
+    out = limited(nxt, pos, vel, 6.0)
     speed = (out[0, 0, 0] - pos[0, 0, 0]) * FPS
     assert float(speed) == pytest.approx(5.0 - 0.24)
 
@@ -52,26 +58,26 @@ def test_a_change_near_the_limit_is_flat_out_and_one_well_short_is_kept():
     # Player 0 asks 5.5 m/s² (0.22 m/s in a frame) at 3-4-5, player 1 5.0 m/s²; from 0.9 of
     # the 6 m/s² limit (5.4) a change is the limit's, its direction kept.
     nxt, pos, vel = frames([[1.0, 0.0], [0.0, -2.0]], [[0.132, 0.176], [0.2, 0.0]])
-    out = limit_player_acceleration(nxt, pos, vel, FPS, 6.0, full_from_frac=0.9)
+    out = limited(nxt, pos, vel, 6.0, full_from_frac=0.9)
     dv = (out[0, :2, :2] - pos[0, :2, :2]) * FPS - vel[0, :2, :2]
     torch.testing.assert_close(dv[0], torch.tensor([0.144, 0.192]))   # 0.24 m/s, 3-4-5
     torch.testing.assert_close(dv[1], torch.tensor([0.2, 0.0]))
     torch.testing.assert_close(out[0, 2], nxt[0, 2])                  # the ball untouched
     # Without it (the default) both are kept; beyond the limit it scales down as before.
-    torch.testing.assert_close(limit_player_acceleration(nxt, pos, vel, FPS, 6.0), nxt)
+    torch.testing.assert_close(limited(nxt, pos, vel, 6.0), nxt)
     nxt, pos, vel = frames([[1.0, 0.0], [0.0, 0.0]], [[0.24, 0.32], [0.0, 0.0]])
-    out = limit_player_acceleration(nxt, pos, vel, FPS, 6.0, full_from_frac=0.9)
+    out = limited(nxt, pos, vel, 6.0, full_from_frac=0.9)
     dv = (out[0, :2, :2] - pos[0, :2, :2]) * FPS - vel[0, :2, :2]
     torch.testing.assert_close(dv[0], torch.tensor([0.144, 0.192]))
     torch.testing.assert_close(dv[1], torch.tensor([0.0, 0.0]))       # standing stays
     with pytest.raises(ValueError, match="full_from_frac"):
-        limit_player_acceleration(nxt, pos, vel, FPS, 6.0, full_from_frac=1.5)
+        limited(nxt, pos, vel, 6.0, full_from_frac=1.5)
 
 
 def test_the_limit_must_be_positive():
     nxt, pos, vel = frames([[0.0, 0.0], [0.0, 0.0]], [[0.0, 0.0], [0.0, 0.0]])
-    with pytest.raises(ValueError, match="max_accel_mps2 must be positive, got 0.0"):
-        limit_player_acceleration(nxt, pos, vel, FPS, 0.0)
+    with pytest.raises(ValueError, match="accel_mps2 must be positive, got 0.0"):
+        limited(nxt, pos, vel, 0.0)
 
 
 def test_the_player_rules_are_checked_in_one_place_by_their_ranges():
@@ -91,6 +97,24 @@ def test_the_player_rules_are_checked_in_one_place_by_their_ranges():
             check_player_rules(**values)
     with pytest.raises(ArgumentError, match=r"^--flag must be in \(0, 1\], got 2$"):
         check_player_rules({"full_from_frac": "--flag"}, full_from_frac=2)
+
+
+def test_player_limits_are_checked_once_when_made_and_name_the_callers_option():
+    limits = PlayerLimits(6, full_from_frac="0.9", keep_heading_deg=30)
+    assert (limits.accel_mps2, limits.full_from_frac, limits.keep_heading_deg) == (6.0, 0.9, 30.0)
+    assert isinstance(limits.full_from_frac, float)
+    with pytest.raises(AttributeError):
+        limits.accel_mps2 = 8.0                                        # frozen: checked once
+    with pytest.raises(ArgumentError, match="accel_mps2 must be positive, got None"):
+        PlayerLimits(None)
+    # From a caller's options: no limit, no limits (the other two checked all the same) ...
+    assert PlayerLimits.from_options(None, 0.9, 30.0) is None
+    with pytest.raises(ArgumentError, match=r"^--frac must be in \(0, 1\], got 1.5$"):
+        PlayerLimits.from_options(None, 1.5, names={"full_from_frac": "--frac"})
+    # ... else the limits, a bad one named by the caller's name for it.
+    assert PlayerLimits.from_options(5, None, 20) == PlayerLimits(5.0, None, 20.0)
+    with pytest.raises(ArgumentError, match=r"^player_accel_mps2 must be positive, got -1$"):
+        PlayerLimits.from_options(-1, names={"accel_mps2": "player_accel_mps2"})
 
 
 def test_rollout_players_never_change_velocity_faster_than_the_limit():
@@ -167,7 +191,7 @@ def test_a_flat_out_change_near_a_runners_heading_runs_along_it():
         0.24 * torch.sin(torch.deg2rad(torch.tensor(20.0)))
     h45 = 0.24 / 2 ** 0.5
     nxt, pos, vel = frames([[3.0, 0.0], [0.0, -2.0]], [[c20, s20], [h45, -h45]])
-    out = limit_player_acceleration(nxt, pos, vel, FPS, 6.0, keep_heading_deg=30.0)
+    out = limited(nxt, pos, vel, 6.0, keep_heading_deg=30.0)
     dv = (out[0, :2, :2] - pos[0, :2, :2]) * FPS - vel[0, :2, :2]
     torch.testing.assert_close(dv[0], torch.tensor([0.24, 0.0]))
     torch.testing.assert_close(dv[1], torch.tensor([h45, -h45]))
@@ -177,17 +201,15 @@ def test_a_flat_out_change_near_a_runners_heading_runs_along_it():
                           ([[0.4, 0.0], [0.0, 0.0]], [[c20, s20], [0.0, 0.0]]),
                           ([[3.0, 0.0], [0.0, 0.0]], [[-c20, s20], [0.0, 0.0]])):
         nxt, pos, vel = frames(vel_xy, dv_xy)
-        torch.testing.assert_close(
-            limit_player_acceleration(nxt, pos, vel, FPS, 6.0, keep_heading_deg=30.0), nxt)
+        torch.testing.assert_close(limited(nxt, pos, vel, 6.0, keep_heading_deg=30.0), nxt)
     # With full_from_frac a change drawn at 0.9 of the limit is first set to it, then turned.
     nxt, pos, vel = frames([[3.0, 0.0], [0.0, 0.0]], [[0.9 * c20, 0.9 * s20], [0.0, 0.0]])
-    out = limit_player_acceleration(nxt, pos, vel, FPS, 6.0, full_from_frac=0.9,
-                                    keep_heading_deg=30.0)
+    out = limited(nxt, pos, vel, 6.0, full_from_frac=0.9, keep_heading_deg=30.0)
     dv = (out[0, 0, :2] - pos[0, 0, :2]) * FPS - vel[0, 0, :2]
     torch.testing.assert_close(dv, torch.tensor([0.24, 0.0]))
     for bad in (0.0, 180.0, -5.0):
         with pytest.raises(ValueError, match="keep_heading_deg"):
-            limit_player_acceleration(nxt, pos, vel, FPS, 6.0, keep_heading_deg=bad)
+            limited(nxt, pos, vel, 6.0, keep_heading_deg=bad)
 
 
 def test_the_bundled_defaults_are_the_modules_constants():

@@ -49,3 +49,27 @@ def test_each_flag_becomes_its_simulator_argument():
 def test_a_flag_out_of_its_range_is_refused(argv, match):
     with pytest.raises(ArgumentError, match=match):
         sampling_kwargs(_parse(*argv))
+
+
+def test_every_sampling_option_is_a_simulator_keyword_a_config_key_and_a_flag_of_its_kind():
+    """One table (`sim.simulator.SAMPLING_OPTIONS`) says what a config or a command line may
+    set: each a `Simulator` keyword, each in `conf/simulate.yaml` (`simulate.py` forwards them
+    by the table), and the shared flags a part of it, parsed to the table's kind."""
+    import inspect
+    from pathlib import Path
+
+    from omegaconf import OmegaConf
+
+    from sportsngen.eval.sampling_options import _FLAGS, _NUCLEI
+    from sportsngen.sim.simulator import SAMPLING_OPTIONS, Simulator
+
+    params = inspect.signature(Simulator.__init__).parameters
+    conf = OmegaConf.load(Path(__file__).resolve().parents[1] / "conf" / "simulate.yaml")
+    assert [k for k in SAMPLING_OPTIONS if k not in params] == []
+    assert [k for k in SAMPLING_OPTIONS if k not in conf] == []
+    # A Simulator keyword in the config that the table left out would be read and dropped.
+    assert [k for k in conf if k in params and k not in SAMPLING_OPTIONS] == []
+    assert [k for k in (*_NUCLEI, *_FLAGS) if k not in SAMPLING_OPTIONS] == []
+    args = _parse("--strike-in-reach-from", "2", "--player-accel-mps2", "6", "--ball-net")
+    for key, value in sampling_kwargs(args).items():
+        assert type(value) is SAMPLING_OPTIONS[key], key

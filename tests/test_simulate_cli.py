@@ -57,3 +57,31 @@ def test_report_written_by_default_and_can_be_turned_off(tmp_path, capsys):
     run_simulation(_cfg(tmp_path / "off", "seed=3", "report=false"))
     assert not (tmp_path / "off" / "report.html").exists()
     assert "report:" not in capsys.readouterr().out
+
+
+def test_the_learned_engine_forwards_each_sampling_option_of_the_config(tmp_path, monkeypatch):
+    """Every sampling key set in the config reaches the Simulator, of its kind, the rest left
+    to the model file; `top_p` sets both nuclei over their own."""
+    from sportsngen.sim.simulator import Simulator
+
+    seen = {}
+
+    class Stop(Exception):
+        pass
+
+    def load(path=None, **kw):
+        seen.update(kw, path=path)
+        raise Stop
+
+    monkeypatch.setattr(Simulator, "from_pretrained", staticmethod(load))
+    with pytest.raises(Stop):
+        run_simulation(_cfg(tmp_path, "engine=sportsngen", "top_p_ball=0.3",
+                            "player_keep_heading_deg=20", "strike_in_reach_from=2",
+                            "ball_net=false", "refresh_frames=8"))
+    assert seen == {"path": None, "top_p_ball": 0.3, "player_keep_heading_deg": 20.0,
+                    "strike_in_reach_from": 2, "ball_net": False, "refresh_frames": 8}
+    assert type(seen["player_keep_heading_deg"]) is float
+    seen.clear()
+    with pytest.raises(Stop):
+        run_simulation(_cfg(tmp_path, "engine=sportsngen", "top_p=0.5", "top_p_ball=0.3"))
+    assert seen == {"path": None, "top_p_player": 0.5, "top_p_ball": 0.5}

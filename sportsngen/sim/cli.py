@@ -123,55 +123,11 @@ def run_simulation(cfg: DictConfig) -> pd.DataFrame:
 
 def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFrame:
     """Play `cfg.n_matches` matches (batched together) with the learned engine."""
-    from sportsngen.sim.simulator import Simulator
+    from sportsngen.sim.simulator import SAMPLING_OPTIONS, Simulator
 
-    kw = {k: float(cfg[k]) for k in ("top_p_player", "top_p_ball") if cfg.get(k) is not None}
-    if cfg.get("top_p") is not None:
-        kw = {"top_p_player": float(cfg.top_p), "top_p_ball": float(cfg.top_p)}
-    if cfg.get("contact_odds") is not None:
-        kw["contact_odds"] = bool(cfg.contact_odds)
-    if cfg.get("strike_in_reach") is not None:
-        kw["strike_in_reach"] = bool(cfg.strike_in_reach)
-    if cfg.get("strike_in_reach_from") is not None:
-        kw["strike_in_reach_from"] = int(cfg.strike_in_reach_from)
-    if cfg.get("strike_in_reach_force") is not None:
-        kw["strike_in_reach_force"] = bool(cfg.strike_in_reach_force)
-    if cfg.get("strike_in_reach_m") is not None:
-        kw["strike_in_reach_m"] = float(cfg.strike_in_reach_m)
-    if cfg.get("ball_net") is not None:
-        kw["ball_net"] = bool(cfg.ball_net)
-    if cfg.get("contact_reach_m") is not None:
-        kw["contact_reach_m"] = float(cfg.contact_reach_m)
-    if cfg.get("strike_in_reach_return_m") is not None:
-        kw["strike_in_reach_return_m"] = float(cfg.strike_in_reach_return_m)
-    if cfg.get("return_reach_m") is not None:
-        kw["return_reach_m"] = float(cfg.return_reach_m)
-    if cfg.get("physical_bounce") is not None:
-        kw["physical_bounce"] = bool(cfg.physical_bounce)
-    if cfg.get("player_accel_mps2") is not None:
-        kw["player_accel_mps2"] = float(cfg.player_accel_mps2)
-    if cfg.get("player_accel_full_frac") is not None:
-        kw["player_accel_full_frac"] = float(cfg.player_accel_full_frac)
-    if cfg.get("player_keep_heading_deg") is not None:
-        kw["player_keep_heading_deg"] = float(cfg.player_keep_heading_deg)
-    if cfg.get("keep_chasing") is not None:
-        kw["keep_chasing"] = bool(cfg.keep_chasing)
-    if cfg.get("chase_high_balls") is not None:
-        kw["chase_high_balls"] = bool(cfg.chase_high_balls)
-    if cfg.get("return_reach_draw") is not None:
-        kw["return_reach_draw"] = bool(cfg.return_reach_draw)
-    if cfg.get("rally_reach_draw") is not None:
-        kw["rally_reach_draw"] = bool(cfg.rally_reach_draw)
-    if cfg.get("player_top_speed") is not None:
-        kw["player_top_speed"] = bool(cfg.player_top_speed)
-    if cfg.get("player_bin_quantiles") is not None:
-        kw["player_bin_quantiles"] = bool(cfg.player_bin_quantiles)
-    if cfg.get("top_p_contact") is not None:
-        kw["top_p_contact"] = float(cfg.top_p_contact)
-    if cfg.get("top_p_serve") is not None:
-        kw["top_p_serve"] = float(cfg.top_p_serve)
-    if cfg.get("refresh_frames") is not None:
-        kw["refresh_frames"] = int(cfg.refresh_frames)
+    kw = {k: kind(cfg[k]) for k, kind in SAMPLING_OPTIONS.items() if cfg.get(k) is not None}
+    if cfg.get("top_p") is not None:     # one nucleus for both, over their own
+        kw.update(top_p_player=float(cfg.top_p), top_p_ball=float(cfg.top_p))
     sim = Simulator.from_pretrained(cfg.get("model_file"), **kw)
     names = (str(cfg.player1), str(cfg.player2))
     results = sim.simulate_matches([names] * int(cfg.n_matches), str(cfg.surface), fmt=fmt,

@@ -37,6 +37,7 @@ its size kept; a turn wider than that, braking and a start from standing stay as
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import torch
 
@@ -51,7 +52,7 @@ FULL_ACCEL_FROM_FRAC = 0.9
 KEEP_HEADING_DEG = 30.0
 HEADING_FROM_MPS = 0.5
 # The player rules' parameters and their ranges, as (lowest, highest, highest allowed): the one
-# place the sampler, the `Simulator` and the command-line flags check them.
+# place they are checked, by `PlayerLimits` when made (the `Simulator`'s) and by the flags.
 PLAYER_RULE_RANGES = {"accel_mps2": (0.0, math.inf, False),
                       "full_from_frac": (0.0, 1.0, True),
                       "keep_heading_deg": (0.0, 180.0, False)}
@@ -84,22 +85,54 @@ def check_player_rules(names: dict[str, str] | None = None, **values: float | No
     return out
 
 
+@dataclass(frozen=True)
+class PlayerLimits:
+    """The rules every sampled player frame obeys, checked once when made (`check_player_rules`)
+    rather than on every frame: a velocity change of at most `accel_mps2`, one of at least
+    `full_from_frac` of it set to it (None: as drawn), a flat-out one within `keep_heading_deg`
+    of a running player's heading turned onto it (None: as drawn)."""
+
+    accel_mps2: float
+    full_from_frac: float | None = None
+    keep_heading_deg: float | None = None
+
+    def __post_init__(self) -> None:
+        checked = check_player_rules(accel_mps2=self.accel_mps2,
+                                     full_from_frac=self.full_from_frac,
+                                     keep_heading_deg=self.keep_heading_deg)
+        if checked["accel_mps2"] is None:
+            raise ArgumentError("accel_mps2 must be positive, got None (no limit: no PlayerLimits)")
+        for key, value in checked.items():
+            object.__setattr__(self, key, value)
+
+    @classmethod
+    def from_options(cls, accel_mps2: float | None, full_from_frac: float | None = None,
+                     keep_heading_deg: float | None = None,
+                     names: dict[str, str] | None = None) -> PlayerLimits | None:
+        """The limits of a caller's options, each checked under the caller's own name
+        (`names[key]`: a flag, a keyword) -> None where `accel_mps2` is None (the other two
+        act only on the limit, but are checked all the same)."""
+        checked = check_player_rules(names, accel_mps2=accel_mps2,
+                                     full_from_frac=full_from_frac,
+                                     keep_heading_deg=keep_heading_deg)
+        return None if checked["accel_mps2"] is None else cls(**checked)
+
+
 def limit_player_acceleration(next_pos_m: torch.Tensor, pos_m: torch.Tensor,
                               vel_mps: torch.Tensor, fps: float,
-                              max_accel_mps2: float,
-                              full_from_frac: float | None = None,
-                              keep_heading_deg: float | None = None) -> torch.Tensor:
+                              limits: PlayerLimits) -> torch.Tensor:
     """Sampled next frames `next_pos_m` (B, 3, 3) from positions `pos_m` with velocities
     `vel_mps` (B, 3, 3) -> the same frames with each player's horizontal velocity change
-    (next - pos) * fps - vel scaled down to at most `max_accel_mps2` / fps, its direction
-    kept; the ball and players within the limit unchanged. `full_from_frac` (0, 1]: a change
-    of at least this fraction of the limit is set to the limit (`FULL_ACCEL_FROM_FRAC`)."""
-    check_player_rules({"accel_mps2": "max_accel_mps2"}, accel_mps2=max_accel_mps2,
-                       full_from_frac=full_from_frac, keep_heading_deg=keep_heading_deg)
+    (next - pos) * fps - vel scaled down to at most `limits.accel_mps2` / fps, its direction
+    kept; the ball and players within the limit unchanged. With `limits.full_from_frac` a
+    change of at least that fraction of the limit is set to the limit (`FULL_ACCEL_FROM_FRAC`);
+    with `limits.keep_heading_deg` a flat-out change that near a running player's heading is
+    turned onto it."""
+    full_from_frac, keep_heading_deg = limits.full_from_frac, limits.keep_heading_deg
     step = next_pos_m[:, :BALL, :2] - pos_m[:, :BALL, :2]
     dv = step * fps - vel_mps[:, :BALL, :2]
     norm = dv.norm(dim=-1, keepdim=True)
-    limit = max_accel_mps2 / fps
+    limit = limits.accel_mps2 / fps
     over = norm > limit if full_from_frac is None else norm >= full_from_frac * limit
     scale = torch.where(over, limit / norm.clamp_min(1e-12), torch.ones_like(norm))
     dv = dv * scale

@@ -32,7 +32,7 @@ from sportsngen.data.tokens import BALL, object_features
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.model.receiver_start import receiver_waiting, wait_frames
 from sportsngen.sim.bounce import place_bounces
-from sportsngen.sim.kinematics import limit_player_acceleration, limit_player_speed
+from sportsngen.sim.kinematics import PlayerLimits, limit_player_acceleration, limit_player_speed
 from sportsngen.tennis.rally import awaiting_return
 
 MODES = ("cache", "recompute", "window")
@@ -132,11 +132,10 @@ class Constraint(Protocol):
 
 def redraw_rejected(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top_p_player,
                     top_p_ball, generator, contact_odds=False, top_p_contact=None,
-                    player_bias=None, player_accel_mps2=None, player_top_speed_mps=None,
-                    player_quantiles=None, player_accel_full_frac=None,
-                    player_keep_heading_deg=None):
+                    player_bias=None, player_limits=None, player_top_speed_mps=None,
+                    player_quantiles=None):
     """Resample the rows `constraint` rejects: up to its max_tries from the nucleus, then as
-    many from the whole distribution (each draw within `player_accel_mps2`, where given, and
+    many from the whole distribution (each draw within `player_limits`, where given, and
     every row's final frame within its players' `player_top_speed_mps` (B, 2), where given). ->
     (frames, redraws per live row, (B,) bool: the rows given up on whose ball the constraint
     wants struck anyway)."""
@@ -153,10 +152,9 @@ def redraw_rejected(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top
                                   1.0 if wide else top_p_contact,
                                   None if player_bias is None else player_bias[idx],
                                   player_quantiles)
-        if player_accel_mps2 is not None:
+        if player_limits is not None:
             again = limit_player_acceleration(again, pos[idx], vel[idx], model.cfg.fps,
-                                              player_accel_mps2, player_accel_full_frac,
-                                              player_keep_heading_deg)
+                                              player_limits)
         if player_top_speed_mps is not None:
             again = limit_player_speed(again, pos[idx], model.cfg.fps,
                                        player_top_speed_mps[idx])
@@ -290,12 +288,10 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             contact_odds: bool = False, top_p_contact: float | None = None,
             refresh_frames: int | None = None, top_p_serve: float = 1.0,
             bounce_surfaces: np.ndarray | None = None,
-            player_accel_mps2: float | None = None,
+            player_limits: PlayerLimits | None = None,
             player_top_speed_mps: np.ndarray | None = None,
             forced_pos_m: np.ndarray | None = None,
-            player_quantiles: torch.Tensor | None = None,
-            player_accel_full_frac: float | None = None,
-            player_keep_heading_deg: float | None = None) -> Rollout:
+            player_quantiles: torch.Tensor | None = None) -> Rollout:
     """Roll `inputs` forward until the tracker ends each rally or it has `max_frames` frames.
 
     The tracker sees every frame of every rally in order, the initial ones included, and
@@ -312,11 +308,10 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
     "window" mode's view at the cost of a window's pass a frame. `top_p_serve`: the serve head's
     nucleus, with one (`SportsNGEN.place_strikes`). `bounce_surfaces` (B,) surface names: the
     ball's bounces are the surface's physics, not the model's draw (`sim.bounce`).
-    `player_accel_mps2`: every sampled frame changes a player's velocity by at most this
-    acceleration (`sim.kinematics`), and one of at least `player_accel_full_frac` of it is
-    set to it (None: as drawn), and a flat-out one within `player_keep_heading_deg` of a
-    running player's heading is turned onto it; `player_top_speed_mps` (B, 2): the server's and the
-    receiver's top speed, which no frame of theirs exceeds (`sim.top_speed`).
+    `player_limits` (`sim.kinematics.PlayerLimits`): every sampled frame changes a player's
+    velocity by at most its acceleration, a change near it is set to it and a flat-out one near
+    a running player's heading is turned onto it; `player_top_speed_mps` (B, 2): the server's
+    and the receiver's top speed, which no frame of theirs exceeds (`sim.top_speed`).
     `forced_pos_m` (B, T, 3, 3), NaN where free: a player's finite position at frame n (counted
     as `init_pos_m`'s) replaces his sampled one, after every rule, so the others react to a
     track chosen by hand (an intervention: does the receiver read the server?). Players only:
@@ -382,9 +377,8 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             decoder with every rule applied -> (frames, their strike plans)."""
             nxt = model.sample_next(h, pos, vel, top_p_player, top_p_ball, generator, prev_vel,
                                     contact_odds, top_p_contact, p_bias, player_quantiles)
-            if player_accel_mps2 is not None:
-                nxt = limit_player_acceleration(nxt, pos, vel, fps, player_accel_mps2,
-                                                player_accel_full_frac, player_keep_heading_deg)
+            if player_limits is not None:
+                nxt = limit_player_acceleration(nxt, pos, vel, fps, player_limits)
             if top is not None:
                 nxt = limit_player_speed(nxt, pos, fps, top)
             forced = None
@@ -392,9 +386,8 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                 nxt, drawn, forced = redraw_rejected(model, constraint, rows, n, h, pos, vel,
                                                      prev_vel, nxt, top_p_player, top_p_ball,
                                                      generator, contact_odds, top_p_contact,
-                                                     p_bias, player_accel_mps2, top,
-                                                     player_quantiles, player_accel_full_frac,
-                                                     player_keep_heading_deg)
+                                                     p_bias, player_limits, top,
+                                                     player_quantiles)
                 resampled[rows] += drawn
                 if model.strike_head is not None:
                     forced_strikes[rows] += forced

@@ -49,7 +49,7 @@ from sportsngen.sim.constraints import (
 )
 from sportsngen.sim.events import frame_labels
 from sportsngen.sim.initial import InitialConditions
-from sportsngen.sim.kinematics import check_player_rules
+from sportsngen.sim.kinematics import PlayerLimits
 from sportsngen.sim.match import MatchResult, simulate_matches
 from sportsngen.sim.reach_table import ReachTable
 from sportsngen.sim.rollout import Constraint, RolloutInputs, rollout
@@ -63,6 +63,21 @@ BUNDLED_DIR = Path(__file__).resolve().parents[1] / "model" / "bundled"
 BUNDLED_NAMES = {"sportsngen-small": BUNDLED_DIR / "sportsngen-small.pt"}
 DEFAULT_MODEL = "sportsngen-small"
 TOURNAMENT = "synthetic"
+# The Simulator's sampling keywords and their types: what a config (`simulate.py`) or a command
+# line (`eval.sampling_options`) may set, each left out (None) for the model file's default.
+SAMPLING_OPTIONS: dict[str, type] = {
+    "top_p_player": float, "top_p_ball": float, "top_p_contact": float, "top_p_serve": float,
+    "contact_odds": bool, "strike_in_reach": bool, "strike_in_reach_from": int,
+    "strike_in_reach_force": bool, "strike_in_reach_m": float, "strike_in_reach_return_m": float,
+    "contact_reach_m": float, "return_reach_m": float, "ball_net": bool,
+    "physical_bounce": bool, "keep_chasing": bool, "chase_high_balls": bool,
+    "return_reach_draw": bool, "rally_reach_draw": bool, "player_top_speed": bool,
+    "player_bin_quantiles": bool, "player_accel_mps2": float, "player_accel_full_frac": float,
+    "player_keep_heading_deg": float, "refresh_frames": int}
+# The player rules' keywords, by which a bad value is named (`PlayerLimits.from_options`).
+PLAYER_LIMIT_NAMES = {"accel_mps2": "player_accel_mps2",
+                      "full_from_frac": "player_accel_full_frac",
+                      "keep_heading_deg": "player_keep_heading_deg"}
 MAX_POINTS = 100_000   # a call's rallies are held in memory (~75 KB each): more, in several calls
 
 
@@ -217,20 +232,14 @@ class Simulator:
                                 "strike's launch frames are: it needs a model with a strike "
                                 "or serve head")
         self.physical_bounce = bool(physical_bounce)
-        # A sampled frame changes a player's velocity by at most this acceleration
-        # (`sim.kinematics`; None: as drawn).
-        rules = check_player_rules(
-            {"accel_mps2": "player_accel_mps2", "full_from_frac": "player_accel_full_frac",
-             "keep_heading_deg": "player_keep_heading_deg"},
-            accel_mps2=player_accel_mps2, full_from_frac=player_accel_full_frac,
-            keep_heading_deg=player_keep_heading_deg)
-        self.player_accel_mps2 = rules["accel_mps2"]
-        # ... and a change of at least this fraction of it is flat out (`sim.kinematics`:
-        # the generator's players run at the limit or well short of it; None: as drawn) ...
-        self.player_accel_full_frac = rules["full_from_frac"]
-        # ... and a flat-out change within this angle of a running player's heading runs
-        # along it (`sim.kinematics`: the model's x and y draws turn him; None: as drawn).
-        self.player_keep_heading_deg = rules["keep_heading_deg"]
+        # A sampled frame changes a player's velocity by at most this acceleration, a change
+        # of at least this fraction of it is flat out (the generator's players run at the limit
+        # or well short of it), and a flat-out change within this angle of a running player's
+        # heading runs along it (the model's x and y draws turn him); `sim.kinematics`, None:
+        # as drawn. Checked here, once, under the keywords' names.
+        self.player_limits = PlayerLimits.from_options(
+            player_accel_mps2, player_accel_full_frac, player_keep_heading_deg,
+            names=PLAYER_LIMIT_NAMES)
         # Each serve's return reach (the contact limit's and the strike rule's) drawn from its
         # receiver's row of `return_reach` (`sim.reach_table`), and each rally ball's from the
         # row of the player due in `rally_reach`, where the file has the tables
@@ -251,6 +260,22 @@ class Simulator:
         # Raw rollout win probabilities -> observed frequencies, when the model file has one
         # (`scripts/rally_outcome_study.py --save-calibrator`).
         self.outcome_calibrator: LogisticCalibrator | IsotonicCalibrator | None = None
+
+    @property
+    def player_accel_mps2(self) -> float | None:
+        """The players' acceleration limit (m/s², `player_limits`; None: none)."""
+        return None if self.player_limits is None else self.player_limits.accel_mps2
+
+    @property
+    def player_accel_full_frac(self) -> float | None:
+        """The share of the limit from which a change is flat out (None: none, or no limit)."""
+        return None if self.player_limits is None else self.player_limits.full_from_frac
+
+    @property
+    def player_keep_heading_deg(self) -> float | None:
+        """The angle within which a flat-out change runs along the heading (None: none, or no
+        limit)."""
+        return None if self.player_limits is None else self.player_limits.keep_heading_deg
 
     @classmethod
     def from_pretrained(cls, path_or_name: str | Path | None = None, **kwargs) -> Simulator:
@@ -454,9 +479,7 @@ class Simulator:
                            refresh_frames=self.refresh_frames, top_p_serve=self.top_p_serve,
                            bounce_surfaces=part["surface"].astype(str).to_numpy()
                            if self.physical_bounce else None,
-                           player_accel_mps2=self.player_accel_mps2,
-                           player_accel_full_frac=self.player_accel_full_frac,
-                           player_keep_heading_deg=self.player_keep_heading_deg,
+                           player_limits=self.player_limits,
                            player_top_speed_mps=top,
                            forced_pos_m=rows(forced_pos_m, lo),
                            player_quantiles=self.player_quantiles_used())
