@@ -26,6 +26,7 @@ from sportsngen.data.tracking import RallyData
 from sportsngen.eval.__main__ import main
 from sportsngen.eval.leaks import (
     CONTACT_SPEED_COLUMNS,
+    FEATURE_RESOLUTION,
     HITTER_STRATA_COLUMNS,
     OPPONENT_STRATA_COLUMNS,
     PAIRS,
@@ -85,6 +86,43 @@ def test_weighted_auc_is_the_auc_of_repeated_samples():
         assert got[b] == pytest.approx(auc(np.repeat(pos, wp[b]), np.repeat(neg, wn[b])),
                                        abs=1e-12)
     assert np.isnan(weighted_auc(pos, neg, np.zeros((1, 7)), np.ones((1, 9)))[0])
+
+
+def test_values_within_the_tie_width_count_as_ties():
+    pos, neg = np.array([1.0, 2.0, 3.0]), np.array([2.004, 0.0])
+    one = (np.ones((1, 3)), np.ones((1, 2)))
+    # Exact: 2 < 2.004 -> 4 of 6 pairs; within 0.01 that pair ties -> 4.5 of 6.
+    assert weighted_auc(pos, neg, *one)[0] == pytest.approx(4 / 6)
+    assert weighted_auc(pos, neg, *one, tie_within=0.01)[0] == pytest.approx(4.5 / 6)
+    # Wide enough, everything ties; swapped classes read one minus the AUC.
+    assert weighted_auc(pos, neg, *one, tie_within=5.0)[0] == 0.5
+    rng = np.random.default_rng(1)
+    a, b = rng.normal(0, 1, 40), rng.normal(0.3, 1, 30)
+    wa, wb = np.ones((1, 40)), np.ones((1, 30))
+    assert weighted_auc(a, b, wa, wb, 0.2)[0] == pytest.approx(
+        1 - weighted_auc(b, a, wb, wa, 0.2)[0], abs=1e-12)
+    with pytest.raises(ValueError, match="tie_within must be >= 0"):
+        weighted_auc(pos, neg, *one, tie_within=-0.1)
+
+
+def test_a_difference_within_a_features_resolution_is_not_ranked():
+    """Hitters of errors 1 mm/s faster than those of balls in, in one stratum: exact
+    floats rank it (AUC 1), at the check's resolution it ties (0.5); half a metre a second
+    is ranked either way."""
+    key = ("error_vs_in", "hitter", "speed_mps")
+
+    def read(step_mps, **kw):
+        rows = [(i, 30, 40, i % 2, 2.0 + step_mps * (i % 2)) for i in range(40)]
+        return leak_auc(_table(rows), n_boot=0, **kw).set_index(
+            ["pair", "role", "feature"]).loc[key, "auc"]
+
+    assert read(0.001, resolution={}) == 1.0
+    assert FEATURE_RESOLUTION["speed_mps"] > 0.001 and read(0.001) == 0.5
+    assert read(0.5) == read(0.5, resolution={}) == 1.0
+    with pytest.raises(ValueError, match="resolution"):
+        read(0.001, resolution={"jerk": 1.0})
+    with pytest.raises(ValueError, match="resolution"):
+        read(0.001, resolution={"speed_mps": -0.01})
 
 
 def _table(rows) -> pd.DataFrame:

@@ -56,7 +56,9 @@ of his reach (more often an ace), a receiver who had read a wide serve by the si
 and sprinted (more often an ace). ``stratify=False`` gives the raw AUC; ``diff_within`` says
 how large a difference an AUC ranks (m/s, m/s^2): a rank statistic can put 4 mm/s between
 receivers all near their top acceleration outside the band (0.63 in the bundled model's serve
-branches, where version 5's frozen players differ by 1-3 m/s).
+branches, where version 5's frozen players differ by 1-3 m/s). So two values within a
+feature's `FEATURE_RESOLUTION` (1 cm/s, 0.05 m/s^2) tie: a difference a player's legs cannot
+turn into an outcome is not ranked (``resolution={}`` gives the exact floats' AUC).
 
 The seen flight, reach and pace are defined in `sportsngen.eval.seen`.
 
@@ -122,6 +124,14 @@ CONTACT_PHASE_BINS = (-0.25, 0.0, 0.25)
 # it by more than the band's half-width (0.1). At 800 generated points the receiver's
 # acceleration 12 frames before a fault rested on 2 pairs and read 0.000.
 MIN_READ_PAIRS = 10
+# Two values of a feature this close tie in the AUC (`leak_auc`). On exact floats a rank statistic
+# ranks differences no tracking resolves and no outcome follows from: seed 1's branch receivers
+# into aces, 6 frames on, read 0.620 [0.568, 0.670] on a difference of 1.9 mm/s (0.564 and
+# -0.2 mm/s with other rollout draws), 0.531 with speeds tied within 1 cm/s. The acceleration's
+# is the widest that keeps a lean the rules then fixed (the seventy-seventh part's own-serve
+# receiver into aces, 0.372 exact): 0.381 at 0.05 m/s^2, 0.431 at 0.25 (docs/evaluation.md,
+# eightieth part).
+FEATURE_RESOLUTION = {"speed_mps": 0.01, "acc_mps2": 0.05}
 LABEL_TOL_FRAMES = 1  # a labelled contact and the rules' detected one differ by at most this
 _BOOT_CELLS = 4_000_000  # replicate x contact weights held at once
 
@@ -323,18 +333,23 @@ def contact_kinematics(data: RallyData, ks=DEFAULT_KS) -> pd.DataFrame:
 
 
 def weighted_auc(pos: np.ndarray, neg: np.ndarray, w_pos: np.ndarray,
-                 w_neg: np.ndarray) -> np.ndarray:
+                 w_neg: np.ndarray, tie_within: float = 0.0) -> np.ndarray:
     """Mann-Whitney AUC, P(pos > neg) + 0.5 P(pos == neg), with weights: `pos` (P,), `neg`
     (N,), `w_pos` (B, P), `w_neg` (B, N) -> (B,); NaN where a class has zero weight. Exact
-    (one sort and cumulative sums; integer weights give the AUC of the repeated samples)."""
-    num, den = _pair_counts(pos, neg, w_pos, w_neg)
+    (one sort and cumulative sums; integer weights give the AUC of the repeated samples).
+    `tie_within` >= 0: values that close count as equal, P(pos > neg + t) + 0.5
+    P(|pos - neg| <= t) (still 1 minus the AUC with the classes swapped)."""
+    num, den = _pair_counts(pos, neg, w_pos, w_neg, tie_within)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(den > 0, num / den, np.nan)
 
 
 def _pair_counts(pos: np.ndarray, neg: np.ndarray, w_pos: np.ndarray,
-                 w_neg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(weighted pairs with pos > neg plus half the ties, weighted pairs), each (B,)."""
+                 w_neg: np.ndarray, tie_within: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """(weighted pairs with pos > neg plus half the ties, weighted pairs), each (B,); a pair
+    within `tie_within` of each other is a tie."""
+    if not tie_within >= 0:
+        raise ValueError(f"tie_within must be >= 0, got {tie_within}")
     if pos.size == 0 or neg.size == 0:
         zero = np.zeros(w_pos.shape[0])
         return zero, zero
@@ -342,21 +357,21 @@ def _pair_counts(pos: np.ndarray, neg: np.ndarray, w_pos: np.ndarray,
     neg_sorted = neg[order]
     cum = np.concatenate([np.zeros((w_neg.shape[0], 1)), np.cumsum(w_neg[:, order], axis=1)],
                          axis=1)
-    lo = np.searchsorted(neg_sorted, pos, side="left")
-    hi = np.searchsorted(neg_sorted, pos, side="right")
+    lo = np.searchsorted(neg_sorted, pos - tie_within, side="left")
+    hi = np.searchsorted(neg_sorted, pos + tie_within, side="right")
     below, ties = cum[:, lo], cum[:, hi] - cum[:, lo]
     return (w_pos * (below + 0.5 * ties)).sum(axis=1), w_pos.sum(axis=1) * cum[:, -1]
 
 
 def stratified_auc(pos: np.ndarray, neg: np.ndarray, w_pos: np.ndarray, w_neg: np.ndarray,
-                   s_pos: np.ndarray, s_neg: np.ndarray) -> np.ndarray:
+                   s_pos: np.ndarray, s_neg: np.ndarray, tie_within: float = 0.0) -> np.ndarray:
     """`weighted_auc` counting only pairs within a stratum (`s_pos` (P,) and `s_neg` (N,)
     integer stratum codes): the strata's AUCs pooled by their (weighted) numbers of pairs."""
     num = np.zeros(w_pos.shape[0])
     den = np.zeros(w_pos.shape[0])
     for code in np.intersect1d(s_pos, s_neg):
         mp, mn = s_pos == code, s_neg == code
-        n, d = _pair_counts(pos[mp], neg[mn], w_pos[:, mp], w_neg[:, mn])
+        n, d = _pair_counts(pos[mp], neg[mn], w_pos[:, mp], w_neg[:, mn], tie_within)
         num += n
         den += d
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -410,15 +425,23 @@ def _strata(sub: pd.DataFrame, role: str) -> np.ndarray:
 
 
 def leak_auc(kin: pd.DataFrame, n_boot: int = 1000, seed: int = 0, level: float = 0.95,
-             stratify: bool = True) -> pd.DataFrame:
+             stratify: bool = True, resolution: dict[str, float] | None = None
+             ) -> pd.DataFrame:
     """AUC per (pair, role, k, feature) of a `contact_kinematics` table (rows whose at_frame is
     not before the pair's visible frame left out; NaN features dropped), stratified (module
     doc) unless `stratify` is False, with `level` bootstrap percentile intervals from `n_boot`
     resamples of whole rallies (all the contacts of a rally share its weight, so shots of one
     rally are not taken as independent; n_pos and n_neg vary between replicates). ``n_pairs``
     counts the (positive, negative) pairs within a stratum, what the AUC rests on;
-    ``diff_within`` is the size of what it ranks (`stratified_difference`). The
-    generator is seeded per (seed, pair, k): fixed results."""
+    ``diff_within`` is the size of what it ranks (`stratified_difference`). Two values of a
+    feature within its `resolution` (feature -> units; None: `FEATURE_RESOLUTION`, {}: exact)
+    tie. The generator is seeded per (seed, pair, k): fixed results."""
+    resolution = FEATURE_RESOLUTION if resolution is None else resolution
+    unknown = sorted(set(resolution) - set(FEATURES))
+    if unknown or any(not v >= 0 for v in resolution.values()):
+        raise ValueError(f"resolution: features {list(FEATURES)} to sizes >= 0, got "
+                         f"{resolution}")
+    tie = [float(resolution.get(col.split("_", 1)[1], 0.0)) for col in FEATURE_COLUMNS]
     need = TABLE_COLUMNS + ((STRATA_COLUMNS + OPPONENT_STRATA_COLUMNS + HITTER_STRATA_COLUMNS
                              + CONTACT_SPEED_COLUMNS) if stratify else ())
     missing = [col for col in need if col not in kin.columns]
@@ -451,7 +474,7 @@ def leak_auc(kin: pd.DataFrame, n_boot: int = 1000, seed: int = 0, level: float 
                 for j, (mp, mn) in enumerate(masks):
                     cj = codes[roles[j]]
                     boot[j, b0:b0 + nb] = stratified_auc(x[mp, j], x[mn, j], w[:, mp],
-                                                         w[:, mn], cj[mp], cj[mn])
+                                                         w[:, mn], cj[mp], cj[mn], tie[j])
             for j, col in enumerate(FEATURE_COLUMNS):
                 role, feature = col.split("_", 1)
                 mp, mn = masks[j]
@@ -459,7 +482,7 @@ def leak_auc(kin: pd.DataFrame, n_boot: int = 1000, seed: int = 0, level: float 
                 finite = np.isfinite(boot[j])
                 lo, hi = np.percentile(boot[j, finite], q) if finite.any() else (np.nan,) * 2
                 point = stratified_auc(x[mp, j], x[mn, j], np.ones((1, mp.sum())),
-                                       np.ones((1, mn.sum())), cj[mp], cj[mn])[0]
+                                       np.ones((1, mn.sum())), cj[mp], cj[mn], tie[j])[0]
                 out.append({"pair": pair, "role": role, "feature": feature, "k": k,
                             "auc": float(point), "lo": lo, "hi": hi,
                             "n_pos": int(mp.sum()), "n_neg": int(mn.sum()),
@@ -472,9 +495,11 @@ def leak_auc(kin: pd.DataFrame, n_boot: int = 1000, seed: int = 0, level: float 
 
 
 def check_leaks(data: RallyData, ks=DEFAULT_KS, n_boot: int = 1000, seed: int = 0,
-                stratify: bool = True) -> pd.DataFrame:
+                stratify: bool = True, resolution: dict[str, float] | None = None
+                ) -> pd.DataFrame:
     """`leak_auc` of `contact_kinematics`: the whole check on one `RallyData`."""
-    return leak_auc(contact_kinematics(data, ks), n_boot=n_boot, seed=seed, stratify=stratify)
+    return leak_auc(contact_kinematics(data, ks), n_boot=n_boot, seed=seed, stratify=stratify,
+                    resolution=resolution)
 
 
 def outside_band(table: pd.DataFrame, band=(0.4, 0.6),
