@@ -155,13 +155,20 @@ def _report(points: pd.DataFrame, base: float, model_file: str, wall: float, n_r
     rows = {name: {"ece": expected_calibration_error(p, y), "brier": brier_score(p, y)}
             for name, p in preds.items()}
     floor = ece_if_calibrated(p_model, ok["n"].to_numpy(), seed=args.seed)
-    source = (f"branch points read from {', '.join(map(str, args.from_points))}"
-              if args.from_points is not None
-              else f"{args.n} rollouts each, {wall:.0f} s")
+    shared = ece_if_calibrated(p_model, ok["n"].to_numpy(), seed=args.seed,
+                               groups=ok["rally_id"].to_numpy())
+    raw = rows["SportsNGEN rollouts"]["ece"]
+    if args.from_points is not None:
+        source = f"branch points read from {', '.join(map(str, args.from_points))}"
+        command = (f"`python scripts/rally_outcome_study.py --from-points "
+                   f"{' '.join(map(str, args.from_points))} --kernel-n {args.kernel_n}`")
+    else:
+        source = f"{args.n} rollouts each, {wall:.0f} s"
+        command = (f"`python scripts/rally_outcome_study.py --rallies {args.rallies} --n "
+                   f"{args.n} --seed {args.seed} --chunk-items {args.chunk_items}` "
+                   f"({args.workers} process(es))")
     lines = ["# Rally outcome prediction", "",
-             f"`python scripts/rally_outcome_study.py --rallies {args.rallies} --n {args.n} "
-             f"--seed {args.seed} --chunk-items {args.chunk_items}` ({args.workers} "
-             f"process(es)): {len(points)} branch points ({len(ok)} with at least one "
+             f"{command}: {len(points)} branch points ({len(ok)} with at least one "
              f"realistic decided rollout) of {n_rallies} held-out synthetic rallies "
              f"(Federer v Nadal, hard), {source}. Every row is over all {len(ok)}; a "
              f"recalibrated row maps each half of the rallies by a map fitted on the other.",
@@ -169,12 +176,16 @@ def _report(points: pd.DataFrame, base: float, model_file: str, wall: float, n_r
     for name, v in rows.items():
         lines.append(f"| {name} | {v['ece']:.3f} | {v['brier']:.3f} |")
     lines += ["", f"Mean realistic decided rollouts per branch point: "
-              f"{points['n'].mean():.1f} of {args.n}; mean prediction "
+              f"{points['n'].mean():.1f} of {points['n'].max():.0f}; mean prediction "
               f"{p_model.mean():.3f}, server's share won {y.mean():.3f}. The ECE a perfectly "
               f"calibrated simulator would score with this design (`ece_if_calibrated`: the "
-              f"rollouts' shares taken as the truth, {args.n} rollouts a point; a lower bound, "
-              f"since a rally's branch points share its outcome), mean (90th percentile): "
-              f"{floor.mean():.3f} ({np.percentile(floor, 90):.3f}).",
+              f"rollouts' shares taken as the truth, each point's rollouts redrawn), mean (90th "
+              f"percentile): outcomes drawn apart {floor.mean():.3f} "
+              f"({np.percentile(floor, 90):.3f}); a rally's branch points drawing from one "
+              f"shared number, as they share its outcome, {shared.mean():.3f} "
+              f"({np.percentile(shared, 90):.3f}). Such a simulator scores the raw "
+              f"{raw:.3f} or more in {(shared >= raw).mean():.0%} of samples like this one "
+              f"(drawn apart: {(floor >= raw).mean():.0%}).",
               *_reference_lines(points), "", "![reliability](reliability.png)"]
     cal = fit_calibrator(args.calibrator, p_model, y)
     args.out.mkdir(parents=True, exist_ok=True)
@@ -183,7 +194,10 @@ def _report(points: pd.DataFrame, base: float, model_file: str, wall: float, n_r
         {"metrics": rows, "n_items": len(points), "n_ok": len(ok), "wall_s": wall,
          "calibrator": cal.to_dict(), "mean_ok_rollouts": float(points["n"].mean()),
          "base_rate": base, "ece_if_calibrated": {"mean": float(floor.mean()),
-                                                  "p90": float(np.percentile(floor, 90))}},
+                                                  "p90": float(np.percentile(floor, 90))},
+         "ece_if_calibrated_shared": {"mean": float(shared.mean()),
+                                      "p90": float(np.percentile(shared, 90)),
+                                      "share_at_or_above_raw": float((shared >= raw).mean())}},
         indent=2))
     if args.from_points is None or (args.out / "branch_points.csv").resolve() not in \
             [f.resolve() for f in args.from_points]:
@@ -191,7 +205,7 @@ def _report(points: pd.DataFrame, base: float, model_file: str, wall: float, n_r
     print("\n".join(lines))
     plot_reliability(preds, y, args.out / "reliability.png",
                      title=f"{len(ok)} branch points of {n_rallies} held-out rallies, "
-                           f"{args.n} rollouts each")
+                           f"up to {points['n'].max():.0f} rollouts each")
     if args.save_calibrator:
         from sportsngen.model.export import update_extra
 
@@ -224,19 +238,25 @@ def _reference_lines(points: pd.DataFrame) -> list[str]:
             if col in points:
                 g = paired_reference_gaps(points, pred=col, reference="p_truth").loc["all"]
                 lines.append(f"| {name} | {g['gap']:+.3f} | {g['se']:.3f} |")
+        rated = points[points["p"].notna() & points["p_truth"].notna()]
+        ours, theirs = _eces_beside(rated, "p_truth")
+        lines += ["", f"The truth's rates as a predictor, right on average by construction "
+                  f"but blind to the rally's state, score ECE {theirs:.3f} on these "
+                  f"{len(rated)} points (the rollouts {ours:.3f}): how far this sample's "
+                  f"outcomes stray from their rates, whatever the model."]
     if "p_kernel" not in points:
         return lines
     both = points[points["p"].notna() & points["p_kernel"].notna()]
     live = both[~both["decided"].astype(bool)]
     y = both["server_won"].to_numpy()
+    ours, theirs = _eces_beside(both, "p_kernel")
     lines += ["", f"**Beside the generator's players** (`sportsngen.eval.expert_outcomes`: "
              f"the kernel played on from each branch point's hand-over state, its plays still "
              f"going at the branch frame; a branch frame after the point's end is decided). "
              f"On the {len(both)} branch points it answers ({int(both['decided'].sum())} "
-             f"decided): ECE / Brier of the rollouts "
-             f"{expected_calibration_error(both['p'].to_numpy(), y):.3f} / "
+             f"decided): ECE / Brier of the rollouts {ours:.3f} / "
              f"{brier_score(both['p'].to_numpy(), y):.3f}, of the generator's players "
-             f"{expected_calibration_error(both['p_kernel'].to_numpy(), y):.3f} / "
+             f"{theirs:.3f} / "
              f"{brier_score(both['p_kernel'].to_numpy(), y):.3f} (a calibrated predictor on "
              f"this sample, less sharp). Rollouts less the generator's players on the "
              f"{len(live)} undecided points (standard error clustered by rally):", "",
@@ -251,6 +271,13 @@ def _reference_lines(points: pd.DataFrame) -> list[str]:
             lines.append(f"| {name} | {int(r['n'])} | {r['pred']:.3f} | {r['reference']:.3f} "
                          f"| {r['outcome']:.3f} | {r['gap']:+.3f} | {r['se']:.3f} |")
     return lines
+
+
+def _eces_beside(rows: pd.DataFrame, reference: str) -> tuple[float, float]:
+    """ECE of the rollouts and of a reference predictor column on the same rows."""
+    y = rows["server_won"].to_numpy()
+    return (expected_calibration_error(rows["p"].to_numpy(), y),
+            expected_calibration_error(rows[reference].to_numpy(), y))
 
 
 def _markov(server: str, receiver: str, serve_number: int) -> float:

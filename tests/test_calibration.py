@@ -122,6 +122,64 @@ def test_ece_if_calibrated_is_zero_for_certain_predictions_and_grows_with_fewer_
         ece_if_calibrated([0.5], 0)
 
 
+def test_ece_if_calibrated_groups_share_one_draw():
+    rng = np.random.default_rng(3)
+    spread = rng.beta(2, 1, 300)
+    # one label a point, in point order: the same uniform numbers, so the same draws
+    apart = ece_if_calibrated(spread, 16, n_boot=50, seed=4)
+    singles = ece_if_calibrated(spread, 16, n_boot=50, seed=4, groups=np.arange(300))
+    np.testing.assert_array_equal(apart, singles)
+    # one group of equal predictions: every outcome agrees, so the ECE is 0.7 (all won, with
+    # probability 0.3) or 0.3 (all lost), never the small value of 300 coins drawn apart
+    one = ece_if_calibrated(np.full(300, 0.3), 10**9, n_boot=2000, seed=5,
+                            groups=np.zeros(300))
+    assert np.all(np.isclose(one, 0.7, atol=1e-3) | np.isclose(one, 0.3, atol=1e-3))
+    assert np.isclose(one, 0.7, atol=1e-3).mean() == pytest.approx(0.3, abs=0.03)
+    free = ece_if_calibrated(np.full(300, 0.3), 10**9, n_boot=200, seed=5)
+    assert free.max() < 0.15
+    # rallies of four that share their outcome spread the floor wider than points apart
+    rallies = np.repeat(np.arange(75), 4)
+    shared = ece_if_calibrated(spread, 32, n_boot=300, seed=6, groups=rallies)
+    assert np.percentile(shared, 90) > np.percentile(
+        ece_if_calibrated(spread, 32, n_boot=300, seed=6), 90)
+    with pytest.raises(ValueError, match="one label a prediction"):
+        ece_if_calibrated(spread, 16, groups=np.zeros(5))
+
+
+def _brownian_rallies(rng, n_rallies=200, times=(1.0, 2.0, 3.0, 4.0), end=5.0):
+    """Rallies whose truth is known: a Brownian state, the server winning if it ends above
+    zero, and at each branch time the exact probability of that (a calibrated predictor whose
+    branch points share their rally's outcome)."""
+    from scipy.stats import norm
+
+    t = np.asarray(times)
+    drift = 0.35 * np.sqrt(end)
+    steps = rng.normal(0.0, 1.0, (n_rallies, len(t) + 1)) * np.sqrt(np.diff(np.r_[0, t, end]))
+    x = np.cumsum(steps, axis=1)
+    won = np.repeat((x[:, -1] + drift > 0).astype(float), len(t))
+    return norm.cdf((x[:, :-1] + drift) / np.sqrt(end - t)).ravel(), won
+
+
+def test_shared_draws_match_the_spread_of_rallies_that_share_their_outcome():
+    # The ECE a calibrated predictor really scores when 4 branch points share each of 200
+    # rallies' outcomes, against what the two nulls say from its predictions alone: drawn
+    # apart, the floor is too low; one shared number a rally comes near (in s99: true mean
+    # 0.042, shared 0.041, apart 0.036 over 300 samples).
+    rng = np.random.default_rng(0)
+    true, apart, shared = [], [], []
+    for b in range(120):
+        p, won = _brownian_rallies(rng)
+        share = rng.binomial(32, p) / 32
+        true.append(expected_calibration_error(share, won))
+        if b < 12:
+            rallies = np.repeat(np.arange(200), 4)
+            apart.append(ece_if_calibrated(share, 32, n_boot=60, seed=b))
+            shared.append(ece_if_calibrated(share, 32, n_boot=60, seed=b, groups=rallies))
+    true_mean, apart_mean, shared_mean = np.mean(true), np.mean(apart), np.mean(shared)
+    assert abs(shared_mean - true_mean) < 0.003
+    assert apart_mean < true_mean - 0.004
+
+
 def _logit(p):
     return np.log(p / (1 - p))
 

@@ -400,3 +400,32 @@ def test_contact_calibration_sums_the_odds_it_is_given(tiny_model_file, monkeypa
     tokens = sum(int(w["has_next"].sum()) for w in windows)
     assert cal["ratio"] == pytest.approx(0.5 * tokens / cal["contacts"], rel=1e-6)
     assert cal["early_contacts"] < cal["contacts"]
+
+
+def test_diagnose_exact_leaks_reaches_the_leak_check(monkeypatch):
+    """`--exact-leaks` sets `DiagnosticsSetup.leak_exact`, whose resolution ({}: exact floats)
+    the rollouts' leak check gets; by default None, the check's own resolution."""
+    from sportsngen.eval import __main__ as cli
+
+    assert diagnostics.DiagnosticsSetup().leak_resolution is None
+    assert diagnostics.DiagnosticsSetup(leak_exact=True).leak_resolution == {}
+    got = {}
+
+    def fake_table(args, name, compute, notes=None, **setup_kw):
+        got.update(setup_kw)
+        return 0
+
+    monkeypatch.setattr(cli, "_run_model_table", fake_table)
+    assert cli.main(["diagnose", "--exact-leaks"]) == 0
+    assert got == {"leak_boot": 200, "leak_exact": True}
+    assert cli.main(["diagnose", "--boot", "7"]) == 0
+    assert got == {"leak_boot": 7, "leak_exact": False}
+    seen = []
+    monkeypatch.setattr(diagnostics, "check_leaks",
+                        lambda data, **kw: seen.append(kw["resolution"]) or pd.DataFrame(
+                            columns=["pair", "role", "feature", "k", "auc", "n_pairs", "lo",
+                                     "hi"]))
+    record = pd.DataFrame(columns=["pair", "role", "feature", "k", "auc", "n_pairs"])
+    for exact in (True, False):
+        diagnostics.leak_table_rows(None, record, diagnostics.DiagnosticsSetup(leak_exact=exact))
+    assert seen == [{}, None]

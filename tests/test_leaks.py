@@ -656,3 +656,22 @@ def test_generator_v6_does_not_leak():
     worst = v5.loc[v5["auc"] < 0.15, key].merge(enough, on=key)
     assert len(worst) >= 8
     assert (worst["auc"] >= 0.4).all(), worst[key + ["auc"]]
+
+
+def test_cli_exact_ranks_floats(clean, tmp_path, monkeypatch):
+    """`--exact` hands `check_leaks` an empty resolution (exact floats); without it, None
+    (the default `FEATURE_RESOLUTION`)."""
+    import sportsngen.eval.leaks as leaks_module
+
+    clean.save(tmp_path / "clean")
+    seen = []
+    real = leaks_module.check_leaks
+
+    def spy(data, **kw):
+        seen.append(kw["resolution"])
+        return real(data, **kw)
+
+    monkeypatch.setattr(leaks_module, "check_leaks", spy)
+    assert main(["leaks", str(tmp_path / "clean"), "--boot", "0", "--exact"]) == 0
+    assert main(["leaks", str(tmp_path / "clean"), "--boot", "0"]) == 0
+    assert seen == [{}, None]

@@ -4,8 +4,9 @@
     python -m sportsngen.eval report --sim FOLDER --ref-synthetic "Roger Federer,Rafael Nadal" \\
         [--surface hard] [--points N] [--seed 0] [--real-year 2011 | --no-real] --out DIR
     python -m sportsngen.eval leaks FOLDER [--k 6 12] [--boot N] [--seed S] [--csv PATH] \\
-        [--band 0.4 0.6] [--min-pairs 10] [--fail-on outside|sure] [--paths]
+        [--band 0.4 0.6] [--min-pairs 10] [--fail-on outside|sure] [--paths] [--exact]
     python -m sportsngen.eval diagnose [--model PATH] [--points 400] [--seed 0] [--csv PATH]
+        [--exact-leaks]
         [--top-p-ball P] [--[no-]contact-odds] [--top-p-contact P] [--[no-]strike-in-reach]
         [--strike-in-reach-from N] [--[no-]strike-in-reach-force] [--top-p-serve P]
     python -m sportsngen.eval strikes [--model PATH] [--points 800] [--shots 1 2 3 4 5]
@@ -151,7 +152,7 @@ def run_leaks(args: argparse.Namespace) -> int:
     data = load_tracking(args.folder, "leaks")
     try:
         table = check_leaks(data, ks=args.k, n_boot=args.boot, seed=args.seed,
-                            stratify=not args.raw)
+                            stratify=not args.raw, resolution={} if args.exact else None)
     except ValueError as exc:
         raise UsageError(f"leaks: {args.folder}: {exc}") from exc
     print(render_leaks(table, (lo, hi), args.min_pairs))
@@ -236,7 +237,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
     advice = leak_rows_advice(args.points)
     return _run_model_table(args, "diagnose", run_diagnostics,
                             notes=lambda t: (leak_rows_summary(t),) + ((advice,) if advice else ()),
-                            leak_boot=args.boot)
+                            leak_boot=args.boot, leak_exact=args.exact_leaks)
 
 
 def run_strikes(args: argparse.Namespace) -> int:
@@ -468,6 +469,10 @@ def build_parser() -> argparse.ArgumentParser:
                             "serve number, direction, depth, speed, the seen flight and, for "
                             "the opponent, how far aside it passes him, for the hitter, how "
                             "fast and how far across he saw it go)")
+    leaks.add_argument("--exact", action="store_true",
+                       help="rank speeds and accelerations as exact floats, as recorded before "
+                            "the check's resolution (default: ties within "
+                            "sportsngen.eval.leaks.FEATURE_RESOLUTION)")
     leaks.add_argument("--paths", action="store_true",
                        help="also the path-matched check of faults: is the movement before a "
                             "fault explained by the ball's path and the player's position?")
@@ -499,6 +504,10 @@ def build_parser() -> argparse.ArgumentParser:
     diag.add_argument("--points", type=int, default=400,
                       help="ground-truth points generated to branch from (default 400)")
     diag.add_argument("--boot", type=int, default=200, help="bootstrap resamples of the leaks")
+    diag.add_argument("--exact-leaks", action="store_true",
+                      help="rank the leak rows' speeds and accelerations as exact floats, as "
+                           "recorded before the check's resolution (default: ties within "
+                           "sportsngen.eval.leaks.FEATURE_RESOLUTION)")
     strikes = sub.add_parser("strikes", parents=[model_opts],
                              help="the model strikes recorded approaches, shot by shot: shares "
                                   "struck and in play by hitter, beside the record")

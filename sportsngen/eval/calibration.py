@@ -55,7 +55,7 @@ def brier_score(pred, outcome) -> float:
 
 
 def ece_if_calibrated(pred, n_rollouts, n_boot: int = 500, seed: int = 0,
-                      n_bins: int = 10) -> np.ndarray:
+                      n_bins: int = 10, groups=None) -> np.ndarray:
     """ECE a perfectly calibrated simulator would show with this design: `n_boot` draws.
 
     A rollout probability is a share of `n_rollouts` (a scalar or one count a prediction)
@@ -63,11 +63,16 @@ def ece_if_calibrated(pred, n_rollouts, n_boot: int = 500, seed: int = 0,
     bins' observed frequencies are noisy, and so are the shares that sort the predictions into
     bins. Each draw takes the predictions as the true probabilities, redraws every share from
     its binomial and every outcome from its probability, and computes the ECE: the spread of
-    values a right model would score. The branch points of one rally share its outcome, which
-    widens that spread further, so this is a lower bound of the design's noise floor. With
-    predictions spread like the bundled model's, 16 rollouts and 800 independent branch
-    points give a mean of about 0.049; 32 rollouts about 0.039 (docs/evaluation.md,
-    twenty-second part).
+    values a right model would score. With predictions spread like the bundled model's, 16
+    rollouts and 800 independent branch points give a mean of about 0.049; 32 rollouts about
+    0.039 (docs/evaluation.md, twenty-second part).
+
+    The branch points of one rally share its outcome, which widens that spread. Without
+    `groups` every outcome is drawn apart (a lower bound of the noise floor). With `groups`
+    (one label a prediction, e.g. the rally id) the predictions of a group draw their outcomes
+    from one shared uniform number: each stays right on its own (outcome = 1 with probability
+    p) and a group's outcomes agree as far as their probabilities allow, the most a fixed set
+    of probabilities lets them agree (docs/evaluation.md, eighty-first part).
     """
     p = np.asarray(pred, dtype=float)
     _check(p, np.zeros(p.shape))
@@ -76,12 +81,19 @@ def ece_if_calibrated(pred, n_rollouts, n_boot: int = 500, seed: int = 0,
         raise ValueError("every prediction needs at least one rollout")
     if n_boot < 1:
         raise ValueError(f"n_boot must be >= 1, got {n_boot}")
+    codes = None
+    if groups is not None:
+        labels = np.asarray(groups).ravel()
+        if labels.shape != p.shape:
+            raise ValueError(f"groups needs one label a prediction: {labels.shape} against "
+                             f"{p.shape}")
+        codes = np.unique(labels, return_inverse=True)[1].ravel()
     rng = np.random.default_rng(seed)
     out = np.empty(n_boot)
     for b in range(n_boot):
         share = rng.binomial(n, p) / n
-        outcome = (rng.random(p.shape) < p).astype(float)
-        out[b] = expected_calibration_error(share, outcome, n_bins)
+        u = rng.random(p.shape) if codes is None else rng.random(codes.max() + 1)[codes]
+        out[b] = expected_calibration_error(share, (u < p).astype(float), n_bins)
     return out
 
 

@@ -133,6 +133,13 @@ class DiagnosticsSetup:
     n_points: int = 400
     seed: int = 0
     leak_boot: int = 200
+    leak_exact: bool = False  # rank speeds and accelerations as exact floats (before s98)
+
+    @property
+    def leak_resolution(self) -> dict[str, float] | None:
+        """`check_leaks`'s resolution: None for its default (`leaks.FEATURE_RESOLUTION`),
+        {} for exact floats, the readings recorded before the resolution existed."""
+        return {} if self.leak_exact else None
 
 
 def truth_points(setup: DiagnosticsSetup) -> RallyData:
@@ -458,7 +465,8 @@ def leak_table_rows(rollouts: RallyData, record: pd.DataFrame, setup: Diagnostic
     """The serve pairs' leak cells of `rollouts` (serve outcomes from the rules) as rows of the
     diagnostics table, each beside the record's cell (`truth_leak_aucs`); cells on fewer than
     `MIN_LEAK_PAIRS` pairs blank."""
-    leaks = check_leaks(rollouts, n_boot=setup.leak_boot, seed=setup.seed)
+    leaks = check_leaks(rollouts, n_boot=setup.leak_boot, seed=setup.seed,
+                        resolution=setup.leak_resolution)
     leaks = leaks[leaks["pair"].isin(SERVE_PAIRS)]
     few = leaks["n_pairs"] < MIN_LEAK_PAIRS
     return pd.DataFrame({
@@ -607,7 +615,7 @@ def run_diagnostics(sim, setup: DiagnosticsSetup = DiagnosticsSetup()) -> pd.Dat
                              "n": int(stopped["n_pairs"]), "lo": stopped["lo"],
                              "hi": stopped["hi"]}])
     table = pd.concat([table.iloc[:1], gap_row, table.iloc[1:]], ignore_index=True)
-    record = check_leaks(truth, n_boot=0)
+    record = check_leaks(truth, n_boot=0, resolution=setup.leak_resolution)
     leak_rows = [leak_table_rows(with_rules_serve_outcomes(branches, branch_out), record, setup),
                  leak_table_rows(with_rules_serve_outcomes(own, own_out), record, setup,
                                  " (own serves)")]
