@@ -434,6 +434,11 @@ def run_reach(args: argparse.Namespace) -> int:
     return 0
 
 
+EXACT_LEAKS_HELP = ("rank the leak check's speeds and accelerations as exact floats, as recorded "
+                    "before its resolution (default: ties within "
+                    "sportsngen.eval.leaks.FEATURE_RESOLUTION)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="python -m sportsngen.eval",
                                  description="Realism evaluation of simulated tennis tracking.")
@@ -469,10 +474,7 @@ def build_parser() -> argparse.ArgumentParser:
                             "serve number, direction, depth, speed, the seen flight and, for "
                             "the opponent, how far aside it passes him, for the hitter, how "
                             "fast and how far across he saw it go)")
-    leaks.add_argument("--exact", action="store_true",
-                       help="rank speeds and accelerations as exact floats, as recorded before "
-                            "the check's resolution (default: ties within "
-                            "sportsngen.eval.leaks.FEATURE_RESOLUTION)")
+    leaks.add_argument("--exact", action="store_true", help=EXACT_LEAKS_HELP)
     leaks.add_argument("--paths", action="store_true",
                        help="also the path-matched check of faults: is the movement before a "
                             "fault explained by the ball's path and the player's position?")
@@ -504,10 +506,7 @@ def build_parser() -> argparse.ArgumentParser:
     diag.add_argument("--points", type=int, default=400,
                       help="ground-truth points generated to branch from (default 400)")
     diag.add_argument("--boot", type=int, default=200, help="bootstrap resamples of the leaks")
-    diag.add_argument("--exact-leaks", action="store_true",
-                      help="rank the leak rows' speeds and accelerations as exact floats, as "
-                           "recorded before the check's resolution (default: ties within "
-                           "sportsngen.eval.leaks.FEATURE_RESOLUTION)")
+    diag.add_argument("--exact-leaks", action="store_true", help=EXACT_LEAKS_HELP)
     strikes = sub.add_parser("strikes", parents=[model_opts],
                              help="the model strikes recorded approaches, shot by shot: shares "
                                   "struck and in play by hitter, beside the record")
