@@ -15,12 +15,15 @@ from sportsngen.model.centre import GRAVITY_MPS2
 from sportsngen.model.forecast import (
     BOUNCE_KEEP_XY,
     FORECAST_FEATURES,
+    HORIZON_S,
     INTERCEPT_FEATURES,
     INTERCEPT_HORIZON_S,
     STEP_S,
     ball_forecast,
+    ball_forecast_torch,
     forecast_columns,
     nearest_playable,
+    random_flights,
 )
 from sportsngen.tennis.court import BALL_RADIUS_M
 from tests.conftest import REPO, init_runs
@@ -303,3 +306,29 @@ def test_init_ball_intercept_widens_a_model_with_the_forecast(tmp_path, tiny_mod
     assert mcfg.ball_forecast and mcfg.ball_intercept
     assert w.shape[1] == base.shape[1] + n
     assert torch.equal(w[:, :-n], base) and torch.equal(w[:, -n:], torch.zeros_like(w[:, -n:]))
+
+
+@pytest.mark.parametrize("with_prev", [True, False])
+def test_the_compiled_forecast_is_the_torch_loop_to_float32_rounding(with_prev):
+    pos, vel, prev = random_flights(4000, 3)
+    prev = prev if with_prev else None
+    want, want_path = ball_forecast_torch(pos, vel, prev, 25.0, path=True)
+    got, got_path = ball_forecast(pos, vel, prev, 25.0, path=True)
+    assert got.dtype == torch.float32 and got_path.shape == want_path.shape == (4000, 40, 3)
+    # Positions of 1-30 m agree to a few float32 steps; the bounce's time to the step.
+    assert (got - want).abs().max().item() < 2e-5
+    assert (got_path - want_path).abs().max().item() < 2e-5
+    assert torch.equal(got[:, 8], want[:, 8])
+    assert 0.2 < (got[:, 8] < HORIZON_S).float().mean().item() < 0.95   # both kinds occur
+    assert torch.equal(ball_forecast(pos, vel, prev, 25.0), got)       # path changes nothing
+
+
+def test_the_compiled_forecast_keeps_shapes_dtype_and_device():
+    pos, vel, prev = random_flights(60, 4)
+    grid = [x.reshape(3, 4, 5, 3).double() for x in (pos, vel, prev)]
+    out, track = ball_forecast(*grid, fps=25.0, path=True)
+    assert out.shape == (3, 4, 5, 9) and track.shape == (3, 4, 5, 40, 3)
+    assert out.dtype == torch.float64
+    flat = ball_forecast(pos, vel, prev, 25.0)
+    assert torch.allclose(out.reshape(60, 9).float(), flat, atol=1e-5)
+    assert ball_forecast(pos[:0], vel[:0], prev[:0]).shape == (0, 9)

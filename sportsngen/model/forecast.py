@@ -19,6 +19,7 @@ position at that horizon where it does not come down by then), in steps of `STEP
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 
 from sportsngen.data.tokens import BALL, POS_SCALE_M, TIME_SCALE_S, VEL_SCALE_MPS
@@ -31,6 +32,7 @@ from sportsngen.model.centre import (
     read_lift_mps2,
     split_lift,
 )
+from sportsngen.model.flight_kernel import flight_rows
 from sportsngen.tennis.court import BALL_RADIUS_M
 
 STEP_S = 0.04
@@ -60,7 +62,34 @@ def ball_forecast(pos_m: torch.Tensor, vel_mps: torch.Tensor,
     None or NaN rows: no spin) -> (..., FORECAST_FEATURES): the positions `HORIZONS_S` ahead,
     then the next bounce's x, y and time (s). With `path`, also the flight flown on to
     `INTERCEPT_HORIZON_S`, (..., N, 3), one row a `STEP_S` from `STEP_S` on (the columns are
-    the same either way)."""
+    the same either way). Computed by the compiled loop (`flight_kernel`) in float32, on the
+    CPU whatever the tensors' device; `ball_forecast_torch` is the same loop in torch
+    operations, the reference it is tested against."""
+    shape, dev = pos_m.shape[:-1], pos_m.device
+    n_steps = int(round(HORIZON_S / STEP_S))
+    n_path = max(n_steps, int(round(INTERCEPT_HORIZON_S / STEP_S))) if path else n_steps
+    marks = [int(round(h / STEP_S)) for h in HORIZONS_S]
+
+    def rows(x: torch.Tensor):
+        return np.ascontiguousarray(x.detach().reshape(-1, 3).to("cpu", torch.float32).numpy())
+
+    pos = rows(pos_m)
+    columns = np.empty((len(pos), FORECAST_FEATURES), dtype=np.float32)
+    track = np.empty((len(pos), n_path, 3), dtype=np.float32)
+    prev = pos if prev_vel_mps is None else rows(prev_vel_mps)
+    flight_rows(pos, rows(vel_mps), prev, prev_vel_mps is not None, float(fps), STEP_S,
+                n_steps, n_path, marks[0], marks[1], HORIZON_S, BOUNCE_KEEP_XY, columns, track)
+    out = torch.from_numpy(columns).reshape(*shape, FORECAST_FEATURES).to(dev, pos_m.dtype)
+    if not path:
+        return out
+    return out, torch.from_numpy(track).reshape(*shape, n_path, 3).to(dev, pos_m.dtype)
+
+
+def ball_forecast_torch(pos_m: torch.Tensor, vel_mps: torch.Tensor,
+                        prev_vel_mps: torch.Tensor | None = None, fps: float = 25.0,
+                        path: bool = False):
+    """`ball_forecast` in torch operations: the readable statement of the loop and the
+    reference the compiled one is tested against; arguments and results as `ball_forecast`'s."""
     dt = STEP_S
     n_steps = int(round(HORIZON_S / dt))
     n_path = max(n_steps, int(round(INTERCEPT_HORIZON_S / dt))) if path else n_steps
@@ -130,6 +159,20 @@ def ball_forecast(pos_m: torch.Tensor, vel_mps: torch.Tensor,
     if not path:
         return columns
     return columns, torch.stack(track, dim=-2)
+
+
+def random_flights(n: int, seed: int = 0) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """`n` random balls in flight over the court (positions, velocities and the frame before's
+    velocities, (n, 3) each) for tests and benchmarks of the forecast: some about to bounce,
+    every seventh with no frame before (NaN), spins of either sign."""
+    g = torch.Generator().manual_seed(seed)
+    pos = torch.tensor([-10.0, 1.0, 1.2]) + torch.randn(n, 3, generator=g) * \
+        torch.tensor([8.0, 4.0, 1.0])
+    pos[:, 2] = pos[:, 2].abs() + 0.05
+    vel = torch.tensor([25.0, -2.0, 3.0]) + 6 * torch.randn(n, 3, generator=g)
+    prev = vel + torch.tensor([0.0, 0.0, 0.4]) + 0.03 * torch.randn(n, 3, generator=g)
+    prev[::7] = float("nan")
+    return pos, vel, prev
 
 
 TIME_COLUMN = 7  # the elapsed time's column of the object features (`tokens.object_features`)
