@@ -332,3 +332,50 @@ def test_the_compiled_forecast_keeps_shapes_dtype_and_device():
     flat = ball_forecast(pos, vel, prev, 25.0)
     assert torch.allclose(out.reshape(60, 9).float(), flat, atol=1e-5)
     assert ball_forecast(pos[:0], vel[:0], prev[:0]).shape == (0, 9)
+
+
+def _net_and_ground_balls(n: int, seed: int):
+    """Random flights, every third one low and a frame from the net, flying into it, every
+    fifth about to land: the step's three branches (flight, net, bounce) all occur."""
+    pos, vel, prev = random_flights(n, seed)
+    prev = torch.nan_to_num(prev, nan=0.0)
+    side = torch.sign(pos[::3, 0])
+    pos[::3, 0], pos[::3, 2], vel[::3, 0] = 0.3 * side, 0.5, -30.0 * side
+    pos[::5, 2], vel[::5, 2] = 0.05, -8.0
+    return pos, vel, prev
+
+
+@pytest.mark.parametrize("net", [True, False])
+@pytest.mark.parametrize("with_prev", [True, False])
+def test_the_compiled_physics_step_is_the_torch_one_to_float32_rounding(net, with_prev):
+    from sportsngen.model.centre import (
+        ball_acceleration_mps2,
+        ball_acceleration_mps2_torch,
+        physics_step_m,
+        physics_step_m_torch,
+    )
+
+    pos, vel, prev = _net_and_ground_balls(3000, 7)
+    prev = prev if with_prev else None
+    got, want = physics_step_m(pos, vel, prev, 50.0, net), physics_step_m_torch(pos, vel, prev,
+                                                                                50.0, net)
+    assert got.shape == want.shape == (3000, 3) and got.dtype == torch.float32
+    assert (got - want).abs().max().item() < 1e-5
+    # The net stopped some balls and the ground bounced some, in both.
+    free = physics_step_m_torch(pos, vel, prev, 50.0, False)
+    if net:
+        stopped = (free - want).abs().amax(-1) > 1e-3
+        assert 100 < int(stopped.sum()) and torch.equal(stopped, (free - got).abs().amax(-1) > 1e-3)
+    assert int((want[:, 2] > pos[:, 2]).logical_and(vel[:, 2] < -5).sum()) > 100
+    acc = ball_acceleration_mps2(vel, prev, 50.0)
+    assert (acc - ball_acceleration_mps2_torch(vel, prev, 50.0)).abs().max().item() < 1e-4
+    # Any leading shape, broadcast, and float64 or autograd through torch.
+    grid = physics_step_m(pos[:60].reshape(3, 20, 3), vel[:60].reshape(3, 20, 3),
+                          None if prev is None else prev[:1], 50.0, net)
+    assert grid.shape == (3, 20, 3)
+    want_grid = physics_step_m_torch(pos[:60].reshape(3, 20, 3), vel[:60].reshape(3, 20, 3),
+                                     None if prev is None else prev[:1], 50.0, net)
+    assert (grid - want_grid).abs().max().item() < 1e-5
+    wide = physics_step_m(pos.double(), vel.double(), None if prev is None else prev.double(),
+                          50.0, net)
+    assert wide.dtype == torch.float64 and (wide - want).abs().max().item() < 1e-4

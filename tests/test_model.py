@@ -2,6 +2,7 @@
 
 import math
 
+import numpy as np
 import pytest
 import torch
 
@@ -623,3 +624,20 @@ def test_physics_centre_asks_the_sub_bin_head_only_off_the_centre_bin(monkeypatc
         model.ball_bins.width(chosen[1])
     assert frac[0] >= 7 / 8 - 1e-5 and frac[2] >= 7 / 8 - 1e-5   # off-centre axes: part 7
     assert off[1] == 0.0                                    # its centre-bin axis: the step
+
+
+@pytest.mark.parametrize("top_p", [0.5, 0.9, 1.0])
+def test_the_compiled_nucleus_draw_is_the_torch_one(top_p):
+    from sportsngen.model.sampling import _nucleus_rows, _nucleus_torch
+
+    g = torch.Generator().manual_seed(11)
+    logits = torch.randn(3000, 61, generator=g) * 3
+    logits[::4, ::3] = float("-inf")           # masked classes (regions) never drawn
+    p = torch.full((3000, 1), top_p)
+    p[::7] = 0.3                                # per-row nuclei
+    u = torch.rand(3000, 1, generator=g)
+    want = _nucleus_torch(logits, p, u)
+    got = np.empty(3000, dtype=np.int64)
+    _nucleus_rows(logits.numpy(), p.reshape(-1).numpy(), u.reshape(-1).numpy(), got)
+    assert torch.equal(torch.from_numpy(got), want)
+    assert not torch.isinf(logits[::4].gather(-1, want[::4, None])).any()

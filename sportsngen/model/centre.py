@@ -94,7 +94,24 @@ def read_lift_mps2(vel_mps: torch.Tensor, prev_vel_mps: torch.Tensor,
 def ball_acceleration_mps2(vel_mps: torch.Tensor, prev_vel_mps: torch.Tensor | None,
                            fps: float) -> torch.Tensor:
     """The ball's acceleration over the next frame (..., 3): the track's second difference
-    where it reads as flight, else gravity plus drag (module doc)."""
+    where it reads as flight, else gravity plus drag (module doc). Float32 CPU tensors
+    outside autograd take the compiled kernel (`flight_kernel.acceleration_rows`, as
+    `physics_step_m`)."""
+    rows = _kernel_rows(vel_mps, prev_vel_mps)
+    if rows is not None:
+        from sportsngen.model.flight_kernel import acceleration_rows
+
+        shape, (vel, prev) = rows
+        out = torch.empty(len(vel), 3, dtype=torch.float32)
+        acceleration_rows(vel, vel if prev is None else prev, prev is not None, float(fps),
+                          out.numpy())
+        return out.reshape(shape)
+    return ball_acceleration_mps2_torch(vel_mps, prev_vel_mps, fps)
+
+
+def ball_acceleration_mps2_torch(vel_mps: torch.Tensor, prev_vel_mps: torch.Tensor | None,
+                                 fps: float) -> torch.Tensor:
+    """`ball_acceleration_mps2` in torch operations (any device, dtype and autograd)."""
     base = flight_acceleration_mps2(vel_mps)
     if prev_vel_mps is None:
         return base
@@ -233,8 +250,43 @@ def physics_step_m(pos_m: torch.Tensor, vel_mps: torch.Tensor,
                    net: bool = False) -> torch.Tensor:
     """The ball's position one frame on (..., 3) from its position, velocity and previous
     velocity (..., 3), with `net` stopped by the net if it meets it below the cord
-    (`net_step_m`), and bounced off the ground if the step ends below it."""
-    acc = ball_acceleration_mps2(vel_mps, prev_vel_mps, fps)
+    (`net_step_m`), and bounced off the ground if the step ends below it.
+
+    Float32 CPU tensors outside autograd take the compiled kernel
+    (`flight_kernel.physics_rows`, the same arithmetic per ball): in torch the step is some
+    150 tensor operations whose dispatch, not arithmetic, was a tenth of a rollout frame at
+    one rally. Elsewhere (a GPU, float64, gradients) `physics_step_m_torch`, the reference."""
+    rows = _kernel_rows(pos_m, vel_mps, prev_vel_mps)
+    if rows is None:
+        return physics_step_m_torch(pos_m, vel_mps, prev_vel_mps, fps, net)
+    from sportsngen.model.flight_kernel import physics_rows
+
+    shape, (pos, vel, prev) = rows
+    out = torch.empty(len(pos), 3, dtype=torch.float32)
+    physics_rows(pos, vel, vel if prev is None else prev, prev is not None, float(fps),
+                 bool(net), out.numpy())
+    return out.reshape(shape)
+
+
+def _kernel_rows(*tensors: torch.Tensor | None):
+    """(..., 3) tensors (None: absent) -> (their broadcast shape, their (n, 3) float32 arrays,
+    None where absent) when all are float32 CPU tensors outside autograd, the compiled
+    kernels' (`flight_kernel`) input; None otherwise."""
+    given = [t for t in tensors if t is not None]
+    if not all(t.device.type == "cpu" and t.dtype == torch.float32 and not t.requires_grad
+               for t in given):
+        return None
+    if any(t.shape != given[0].shape for t in given):
+        given = list(torch.broadcast_tensors(*given))
+    flat = iter([t.reshape(-1, 3).contiguous().numpy() for t in given])
+    return given[0].shape, [None if t is None else next(flat) for t in tensors]
+
+
+def physics_step_m_torch(pos_m: torch.Tensor, vel_mps: torch.Tensor,
+                         prev_vel_mps: torch.Tensor | None, fps: float,
+                         net: bool = False) -> torch.Tensor:
+    """`physics_step_m` in torch operations (any device, dtype and autograd)."""
+    acc = ball_acceleration_mps2_torch(vel_mps, prev_vel_mps, fps)
     nxt = pos_m + vel_mps / fps + acc / (fps * fps)
     if net:
         nxt = net_step_m(pos_m, vel_mps, acc, nxt, fps)

@@ -682,6 +682,17 @@ class SportsNGEN(nn.Module):
         `CONTACT_OFFSET_M` from 0, a racket contact's (or a bounce's) change of course."""
         return self._contact_bins
 
+    def sampling_frame(self, pos_m: torch.Tensor, vel_mps: torch.Tensor,
+                       prev_vel_mps: torch.Tensor | None = None
+                       ) -> tuple[torch.Tensor, torch.Tensor | None]:
+        """What `sample_next` reads from frames (..., 3, 3) besides the output states: the
+        bins' centres (`centres`) and the ball head's contact-reach shifts
+        (`contact_reach_bias`, None without a table). Deterministic, so a rollout computes it
+        once a frame and its redraws of rejected rows take their rows of it: recomputed, it
+        was a seventh of a frame at one rally, half of all frames being redrawn once."""
+        centre = self.centres(pos_m, vel_mps, prev_vel_mps)
+        return centre, self.contact_reach_bias(pos_m, vel_mps, centre)
+
     @torch.no_grad()
     def sample_next(self, h: torch.Tensor, pos_m: torch.Tensor, vel_mps: torch.Tensor,
                     top_p_player: float = 1.0, top_p_ball: float = 1.0,
@@ -690,7 +701,9 @@ class SportsNGEN(nn.Module):
                     contact_odds: bool = False,
                     top_p_contact: float | None = None,
                     player_bias: torch.Tensor | None = None,
-                    player_quantiles: torch.Tensor | None = None) -> torch.Tensor:
+                    player_quantiles: torch.Tensor | None = None,
+                    frame: tuple[torch.Tensor, torch.Tensor | None] | None = None
+                    ) -> torch.Tensor:
         """Next positions (..., 3, 3) from output states h (..., 3, d): nucleus per object
         kind, then uniform inside the chosen bin. Players stay on the ground (z = 0).
         `player_bias` (..., 2, 2, n_bins): added to the players' head's logits (the
@@ -711,11 +724,14 @@ class SportsNGEN(nn.Module):
         or inside the rest, chosen at the model's own odds, so a nucleus under 1 cannot cut a
         racket contact the model gives a few tens of per cent on a frame. `top_p_contact`
         (with `contact_odds`; default `top_p_ball`): the nucleus of every dimension of a
-        ball that is struck, so a strike keeps more of the spread a flight does not need."""
-        centre = self.centres(pos_m, vel_mps, prev_vel_mps)
+        ball that is struck, so a strike keeps more of the spread a flight does not need.
+
+        `frame`: `sampling_frame` of these rows, computed already (a rollout's redraws of
+        rejected rows reuse the frame's)."""
+        centre, reach = self.sampling_frame(pos_m, vel_mps, prev_vel_mps) if frame is None \
+            else frame
         shift = {} if player_bias is None else {"dim_bias": player_bias}   # factorised only
         pi = self.player_head.sample(h[..., :BALL, :], top_p_player, generator, **shift)
-        reach = self.contact_reach_bias(pos_m, vel_mps, centre)
         bi = self.ball_head.sample(h[..., BALL, :], top_p_ball, generator,
                                    self.contact_bins() if contact_odds else None,
                                    top_p_contact if contact_odds else None,

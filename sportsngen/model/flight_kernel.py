@@ -28,8 +28,15 @@ from sportsngen.model.centre import (
     MAX_LIFT_COEFFICIENT,
     MAX_LIFT_MPS2,
     MAX_LIFT_PER_M,
+    NET_KEEP_ACROSS,
+    NET_REBOUND,
 )
-from sportsngen.tennis.court import BALL_RADIUS_M
+from sportsngen.tennis.court import (
+    BALL_RADIUS_M,
+    NET_HEIGHT_CENTRE_M,
+    NET_HEIGHT_POST_M,
+    NET_POST_Y_M,
+)
 
 _F = np.float32
 _DRAG = _F(DRAG_PER_M)
@@ -47,6 +54,11 @@ _TWO = _F(2.0)
 _ZERO = _F(0.0)
 _TINY = _F(1e-6)
 _EPS = _F(1e-12)
+_REBOUND = _F(NET_REBOUND)
+_KEEP = _F(NET_KEEP_ACROSS)
+_POST_Y = _F(NET_POST_Y_M)
+_CORD = _F(NET_HEIGHT_CENTRE_M)
+_CORD_RISE = _F(NET_HEIGHT_POST_M - NET_HEIGHT_CENTRE_M)
 
 
 @njit(cache=True, inline="always")
@@ -161,3 +173,89 @@ def flight_rows(pos, vel, prev, has_prev, fps, step_s, n_steps, n_path, mark1, m
                     bounce_x, bounce_y = px, py
             track[i, k - 1, 0], track[i, k - 1, 1], track[i, k - 1, 2] = px, py, pz
         columns[i, 6], columns[i, 7], columns[i, 8] = bounce_x, bounce_y, bounce_t
+
+
+@njit(cache=True, inline="always")
+def _acceleration(vx, vy, vz, qx, qy, qz, fps, has_prev):
+    """`centre.ball_acceleration_mps2` of one ball (q: the frame before's velocity)."""
+    bx, by, bz = _flight_acc(vx, vy, vz)
+    if not has_prev:
+        return bx, by, bz
+    tx, ty, tz = (vx - qx) * fps, (vy - qy) * fps, (vz - qz) * fps
+    limit = min(_LIFT_PER_M * (vx * vx + vy * vy + vz * vz), _MAX_LIFT)
+    if not _norm3(tx - bx, ty - by, tz - bz) <= limit:
+        return bx, by, bz
+    mx, my, mz = _HALF * (qx + vx), _HALF * (qy + vy), _HALF * (qz + vz)
+    fx, fy, fz = _flight_acc(mx, my, mz)
+    across, sx, sy, sz = _split(tx - fx, ty - fy, tz - fz, mx, my, mz, qx, qy, qz)
+    u = max(_norm3(qx, qy, qz), _TINY)
+    c = min(abs(across) / (_MAGNUS * u), _MAX_C)
+    scale = _ratio(c, u, _norm3(vx, vy, vz))
+    dx, dy, dz = _direction(vx, vy, vz)
+    ax, ay, az = _flight_acc(_F(1.5) * vx - _HALF * qx, _F(1.5) * vy - _HALF * qy,
+                             _F(1.5) * vz - _HALF * qz)
+    return (ax + (sx + across * scale * dx), ay + (sy + across * scale * dy),
+            az + (sz + across * scale * dz))
+
+
+@njit(cache=True)
+def acceleration_rows(vel, prev, has_prev, fps, out):
+    """vel, prev (n, 3) float32 -> out (n, 3): `centre.ball_acceleration_mps2` of each ball."""
+    fps32 = _F(fps)
+    for i in range(vel.shape[0]):
+        qx = qy = qz = _ZERO
+        if has_prev:
+            qx, qy, qz = prev[i, 0], prev[i, 1], prev[i, 2]
+        out[i, 0], out[i, 1], out[i, 2] = _acceleration(vel[i, 0], vel[i, 1], vel[i, 2],
+                                                        qx, qy, qz, fps32, has_prev)
+
+
+@njit(cache=True, inline="always")
+def _net_cord(y):
+    """`centre.net_cord_m` of one lateral position."""
+    sag = min(abs(y), _POST_Y) / _POST_Y
+    return _CORD + _CORD_RISE * (sag * sag)
+
+
+@njit(cache=True)
+def physics_rows(pos, vel, prev, has_prev, fps, net, out):
+    """pos, vel, prev (n, 3) float32 -> out (n, 3): `centre.physics_step_m` of each ball (the
+    net's stop as `centre.net_step_m`, then the bounce off the ground)."""
+    inv_fps = _F(1.0 / fps)
+    inv_fps2 = _F(1.0 / (fps * fps))
+    half_dt = _F(0.5 * (1.0 / fps))
+    fps32 = _F(fps)
+    for i in range(pos.shape[0]):
+        px, py, pz = pos[i, 0], pos[i, 1], pos[i, 2]
+        vx, vy, vz = vel[i, 0], vel[i, 1], vel[i, 2]
+        qx = qy = qz = _ZERO
+        if has_prev:
+            qx, qy, qz = prev[i, 0], prev[i, 1], prev[i, 2]
+        ax, ay, az = _acceleration(vx, vy, vz, qx, qy, qz, fps32, has_prev)
+        nx = px + vx * inv_fps + ax * inv_fps2
+        ny = py + vy * inv_fps + ay * inv_fps2
+        nz = pz + vz * inv_fps + az * inv_fps2
+        if net:
+            side = _ONE if px >= _ZERO else -_ONE
+            gap = side * px - _R
+            travel = side * (px - nx)
+            ux, uy, uz = vx + half_dt * ax, vy + half_dt * ay, vz + half_dt * az
+            frac = min(max(gap / max(travel, _F(1e-9)), _ZERO), _ONE)
+            fdt = frac * inv_fps
+            to_plane = side * (px + ux * fdt + _HALF * ax * (fdt * fdt)) - _R
+            speed = side * (ux + ax * fdt) * inv_fps
+            frac = min(max(frac - to_plane / (speed if speed < _ZERO else _F(-1e-9)), _ZERO),
+                       _ONE)
+            fdt = frac * inv_fps
+            hx = px + ux * fdt + _HALF * ax * (fdt * fdt)
+            hy = py + uy * fdt + _HALF * ay * (fdt * fdt)
+            hz = pz + uz * fdt + _HALF * az * (fdt * fdt)
+            if side * px > _ZERO and travel > _ZERO and travel >= gap and \
+                    hz - _R < _net_cord(hy):
+                rest = (_ONE - frac) * inv_fps
+                nx = hx + -_REBOUND * (ux + ax * fdt) * rest
+                ny = hy + _KEEP * (uy + ay * fdt) * rest
+                nz = hz + _KEEP * (uz + az * fdt) * rest - _HALF * _G * (rest * rest)
+        if nz < _R and vz < _ZERO:
+            nz = _R + _REST * (_R - nz)
+        out[i, 0], out[i, 1], out[i, 2] = nx, ny, nz

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import numpy as np
 import torch
+from numba import njit
 
 
 def top_p_filter(logits: torch.Tensor, top_p: float) -> torch.Tensor:
@@ -45,15 +47,63 @@ def sample_top_p(logits: torch.Tensor, top_p: float | torch.Tensor,
         if not 0.0 < top_p <= 1.0:
             raise ValueError(f"top_p must be in (0, 1], got {top_p}")
         p = torch.full((len(flat), 1), float(top_p), device=flat.device)
+    u = torch.rand(len(flat), 1, generator=generator, device=flat.device)
+    if flat.device.type == "cpu":
+        pick = np.empty(len(flat), dtype=np.int64)
+        _nucleus_rows(flat.contiguous().numpy(), p.reshape(-1).contiguous().numpy(),
+                      u.reshape(-1).numpy(), pick)
+        return torch.from_numpy(pick).reshape(logits.shape[:-1])
+    return _nucleus_torch(flat, p, u).reshape(logits.shape[:-1])
+
+
+def _nucleus_torch(flat: torch.Tensor, p: torch.Tensor, u: torch.Tensor) -> torch.Tensor:
+    """`sample_top_p`'s draw in torch operations: rows `flat` (n, classes), nuclei `p` and
+    uniforms `u` (n, 1) -> (n,) class indices (`_nucleus_rows` is the same on the CPU)."""
     sorted_logits, order = torch.sort(flat, dim=-1, descending=True)
     cdf = torch.cumsum(torch.softmax(sorted_logits, dim=-1), dim=-1)
     # Mass of the nucleus: the first cumulative value reaching top_p (the whole row at 1).
     n_keep = torch.searchsorted(cdf, p, right=False)
     n_keep = n_keep.clamp_max(cdf.shape[-1] - 1)
     mass = torch.where(p < 1.0, cdf.gather(-1, n_keep), cdf[:, -1:])
-    u = torch.rand(len(cdf), 1, generator=generator, device=cdf.device) * mass
-    pick = torch.searchsorted(cdf, u, right=True).clamp_max(n_keep)
-    return order.gather(-1, pick).reshape(logits.shape[:-1])
+    pick = torch.searchsorted(cdf, u * mass, right=True).clamp_max(n_keep)
+    return order.gather(-1, pick)[:, 0]
+
+
+@njit(cache=True)
+def _nucleus_rows(logits, top_p, u, out):
+    """`_nucleus_torch` compiled, one row a loop: about 15 tensor operations whose dispatch was
+    most of a draw's cost at a rally's 2-3 rows, five draws a frame. Float32 as torch's;
+    the softmax's sum may round differently, so a draw can differ from torch's only where a
+    uniform falls within float32 rounding of a class's edge."""
+    n = logits.shape[1]
+    cdf = np.empty(n, dtype=np.float32)
+    for i in range(logits.shape[0]):
+        order = np.argsort(-logits[i], kind="mergesort")
+        top = logits[i, order[0]]
+        total = np.float32(0.0)
+        for j in range(n):
+            e = np.float32(np.exp(logits[i, order[j]] - top))
+            cdf[j] = e
+            total += e
+        acc = np.float32(0.0)
+        for j in range(n):
+            acc += cdf[j] / total
+            cdf[j] = acc
+        # The nucleus: the first class whose cumulative mass reaches top_p (the row at 1).
+        keep = n - 1
+        if top_p[i] < 1.0:
+            for j in range(n):
+                if cdf[j] >= top_p[i]:
+                    keep = j
+                    break
+        mass = cdf[keep] if top_p[i] < 1.0 else cdf[n - 1]
+        target = u[i] * mass
+        pick = keep
+        for j in range(keep):
+            if cdf[j] > target:
+                pick = j
+                break
+        out[i] = order[pick]
 
 
 def sample_top_p_in_regions(logits: torch.Tensor, regions: torch.Tensor, top_p: float,

@@ -133,12 +133,13 @@ class Constraint(Protocol):
 def redraw_rejected(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top_p_player,
                     top_p_ball, generator, contact_odds=False, top_p_contact=None,
                     player_bias=None, player_limits=None, player_top_speed_mps=None,
-                    player_quantiles=None):
+                    player_quantiles=None, frame=None):
     """Resample the rows `constraint` rejects: up to its max_tries from the nucleus, then as
     many from the whole distribution (each draw within `player_limits`, where given, and
     every row's final frame within its players' `player_top_speed_mps` (B, 2), where given). ->
     (frames, redraws per live row, (B,) bool: the rows given up on whose ball the constraint
-    wants struck anyway)."""
+    wants struck anyway). `frame`: the model's `sampling_frame` of all rows, whose rows the
+    redraws reuse."""
     bad = ~constraint.accept(alive, n, pos, nxt, vel)
     tries = 0
     drawn = np.zeros(len(alive), dtype=np.int64)
@@ -146,12 +147,14 @@ def redraw_rejected(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top
         idx = torch.nonzero(bad).squeeze(1)
         # When the nucleus holds no acceptable frame, the rest of the distribution may.
         wide = tries >= constraint.max_tries
+        given = {} if frame is None else \
+            {"frame": (frame[0][idx], None if frame[1] is None else frame[1][idx])}
         again = model.sample_next(h[idx], pos[idx], vel[idx],
                                   1.0 if wide else top_p_player, 1.0 if wide else top_p_ball,
                                   generator, prev_vel[idx], contact_odds,
                                   1.0 if wide else top_p_contact,
                                   None if player_bias is None else player_bias[idx],
-                                  player_quantiles)
+                                  player_quantiles, **given)
         if player_limits is not None:
             again = limit_player_acceleration(again, pos[idx], vel[idx], model.cfg.fps,
                                               player_limits)
@@ -375,8 +378,10 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
         def draw(rows, n, h, pos, vel, prev_vel, p_bias, top, plan, serve, ident, surface):
             """The next frame of the batch rows `rows` (indices as first given), drawn by the
             decoder with every rule applied -> (frames, their strike plans)."""
+            frame = model.sampling_frame(pos, vel, prev_vel)
             nxt = model.sample_next(h, pos, vel, top_p_player, top_p_ball, generator, prev_vel,
-                                    contact_odds, top_p_contact, p_bias, player_quantiles)
+                                    contact_odds, top_p_contact, p_bias, player_quantiles,
+                                    frame=frame)
             if player_limits is not None:
                 nxt = limit_player_acceleration(nxt, pos, vel, fps, player_limits)
             if top is not None:
@@ -387,7 +392,7 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                                                      prev_vel, nxt, top_p_player, top_p_ball,
                                                      generator, contact_odds, top_p_contact,
                                                      p_bias, player_limits, top,
-                                                     player_quantiles)
+                                                     player_quantiles, frame)
                 resampled[rows] += drawn
                 if model.strike_head is not None:
                     forced_strikes[rows] += forced
