@@ -85,3 +85,21 @@ def test_the_learned_engine_forwards_each_sampling_option_of_the_config(tmp_path
     with pytest.raises(Stop):
         run_simulation(_cfg(tmp_path, "engine=sportsngen", "top_p=0.5", "top_p_ball=0.3"))
     assert seen == {"path": None, "top_p_player": 0.5, "top_p_ball": 0.5}
+
+
+def test_the_demos_extras_are_off_unless_asked_for():
+    from omegaconf import OmegaConf
+
+    from sportsngen.errors import ArgumentError
+    from sportsngen.sim.cli import _extra, _gif_frames
+
+    base = {"animation_max_frames": None, "report_whatif_shots": None}
+    off = OmegaConf.create({**base, "extras": False})
+    on = OmegaConf.create({**base, "extras": True})
+    assert _gif_frames(off) == 0 and _extra(off, "report_whatif_shots", 2) == 0
+    assert _gif_frames(on) == 150 and _extra(on, "report_whatif_shots", 2) == 2
+    given = OmegaConf.create({"extras": False, "animation_max_frames": 40,
+                              "report_whatif_shots": 1})
+    assert _gif_frames(given) == 40 and _extra(given, "report_whatif_shots", 2) == 1
+    with pytest.raises(ArgumentError, match="animation_max_frames"):
+        _gif_frames(OmegaConf.create({"animation_max_frames": -1}))

@@ -50,7 +50,8 @@ def sample_top_p(logits: torch.Tensor, top_p: float | torch.Tensor,
     u = torch.rand(len(flat), 1, generator=generator, device=flat.device)
     if flat.device.type == "cpu":
         pick = np.empty(len(flat), dtype=np.int64)
-        _nucleus_rows(flat.contiguous().numpy(), p.reshape(-1).contiguous().numpy(),
+        _nucleus_rows(flat.detach().contiguous().numpy(),
+                      p.detach().reshape(-1).contiguous().numpy(),
                       u.reshape(-1).numpy(), pick)
         return torch.from_numpy(pick).reshape(logits.shape[:-1])
     return _nucleus_torch(flat, p, u).reshape(logits.shape[:-1])

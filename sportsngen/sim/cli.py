@@ -6,7 +6,8 @@ Engines:
   (bundled as derived figures, so it runs on a clone without ../shared/data).
 - ``sportsngen`` (default): the learned engine (`sportsngen.sim.Simulator`) with the bundled
   model or `model_file=<file>`: prints the score line and the statistics table and writes the points
-  table and the rallies (Parquet), a few rally plots and an animated GIF of one point.
+  table and the rallies (Parquet) and a few rally plots; with `extras=true` also an animated GIF
+  of one point and the report's what-if shots.
 
 Both write the match report of the first match, `report.html` (`sportsngen.report`), unless
 `report=false`.
@@ -130,8 +131,10 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
         kw.update(top_p_player=float(cfg.top_p), top_p_ball=float(cfg.top_p))
     sim = Simulator.from_pretrained(cfg.get("model_file"), **kw)
     names = (str(cfg.player1), str(cfg.player2))
+    lookahead = check_int("lookahead", cfg.get("lookahead", 0), 0, 64)
     results = sim.simulate_matches([names] * int(cfg.n_matches), str(cfg.surface), fmt=fmt,
-                                   seed=int(cfg.seed), first_server=int(cfg.first_server))
+                                   seed=int(cfg.seed), first_server=int(cfg.first_server),
+                                   lookahead=lookahead if int(cfg.n_matches) == 1 else 0)
     for i, res in enumerate(results):
         print(f"match {i + 1}: {res.score_line}  ({len(res.points)} points, "
               f"{res.n_discarded} rallies set aside as non-realistic or undecided, "
@@ -147,16 +150,26 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
         t0 = time.perf_counter()
         path = learned_match_report(
             first, out_dir / "report.html", sim=sim,
-            whatif_shots=int(cfg.get("report_whatif_shots", 2)),
+            whatif_shots=_extra(cfg, "report_whatif_shots", 2),
             whatif_rollouts=int(cfg.get("report_whatif_rollouts", 24)), seed=int(cfg.seed),
             model_name=str(cfg.get("model_file") or "bundled sportsngen-small"))
         print(f"report: {path} ({time.perf_counter() - t0:.1f} s)")
     return pd.concat([r.points for r in results], ignore_index=True)
 
 
+def _extra(cfg: DictConfig, key: str, full: int) -> int:
+    """An extra's setting: `cfg[key]` where given, else `full` with `extras=true` and 0
+    (none) without: the GIF and the what-if shots are most of the demo's time after the
+    match (a 150-frame GIF ~8 s, two what-if shots ~30 s on 2 cores)."""
+    value = cfg.get(key)
+    if value is None:
+        return full if cfg.get("extras", False) else 0
+    return check_int(key, value, 0)
+
+
 def _gif_frames(cfg: DictConfig) -> int:
     """`animation_max_frames`: point.gif's most frames (0: no GIF)."""
-    return int(cfg.get("animation_max_frames", 150))
+    return _extra(cfg, "animation_max_frames", 150)
 
 
 def _rally_figures(res, out_dir: Path, n_plots: int = 3, max_gif_frames: int = 150) -> None:

@@ -537,17 +537,23 @@ class Simulator:
 
     # --- matches -------------------------------------------------------------------------------
     def simulate_match(self, player1: str, player2: str, surface: str, fmt=None, seed: int = 0,
-                       first_server: int | None = None, progress: bool = True) -> MatchResult:
-        """One match -> `MatchResult` (points table, RallyData, score line, summary)."""
+                       first_server: int | None = None, progress: bool = True,
+                       lookahead: int = 0, lookahead_depth: int = 2) -> MatchResult:
+        """One match -> `MatchResult` (points table, RallyData, score line, summary).
+        `lookahead`: worker processes that play its likely next `lookahead_depth` rallies
+        ahead, the same match faster on more cores (`sim.lookahead`)."""
         return simulate_matches(self, [(player1, player2)], surface, fmt=fmt, seed=seed,
-                                first_server=first_server, progress=progress)[0]
+                                first_server=first_server, progress=progress,
+                                lookahead=lookahead, lookahead_depth=lookahead_depth)[0]
 
     def simulate_matches(self, matchups, surface: str, fmt=None, seed: int = 0,
-                         first_server: int | None = None,
-                         progress: bool = True) -> list[MatchResult]:
-        """Many matches, their points batched together -> list of `MatchResult`."""
+                         first_server: int | None = None, progress: bool = True,
+                         lookahead: int = 0, lookahead_depth: int = 2) -> list[MatchResult]:
+        """Many matches, their points batched together -> list of `MatchResult`
+        (`lookahead` with one match only, as `simulate_match`)."""
         return simulate_matches(self, matchups, surface, fmt=fmt, seed=seed,
-                                first_server=first_server, progress=progress)
+                                first_server=first_server, progress=progress,
+                                lookahead=lookahead, lookahead_depth=lookahead_depth)
 
     # --- what if -------------------------------------------------------------------------------
     def rally_win_probability(self, rally_data: RallyData, rally_id: int, frame: int,
