@@ -99,6 +99,26 @@ def _split(lx, ly, lz, ax, ay, az, cx, cy, cz):
     return across, lx - across * dx, ly - across * dy, lz - across * dz
 
 
+@njit(cache=True, inline="always")
+def _read_lift(vx, vy, vz, qx, qy, qz, fps):
+    """`centre.read_lift_mps2` of one ball (q: the frame before's velocity): whether the
+    second difference reads as a flight (near gravity plus drag), and then its lift carried
+    to this frame (`turned_lift_mps2`), else zeros."""
+    bx, by, bz = _flight_acc(vx, vy, vz)
+    tx, ty, tz = (vx - qx) * fps, (vy - qy) * fps, (vz - qz) * fps
+    limit = min(_LIFT_PER_M * (vx * vx + vy * vy + vz * vz), _MAX_LIFT)
+    if not _norm3(tx - bx, ty - by, tz - bz) <= limit:
+        return False, _ZERO, _ZERO, _ZERO
+    mx, my, mz = _HALF * (qx + vx), _HALF * (qy + vy), _HALF * (qz + vz)
+    fx, fy, fz = _flight_acc(mx, my, mz)
+    across, sx, sy, sz = _split(tx - fx, ty - fy, tz - fz, mx, my, mz, qx, qy, qz)
+    u = max(_norm3(qx, qy, qz), _TINY)
+    c = min(abs(across) / (_MAGNUS * u), _MAX_C)
+    scale = _ratio(c, u, _norm3(vx, vy, vz))
+    dx, dy, dz = _direction(vx, vy, vz)
+    return True, sx + across * scale * dx, sy + across * scale * dy, sz + across * scale * dz
+
+
 @njit(cache=True)
 def flight_rows(pos, vel, prev, has_prev, fps, step_s, n_steps, n_path, mark1, mark2,
                 horizon_s, keep_xy, columns, track):
@@ -118,21 +138,9 @@ def flight_rows(pos, vel, prev, has_prev, fps, step_s, n_steps, n_path, mark1, m
                 qx, qy, qz = vx, vy, vz
             # `centre.read_lift_mps2`: the second difference, a flight where near gravity
             # plus drag, its lift carried to this frame (`turned_lift_mps2`).
-            bx, by, bz = _flight_acc(vx, vy, vz)
-            tx, ty, tz = (vx - qx) * fps, (vy - qy) * fps, (vz - qz) * fps
-            limit = min(_LIFT_PER_M * (vx * vx + vy * vy + vz * vz), _MAX_LIFT)
-            flight = _norm3(tx - bx, ty - by, tz - bz) <= limit
+            flight, rx, ry, rz = _read_lift(vx, vy, vz, qx, qy, qz, fps)
             if flight and known:
-                mx, my, mz = _HALF * (qx + vx), _HALF * (qy + vy), _HALF * (qz + vz)
-                fx, fy, fz = _flight_acc(mx, my, mz)
-                across, sx, sy, sz = _split(tx - fx, ty - fy, tz - fz, mx, my, mz, qx, qy, qz)
-                u = max(_norm3(qx, qy, qz), _TINY)
-                c = min(abs(across) / (_MAGNUS * u), _MAX_C)
-                scale = _ratio(c, u, _norm3(vx, vy, vz))
-                dx, dy, dz = _direction(vx, vy, vz)
-                lx = sx + across * scale * dx
-                ly = sy + across * scale * dy
-                lz = sz + across * scale * dz
+                lx, ly, lz = rx, ry, rz
         # The lift split once: across the flight (a coefficient, resized with the speed as
         # the generator's Magnus) and the sideways rest.
         across, sx, sy, sz = _split(lx, ly, lz, vx, vy, vz, vx, vy, vz)
@@ -178,24 +186,13 @@ def flight_rows(pos, vel, prev, has_prev, fps, step_s, n_steps, n_path, mark1, m
 @njit(cache=True, inline="always")
 def _acceleration(vx, vy, vz, qx, qy, qz, fps, has_prev):
     """`centre.ball_acceleration_mps2` of one ball (q: the frame before's velocity)."""
-    bx, by, bz = _flight_acc(vx, vy, vz)
-    if not has_prev:
-        return bx, by, bz
-    tx, ty, tz = (vx - qx) * fps, (vy - qy) * fps, (vz - qz) * fps
-    limit = min(_LIFT_PER_M * (vx * vx + vy * vy + vz * vz), _MAX_LIFT)
-    if not _norm3(tx - bx, ty - by, tz - bz) <= limit:
-        return bx, by, bz
-    mx, my, mz = _HALF * (qx + vx), _HALF * (qy + vy), _HALF * (qz + vz)
-    fx, fy, fz = _flight_acc(mx, my, mz)
-    across, sx, sy, sz = _split(tx - fx, ty - fy, tz - fz, mx, my, mz, qx, qy, qz)
-    u = max(_norm3(qx, qy, qz), _TINY)
-    c = min(abs(across) / (_MAGNUS * u), _MAX_C)
-    scale = _ratio(c, u, _norm3(vx, vy, vz))
-    dx, dy, dz = _direction(vx, vy, vz)
-    ax, ay, az = _flight_acc(_F(1.5) * vx - _HALF * qx, _F(1.5) * vy - _HALF * qy,
-                             _F(1.5) * vz - _HALF * qz)
-    return (ax + (sx + across * scale * dx), ay + (sy + across * scale * dy),
-            az + (sz + across * scale * dz))
+    if has_prev:
+        flight, lx, ly, lz = _read_lift(vx, vy, vz, qx, qy, qz, fps)
+        if flight:
+            ax, ay, az = _flight_acc(_F(1.5) * vx - _HALF * qx, _F(1.5) * vy - _HALF * qy,
+                                     _F(1.5) * vz - _HALF * qz)
+            return ax + lx, ay + ly, az + lz
+    return _flight_acc(vx, vy, vz)
 
 
 @njit(cache=True)
