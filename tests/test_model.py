@@ -176,12 +176,14 @@ def test_ring_cache_equals_band_recompute_beyond_the_window(prefill):
     assert cache.n_frames == t and cache.n_keys == 4 + 3 * w
 
 
-def test_compiled_step_equals_the_eager_step_past_the_window():
+@pytest.mark.parametrize("forecast", [False, True])
+def test_compiled_step_equals_the_eager_step_past_the_window(forecast):
     """`compile_step` changes how the cached step runs, not what it computes: through the ring's
     wrap-around and a batch compaction, the traced step's states equal the eager ones. The
     graphs are run as traced (a backend that counts them), not through inductor: its C++ code
-    generation is torch's to test and took a minute of this suite on a cold cache."""
-    model = make_model()
+    generation is torch's to test and took a minute of this suite on a cold cache. With the
+    ball forecast, whose compiled numba loop the graph calls out to."""
+    model = make_model(ball_forecast=forecast)
     w = model.cfg.window_frames
     feats, ident, ctx = inputs(model.cfg, b=3, t=w + 4)
     c = model.context_tokens(*ctx)
@@ -202,7 +204,7 @@ def test_compiled_step_equals_the_eager_step_past_the_window():
             states.append(h)
         return states, cache
 
-    with torch.no_grad():
+    with torch.inference_mode():            # as rollouts run
         eager, eager_cache = run()
         model.compile_step(backend=traced)
         compiled, compiled_cache = run()

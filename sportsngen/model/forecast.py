@@ -55,6 +55,9 @@ _COLUMN_SCALE = torch.tensor([*POS_SCALE_M * len(HORIZONS_S), *POS_SCALE_M[:2], 
 _INTERCEPT_SCALE = torch.tensor([*POS_SCALE_M[:2], INTERCEPT_HORIZON_S])
 
 
+# Under `torch.compile` (`SportsNGEN.compile_step`) the compiled loop runs as it is, outside
+# the graph: dynamo cannot trace into numba, and tracing the torch loop instead took minutes.
+@torch.compiler.disable
 def ball_forecast(pos_m: torch.Tensor, vel_mps: torch.Tensor,
                   prev_vel_mps: torch.Tensor | None = None, fps: float = 25.0,
                   path: bool = False):
