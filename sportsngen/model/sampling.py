@@ -97,8 +97,7 @@ def _nucleus_rows(logits, top_p, u, out):
                 if cdf[j] >= top_p[i]:
                     keep = j
                     break
-        mass = cdf[keep] if top_p[i] < 1.0 else cdf[n - 1]
-        target = u[i] * mass
+        target = u[i] * cdf[keep]
         pick = keep
         for j in range(keep):
             if cdf[j] > target:

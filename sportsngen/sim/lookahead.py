@@ -18,10 +18,10 @@ meanwhile.
 
 What it buys: on this machine's 2 cores, little. A best-of-1 six-game match (seed 1, 92 rallies,
 `bench/bench_lookahead.py`) took 80.5 s alone and 76.3 s with one worker: about half the
-rallies played ahead were needed (24 of 48), and the calling process's own rallies ran 12 %
-slower beside the worker. It is off by default (`simulate.py lookahead=0`); with more cores
-more workers play further along the path. The workers are spawned processes: a script that
-turns it on needs the `if __name__ == "__main__":` guard.
+rallies played ahead were needed (24 of 48), and the calling process's own rallies took about
+12 % longer on average beside the worker. It is off by default (`simulate.py lookahead=0`);
+with more cores more workers play further along the path. The workers are spawned
+processes: a script that turns it on needs the `if __name__ == "__main__":` guard.
 """
 
 from __future__ import annotations
@@ -59,8 +59,8 @@ def _worker_play(row: dict, seed: int) -> RallyData:
 
 
 class Lookahead:
-    """`workers` processes that play a match's likely rallies ahead (module doc). Use as a
-    context manager, or `close()` it."""
+    """`workers` processes that play a match's likely rallies ahead (module doc); `close()`
+    it when the match is over."""
 
     def __init__(self, sim, workers: int = 1):
         self.workers = check_int("lookahead workers", workers, 1, 64)
@@ -75,12 +75,6 @@ class Lookahead:
         self.wasted = 0            # rallies played ahead that the match never needed
         self.waited_s = 0.0        # the calling process's time waiting on a worker
         self.here_s = 0.0          # ... and playing rallies itself
-
-    def __enter__(self) -> Lookahead:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
 
     def close(self) -> None:
         self.wasted += len(self._done) + sum(f.running() or f.done()
