@@ -268,3 +268,33 @@ def test_rollout_players_never_run_faster_than_their_top_speed(tiny_model_file, 
     assert sim.top_speeds == TopSpeeds(2.0, {"Toy Alpha": 1.5})
     capped = fastest(sim)
     assert capped["Toy Alpha"] <= 1.5 + 1e-3 and capped["Toy Gamma"] <= 2.0 + 1e-3
+
+
+@pytest.mark.parametrize("rules", [{}, {"full_from_frac": 0.85},
+                                   {"full_from_frac": 0.85, "keep_heading_deg": 10.0}])
+def test_the_compiled_limits_are_the_torch_ones(monkeypatch, rules):
+    """`sim.constraint_kernel`'s limits against the torch operations, on players walking,
+    running, braking and turning: the same float32 frames."""
+    from sportsngen.sim import kinematics
+    from sportsngen.sim.kinematics import PlayerLimits, limit_player_acceleration, \
+        limit_player_speed
+
+    g = torch.Generator().manual_seed(4)
+    n = 5000
+    pos = torch.randn(n, 3, 3, generator=g) * 5
+    vel = torch.randn(n, 3, 3, generator=g) * 3
+    vel[::6] = 0.0                                           # standing
+    nxt = pos + vel / 25 + torch.randn(n, 3, 3, generator=g) * 0.012
+    top = torch.empty(n, 2).uniform_(3.0, 7.0, generator=g)
+    lim = PlayerLimits(accel_mps2=6.0, **rules)
+    fast = limit_player_acceleration(nxt, pos, vel, 25.0, lim)
+    fast_top = limit_player_speed(nxt, pos, 25.0, top)
+    with monkeypatch.context() as m:
+        m.setattr(kinematics, "_compiled", lambda *t: False)
+        slow = limit_player_acceleration(nxt, pos, vel, 25.0, lim)
+        slow_top = limit_player_speed(nxt, pos, 25.0, top)
+    assert (fast - slow).abs().max() < 1e-5
+    assert ((fast - nxt).abs() > 1e-4).any(dim=-1).any(dim=-1).float().mean() > 0.2  # limited
+    assert torch.equal(fast[:, 2], nxt[:, 2])                                  # the ball as drawn
+    assert (fast_top - slow_top).abs().max() < 1e-5
+    assert ((fast_top - nxt).abs() > 1e-4).any() and torch.equal(fast_top[:, 2], nxt[:, 2])

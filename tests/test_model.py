@@ -643,3 +643,101 @@ def test_the_compiled_nucleus_draw_is_the_torch_one(top_p):
     _nucleus_rows(logits.numpy(), p.reshape(-1).numpy(), u.reshape(-1).numpy(), got)
     assert torch.equal(torch.from_numpy(got), want)
     assert not torch.isinf(logits[::4].gather(-1, want[::4, None])).any()
+
+
+def _torch_draw(monkeypatch, head, *args, **kw):
+    from sportsngen.model import heads
+    with monkeypatch.context() as m:
+        m.setattr(heads, "_compiled_draw", lambda h: False)
+        return head.sample(*args, **kw)
+
+
+@pytest.mark.parametrize("dims,top_p,split,top_p_regions", [
+    (2, 1.0, False, None), (2, 0.8, False, None), (3, 0.9, True, 0.97), (3, 1.0, True, None),
+    (4, 0.7, True, 0.7)])
+def test_the_compiled_head_draw_is_the_torch_one(monkeypatch, dims, top_p, split,
+                                                 top_p_regions):
+    """The fused kernel reads the generator's stream as the torch path does (the same state
+    after) and draws the same bins from the same uniforms, regions, nuclei and biases."""
+    torch.manual_seed(5)
+    head = FactorisedHead(32, 15, dims, hidden=24).eval()
+    for p in head.parameters():             # logits spread over a few units, as a model's do
+        p.data.mul_(4.0)
+    h = torch.randn(2000, 32)
+    bias = torch.randn(2000, dims, 15)
+    regions = (torch.arange(15) % 4 == 0) if split else None
+    g_fast, g_ref = torch.Generator().manual_seed(9), torch.Generator().manual_seed(9)
+    with torch.inference_mode():
+        fast = head.sample(h, top_p, g_fast, regions, top_p_regions, dim_bias=bias)
+        ref = _torch_draw(monkeypatch, head, h, top_p, g_ref, regions, top_p_regions,
+                          dim_bias=bias)
+    assert torch.equal(g_fast.get_state(), g_ref.get_state())
+    assert (fast == ref).all(-1).float().mean() >= 0.999       # float32 rounding at an edge
+    assert len(torch.unique(fast[:, 0])) > 5                     # a real spread was drawn
+    if split and top_p < 1.0:
+        # a nucleus under 1 cuts classes, so the draws cannot all be the full distribution's
+        assert not torch.equal(fast, _torch_draw(monkeypatch, head, h, 1.0,
+                                                 torch.Generator().manual_seed(9)))
+
+
+def test_the_compiled_head_draw_follows_changed_weights():
+    """The packed weights are packed again after an in-place update (fine-tuning)."""
+    torch.manual_seed(0)
+    head = FactorisedHead(8, 11, 2, hidden=8).eval()
+    h = torch.randn(50, 8)
+    with torch.inference_mode():
+        before = head.sample(h, 1.0, torch.Generator().manual_seed(1))
+    with torch.no_grad():
+        head.first.bias.fill_(-1e4)
+        head.first.bias[3] = 0.0            # every first bin must now be 3
+    with torch.inference_mode():
+        after = head.sample(h, 1.0, torch.Generator().manual_seed(1))
+    assert (after[:, 0] == 3).all() and not (before[:, 0] == 3).all()
+
+
+def test_the_compiled_head_draw_rejects_a_bad_nucleus():
+    head = FactorisedHead(8, 11, 2, hidden=8).eval()
+    with torch.inference_mode(), pytest.raises(ValueError, match="top_p"):
+        head.sample(torch.randn(3, 8), 0.0)
+    with torch.inference_mode(), pytest.raises(ValueError, match="top_p_regions"):
+        head.sample(torch.randn(3, 8), 0.9, None, torch.ones(11, dtype=torch.bool), 1.5)
+
+
+@pytest.mark.parametrize("b", [1, 2])
+def test_the_compiled_step_is_the_torch_step(monkeypatch, b):
+    """The compiled blocks (`step_kernel`, used up to STEP_KERNEL_ROWS rallies) give the torch
+    step's states and write the same keys and values into the rings, past the window too."""
+    from sportsngen.model import decoder, step_kernel
+
+    model = make_model(n_layers=3)
+    t = 2 * model.cfg.window_frames + 3
+    feats, ident, ctx = inputs(model.cfg, b=b, t=t)
+    c = model.context_tokens(*ctx)
+    calls = []
+    real = step_kernel.blocks_rows
+    monkeypatch.setattr(step_kernel, "blocks_rows", lambda *a: (calls.append(1), real(*a)))
+    with torch.inference_mode():
+        fast = model.init_cache(ident, c)
+        slow = model.init_cache(ident, c)
+        for k in range(t):
+            h_fast, fast = model.forward_step(feats[:, k], fast)
+            with monkeypatch.context() as m:
+                m.setattr(decoder, "STEP_KERNEL_ROWS", 0)
+                h_slow, slow = model.forward_step(feats[:, k], slow)
+            assert (h_fast - h_slow).abs().max() < 1e-5
+        for a, s in zip(fast.k + fast.v, slow.k + slow.v):
+            assert (a - s).abs().max() < 1e-5
+    assert len(calls) == t
+
+
+def test_the_compiled_step_follows_changed_weights():
+    model = make_model()
+    feats, ident, ctx = inputs(model.cfg, b=1, t=2)
+    c = model.context_tokens(*ctx)
+    with torch.inference_mode():
+        before, _ = model.forward_step(feats[:, 0], model.init_cache(ident, c))
+    with torch.no_grad():
+        model.ln_f.bias.add_(1.0)
+    with torch.inference_mode():
+        after, _ = model.forward_step(feats[:, 0], model.init_cache(ident, c))
+    assert torch.allclose(after - before, torch.ones_like(after), atol=1e-5)

@@ -21,12 +21,20 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import nn
 
 from sportsngen.data.tokens import BALL, GENERIC_ID, N_FEATURES, N_OBJECTS, N_SPECIAL_IDS
-from sportsngen.model import contact_reach, receiver_start, serve_bias, strike, strike_heads
+from sportsngen.model import (
+    contact_reach,
+    receiver_start,
+    serve_bias,
+    step_kernel,
+    strike,
+    strike_heads,
+)
 from sportsngen.model import strike_bias as strike_bias_table
 from sportsngen.model.bin_quantiles import place_in_bins
 from sportsngen.model.bins import Bins
@@ -35,6 +43,7 @@ from sportsngen.model.config import FEATURE_GROUPS, ModelConfig
 from sportsngen.model.embedding import ContextEmbedding, ObjectEmbedding, run_mlp
 from sportsngen.model.forecast import clock_columns, extra_columns, forecast_columns
 from sportsngen.model.heads import FactorisedHead, SubBinHead, make_head
+from sportsngen.model.packed import packed
 from sportsngen.model.sampling import uniform_in_bin
 
 # Object-feature columns that change sign when the court is turned about the vertical through
@@ -109,6 +118,23 @@ class Block(nn.Module):
         # Inference: functional calls, no module-call overhead (the step is latency-bound).
         x = x + self.attn.step(_layer_norm(self.ln1, x), k_ring, v_ring, lo, n_keys)
         return x + run_mlp(self.ff, _layer_norm(self.ln2, x))
+
+
+# Up to this many rallies a cached step runs `step_kernel.blocks_rows`: 0.36 ms a step at one
+# against 0.79 in torch, 0.73 against 1.12 at two; at four, torch's BLAS is as fast
+# (scratch outputs/s102/step_check.py, one thread).
+STEP_KERNEL_ROWS = 2
+
+
+def _compiled_blocks(x: torch.Tensor, k_rings: list[torch.Tensor], training: bool) -> bool:
+    """Whether a cached step's blocks run compiled: a few float32 CPU rallies outside
+    training and autograd, the rings contiguous (they are as `KVCache` makes them), and not
+    under `torch.compile` (dynamo cannot trace numba)."""
+    return (len(x) <= STEP_KERNEL_ROWS and x.device.type == "cpu"
+            and x.dtype == torch.float32 and not training
+            and not (torch.is_grad_enabled() and x.requires_grad)
+            and all(k.is_contiguous() for k in k_rings)
+            and not torch.compiler.is_compiling())
 
 
 def _layer_norm(ln: nn.LayerNorm, x: torch.Tensor) -> torch.Tensor:
@@ -419,6 +445,14 @@ class SportsNGEN(nn.Module):
         b = new_frame_feats.shape[0]
         x = self._embed(new_frame_feats[:, None], ident, last_feats)
         x = x.reshape(b, N_OBJECTS, -1)
+        if _compiled_blocks(x, k_rings, self.training):
+            weights = packed(self.blocks, lambda: step_kernel.pack_blocks(self.blocks, self.ln_f),
+                             self.ln_f)
+            h = np.empty(x.shape, dtype=np.float32)
+            step_kernel.blocks_rows(x.detach().contiguous().numpy(),
+                                    tuple(k.numpy() for k in k_rings),
+                                    tuple(v.numpy() for v in v_rings), lo, n_keys, *weights, h)
+            return torch.from_numpy(h)
         for blk, k_ring, v_ring in zip(self.blocks, k_rings, v_rings):
             x = blk.step(x, k_ring, v_ring, lo, n_keys)
         return _layer_norm(self.ln_f, x)

@@ -14,12 +14,15 @@ probability, then takes the nucleus inside the chosen side
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import nn
 
+from sportsngen.model import head_kernel
 from sportsngen.model.bins import flat_index, unflat_index
 from sportsngen.model.embedding import run_mlp
+from sportsngen.model.packed import packed
 from sportsngen.model.sampling import sample_top_p, sample_top_p_in_regions
 
 
@@ -112,6 +115,8 @@ class FactorisedHead(nn.Module):
         `top_p_regions`: the nucleus of every dimension of a row whose first falls in
         `regions` (default `top_p`); `dim_bias` as in `dim_logits` (the regions' odds are
         read after it)."""
+        if _compiled_draw(h):
+            return self._sample_compiled(h, top_p, generator, regions, top_p_regions, dim_bias)
         if regions is None:
             return self._decode(h, lambda lg: sample_top_p(lg, top_p, generator), dim_bias)
         chosen = torch.zeros(*h.shape[:-1], self.dims, dtype=torch.long, device=h.device)
@@ -125,6 +130,45 @@ class FactorisedHead(nn.Module):
             chosen[..., k] = sample_top_p(self.dim_logits(h, chosen, k, dim_bias), row_p,
                                           generator)
         return chosen
+
+
+    def _sample_compiled(self, h: torch.Tensor, top_p: float | torch.Tensor,
+                         generator: torch.Generator | None, regions: torch.Tensor | None,
+                         top_p_regions: float | None, dim_bias: torch.Tensor | None
+                         ) -> torch.Tensor:
+        """`sample` by `head_kernel.factorised_rows`, reading the same uniforms as the torch
+        path in the same order."""
+        lead = h.shape[:-1]
+        flat = h.detach().reshape(-1, h.shape[-1]).contiguous().numpy()
+        rows = len(flat)
+        p = np.broadcast_to(np.asarray(top_p.detach().cpu() if isinstance(top_p, torch.Tensor)
+                                       else top_p, dtype=np.float32), lead).reshape(rows)
+        inner = p if top_p_regions is None else np.full(rows, top_p_regions, np.float32)
+        for name, q in (("top_p", p), ("top_p_regions", inner)):
+            if not ((q > 0.0) & (q <= 1.0)).all():
+                raise ValueError(f"{name} must be in (0, 1], got {q}")
+        if regions is None:
+            mask = np.zeros(self.n_bins, dtype=np.bool_)
+            split = False
+        else:
+            mask = regions.detach().cpu().numpy().astype(np.bool_, copy=False)
+            split = not ((p >= 1.0) & (inner >= 1.0)).all()
+        bias = np.zeros((rows, self.dims, self.n_bins), dtype=np.float32) if dim_bias is None \
+            else np.ascontiguousarray(dim_bias.detach().float().expand(
+                *lead, self.dims, self.n_bins).reshape(rows, self.dims, self.n_bins).numpy())
+        u = torch.rand(int(split) + self.dims, rows, generator=generator).numpy()
+        out = np.empty((rows, self.dims), dtype=np.int64)
+        weights = packed(self, lambda: head_kernel.pack_factorised(self))
+        head_kernel.factorised_rows(flat, *weights, bias, np.ascontiguousarray(p),
+                                    np.ascontiguousarray(inner), mask, split, u, out)
+        return torch.from_numpy(out).reshape(*lead, self.dims)
+
+
+def _compiled_draw(h: torch.Tensor) -> bool:
+    """Whether a head's draw takes the compiled kernel: float32 CPU states outside autograd
+    (training and other devices keep the torch path)."""
+    return (h.device.type == "cpu" and h.dtype == torch.float32
+            and not (torch.is_grad_enabled() and h.requires_grad))
 
 
 class SubBinHead(nn.Module):

@@ -71,39 +71,47 @@ def _nucleus_torch(flat: torch.Tensor, p: torch.Tensor, u: torch.Tensor) -> torc
 
 
 @njit(cache=True)
+def nucleus_one(logits, top_p, u, cdf):
+    """One row of `_nucleus_torch` compiled: the class drawn from `logits` (n,) at nucleus
+    `top_p` with uniform `u`; `cdf` (n,) float32 scratch. Float32 as torch's; the softmax's
+    sum may round differently, so a draw can differ from torch's only where a uniform falls
+    within float32 rounding of a class's edge. Shared by `_nucleus_rows` and the fused head
+    draw (`model.head_kernel`)."""
+    n = logits.shape[0]
+    order = np.argsort(-logits, kind="mergesort")
+    top = logits[order[0]]
+    total = np.float32(0.0)
+    for j in range(n):
+        e = np.float32(np.exp(logits[order[j]] - top))
+        cdf[j] = e
+        total += e
+    acc = np.float32(0.0)
+    for j in range(n):
+        acc += cdf[j] / total
+        cdf[j] = acc
+    # The nucleus: the first class whose cumulative mass reaches top_p (the row at 1).
+    keep = n - 1
+    if top_p < 1.0:
+        for j in range(n):
+            if cdf[j] >= top_p:
+                keep = j
+                break
+    target = u * cdf[keep]
+    pick = keep
+    for j in range(keep):
+        if cdf[j] > target:
+            pick = j
+            break
+    return order[pick]
+
+
+@njit(cache=True)
 def _nucleus_rows(logits, top_p, u, out):
     """`_nucleus_torch` compiled, one row a loop: about 15 tensor operations whose dispatch was
-    most of a draw's cost at a rally's 2-3 rows, five draws a frame. Float32 as torch's;
-    the softmax's sum may round differently, so a draw can differ from torch's only where a
-    uniform falls within float32 rounding of a class's edge."""
-    n = logits.shape[1]
-    cdf = np.empty(n, dtype=np.float32)
+    most of a draw's cost at a rally's 2-3 rows, five draws a frame."""
+    cdf = np.empty(logits.shape[1], dtype=np.float32)
     for i in range(logits.shape[0]):
-        order = np.argsort(-logits[i], kind="mergesort")
-        top = logits[i, order[0]]
-        total = np.float32(0.0)
-        for j in range(n):
-            e = np.float32(np.exp(logits[i, order[j]] - top))
-            cdf[j] = e
-            total += e
-        acc = np.float32(0.0)
-        for j in range(n):
-            acc += cdf[j] / total
-            cdf[j] = acc
-        # The nucleus: the first class whose cumulative mass reaches top_p (the row at 1).
-        keep = n - 1
-        if top_p[i] < 1.0:
-            for j in range(n):
-                if cdf[j] >= top_p[i]:
-                    keep = j
-                    break
-        target = u[i] * cdf[keep]
-        pick = keep
-        for j in range(keep):
-            if cdf[j] > target:
-                pick = j
-                break
-        out[i] = order[pick]
+        out[i] = nucleus_one(logits[i], top_p[i], u[i], cdf)
 
 
 def sample_top_p_in_regions(logits: torch.Tensor, regions: torch.Tensor, top_p: float,

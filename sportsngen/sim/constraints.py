@@ -27,6 +27,7 @@ from sportsngen.model.forecast import (
     ball_forecast,
     nearest_playable,
 )
+from sportsngen.sim import constraint_kernel
 from sportsngen.tennis.court import (
     FENCE_X_M,
     FENCE_Y_M,
@@ -127,6 +128,18 @@ def contact_reaches(tracker, rows, return_reach_m: float | None, rows_m: np.ndar
     return np.where(awaiting_return(n_shots), ret, rally)
 
 
+def _on_cpu(*tensors: torch.Tensor | float | None) -> bool:
+    """Whether the compiled judgements (`sim.constraint_kernel`) apply: every tensor given on
+    the CPU and outside autograd (other devices keep the torch operations)."""
+    return all(t.device.type == "cpu" and not t.requires_grad for t in tensors
+               if isinstance(t, torch.Tensor))
+
+
+def _per_row(value: np.ndarray | float, n: int) -> np.ndarray:
+    """A reach (one value or one a row) as (n,) float64, the kernels' input."""
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(value, dtype=np.float64), (n,)))
+
+
 class PhysicalLimits:
     """Reject a sampled frame whose ball is below the ground, or crossed the net's plane
     below the cord since the previous frame, or (`reach_m` not None) reverses along x, as a
@@ -173,6 +186,15 @@ class PhysicalLimits:
 
     def accept(self, rows: np.ndarray, frame: int, pos_m: torch.Tensor,
                next_pos_m: torch.Tensor, vel_mps: torch.Tensor | None = None) -> torch.Tensor:
+        if _on_cpu(pos_m, next_pos_m, vel_mps):
+            check = self.reach_m is not None and vel_mps is not None
+            out = np.empty(len(pos_m), dtype=np.bool_)
+            constraint_kernel.physical_rows(
+                pos_m.numpy(), next_pos_m.numpy(), (pos_m if vel_mps is None else vel_mps).numpy(),
+                _per_row(self._reach_rows(rows) if check else 0.0, len(pos_m)), check,
+                self.ground_tol_m, self.net_tol_m, self.fps, JOLT_MPS, JOLT_MIN_Z_M,
+                BOUNCE_MIN_KEEP, out)
+            return torch.from_numpy(out)
         a, b = pos_m[:, BALL], next_pos_m[:, BALL]
         ok = b[:, 2] >= -self.ground_tol_m
         if self.reach_m is not None and vel_mps is not None:
@@ -185,15 +207,19 @@ class PhysicalLimits:
             ok &= ~crossed | (z >= net_cord_m(y) - self.net_tol_m)
         return ok
 
-    def _reach(self, rows: np.ndarray, ball: torch.Tensor) -> torch.Tensor | float:
-        """The reach of each row's next contact (`contact_reaches`)."""
+    def _reach_rows(self, rows: np.ndarray) -> np.ndarray | float:
+        """The reach of each row's next contact (`contact_reaches`), one value where all
+        rows share it."""
         if self.return_reach_m is None and self.return_reach_rows_m is None \
                 and self.rally_reach_rows_m is None:
             return self.reach_m
-        return torch.as_tensor(contact_reaches(self.tracker, rows, self.return_reach_m,
-                                               self.return_reach_rows_m, self.reach_m,
-                                               self.rally_reach_rows_m),
-                               device=ball.device, dtype=ball.dtype)
+        return contact_reaches(self.tracker, rows, self.return_reach_m,
+                               self.return_reach_rows_m, self.reach_m, self.rally_reach_rows_m)
+
+    def _reach(self, rows: np.ndarray, ball: torch.Tensor) -> torch.Tensor | float:
+        reach = self._reach_rows(rows)
+        return reach if isinstance(reach, float) else \
+            torch.as_tensor(reach, device=ball.device, dtype=ball.dtype)
 
     def struck_out_of_reach(self, pos_m: torch.Tensor, next_pos_m: torch.Tensor,
                             vel_mps: torch.Tensor,
@@ -359,6 +385,17 @@ class StrikeInReach:
         sampled frame (a ball rising above a racket is left to come down). `reach_m` (B,): each
         row's reach where it is not the rule's."""
         reach = self.reach_m if reach_m is None else reach_m
+        if _on_cpu(pos_m, next_pos_m, vel_mps, role, end, reach_m):
+            out = np.empty(len(pos_m), dtype=np.bool_)
+            nan = float("nan")
+            constraint_kernel.passes_rows(
+                pos_m.numpy(), next_pos_m.numpy(), (pos_m if vel_mps is None else vel_mps).numpy(),
+                vel_mps is not None, role.numpy(), end.double().numpy(),
+                _per_row(reach.numpy() if isinstance(reach, torch.Tensor) else reach,
+                         len(pos_m)), self.max_z_m, nan if self.min_z_m is None else self.min_z_m,
+                nan if self.behind_m is None else self.behind_m, self.fps, JOLT_MPS,
+                JOLT_MIN_Z_M, BOUNCE_MIN_KEEP, out)
+            return torch.from_numpy(out)
         i = torch.arange(len(pos_m), device=pos_m.device)
         ball0, ball1 = pos_m[:, BALL], next_pos_m[:, BALL]
         gap0 = torch.linalg.vector_norm(ball0[:, :2] - pos_m[i, role, :2], dim=-1)
