@@ -317,3 +317,44 @@ def test_a_late_player_is_not_asked_beyond_his_own_top_speed():
     rule2.max_speed_rows_mps = rule.max_speed_rows_mps
     slower = rule2.accept(rows, 50, pos, _moved(pos, [[0.0, 5.0], [0.0, 5.0]]), at_top)
     assert slower.tolist() == [True, False]
+
+
+@pytest.mark.parametrize("band_m", [None, (0.5, 1.4)])
+def test_the_compiled_reading_is_the_torch_one(monkeypatch, band_m):
+    """`constraint_kernel.chase_rows` against the rule's torch reading, over balls flying
+    low, high and bouncing toward receivers standing and running all over their end."""
+    from sportsngen.sim import constraints
+
+    g = torch.Generator().manual_seed(8)
+    n = 3000
+    pos, vel = torch.zeros(n, 3, 3), torch.zeros(n, 3, 3)
+    pos[:, 0, :2] = torch.tensor([12.0, 0.0])
+    pos[:, 1, 0] = torch.empty(n).uniform_(-15, -1, generator=g)
+    pos[:, 1, 1] = torch.empty(n).uniform_(-6, 6, generator=g)
+    vel[:, 1, :2] = torch.randn(n, 2, generator=g) * 3
+    pos[:, 2, 0] = torch.empty(n).uniform_(-4, 10, generator=g)
+    pos[:, 2, 1] = torch.empty(n).uniform_(-4, 4, generator=g)
+    pos[:, 2, 2] = torch.empty(n).uniform_(0.3, 4.5, generator=g)
+    vel[:, 2, 0] = torch.empty(n).uniform_(-35, -8, generator=g)
+    vel[:, 2, 1] = torch.randn(n, generator=g) * 3
+    vel[:, 2, 2] = torch.empty(n).uniform_(-8, 6, generator=g)
+    hist = np.zeros((n, 6, 3, 3))
+    for k in range(6):
+        s = -(5 - k) / FPS
+        hist[:, k] = pos.numpy() + s * vel.numpy()
+        hist[:, k, 2, 2] += -0.5 * 9.81 * s * s
+    tracker = _Tracker(hist, np.full(n, 10))
+    tracker.n_bounces[::3] = 1
+    tracker.n_shots[::4] = 1                                   # serves: no acceleration
+    rule = KeepChasing(tracker, fps=FPS, band_m=band_m)
+    rule.max_speed_rows_mps = np.full((n, 2), 6.5)
+    rows = np.arange(n)
+    got = rule.late(rows, pos, vel)
+    with monkeypatch.context() as m:
+        m.setattr(constraints, "_on_cpu", lambda *t: False)
+        want = rule.late(rows, pos, vel)
+    assert (got[0] != want[0]).sum() <= 3                     # float32 rounding at a threshold
+    assert 0.1 < want[0].float().mean() < 0.9
+    same = got[0] == want[0]
+    for a, b in zip(got[1:], want[1:]):
+        assert (a[same] - b[same]).abs().max() < 1e-3

@@ -41,7 +41,12 @@ from sportsngen.model.bins import Bins
 from sportsngen.model.centre import object_centres_m
 from sportsngen.model.config import FEATURE_GROUPS, ModelConfig
 from sportsngen.model.embedding import ContextEmbedding, ObjectEmbedding, run_mlp
-from sportsngen.model.forecast import clock_columns, extra_columns, forecast_columns
+from sportsngen.model.forecast import (
+    clock_columns,
+    extra_columns,
+    forecast_columns,
+    forecast_outside_graph,
+)
 from sportsngen.model.heads import FactorisedHead, SubBinHead, make_head
 from sportsngen.model.packed import packed
 from sportsngen.model.sampling import uniform_in_bin
@@ -470,6 +475,8 @@ class SportsNGEN(nn.Module):
         it runs. `backend`: torch.compile's (a name or a callable); the tests trace the same
         graphs through a backend that runs them as traced (seconds, where inductor's first
         compile on a cold cache took a minute on 2 cores)."""
+        if enable:
+            forecast_outside_graph()
         self._compiled_step = torch.compile(self.step_tokens, backend=backend) if enable else None
         return self
 

@@ -55,9 +55,6 @@ _COLUMN_SCALE = torch.tensor([*POS_SCALE_M * len(HORIZONS_S), *POS_SCALE_M[:2], 
 _INTERCEPT_SCALE = torch.tensor([*POS_SCALE_M[:2], INTERCEPT_HORIZON_S])
 
 
-# Under `torch.compile` (`SportsNGEN.compile_step`) the compiled loop runs as it is, outside
-# the graph: dynamo cannot trace into numba, and tracing the torch loop instead took minutes.
-@torch.compiler.disable
 def ball_forecast(pos_m: torch.Tensor, vel_mps: torch.Tensor,
                   prev_vel_mps: torch.Tensor | None = None, fps: float = 25.0,
                   path: bool = False):
@@ -164,6 +161,20 @@ def ball_forecast_torch(pos_m: torch.Tensor, vel_mps: torch.Tensor,
     return columns, torch.stack(track, dim=-2)
 
 
+_OUTSIDE_GRAPH = None
+
+
+def forecast_outside_graph():
+    """`ball_forecast` wrapped to run as it is under `torch.compile` (`SportsNGEN.compile_step`),
+    outside the graph: dynamo cannot trace into numba, and tracing the torch loop instead took
+    minutes. Made on the first call, by the step's compilation: `torch.compiler.disable`
+    imports dynamo, 0.9 s of every process's start when it decorated the function."""
+    global _OUTSIDE_GRAPH
+    if _OUTSIDE_GRAPH is None:
+        _OUTSIDE_GRAPH = torch.compiler.disable(ball_forecast)
+    return _OUTSIDE_GRAPH
+
+
 def random_flights(n: int, seed: int = 0) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """`n` random balls in flight over the court (positions, velocities and the frame before's
     velocities, (n, 3) each) for tests and benchmarks of the forecast: some about to bounce,
@@ -234,7 +245,9 @@ def forecast_columns(feats: torch.Tensor, prev_feats: torch.Tensor | None,
     scale = _COLUMN_SCALE.to(feats.device)
     ball = feats[..., BALL, :].float()
     prev = None if prev_feats is None else prev_feats[..., BALL, 3:6].float() * VEL_SCALE_MPS
-    flown = ball_forecast(ball[..., 0:3] * scale[:3], ball[..., 3:6] * VEL_SCALE_MPS, prev,
+    forecast = _OUTSIDE_GRAPH if _OUTSIDE_GRAPH is not None and torch.compiler.is_compiling() \
+        else ball_forecast
+    flown = forecast(ball[..., 0:3] * scale[:3], ball[..., 3:6] * VEL_SCALE_MPS, prev,
                           fps, path=intercept)
     ahead = (flown[0] if intercept else flown) / scale
     own = feats[..., :BALL, 0:3].float()

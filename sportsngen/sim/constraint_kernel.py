@@ -164,3 +164,66 @@ def speed_rows(nxt, pos, fps, top_mps, out):
             scale = limit / max(norm, tiny) if norm > limit else np.float32(1.0)
             out[r, p, 0] = pos[r, p, 0] + sx * scale
             out[r, p, 1] = pos[r, p, 1] + sy * scale
+
+
+@njit(cache=True)
+def _nearest_playable(track, me_x, me_y, z_lo, z_hi, step_s, zs, out):
+    """`forecast.nearest_playable` of one flight `track` (N, 3) and one player, the heights
+    read from `zs` (N,) (the track's own, or masked): -> `out` (x, y less his, time s);
+    (0, 0, -1) where the flight offers him none."""
+    side = np.sign(me_x)
+    best, k_best = np.inf, -1
+    n = track.shape[0]
+    for k in range(n):
+        step_x = track[1, 0] - track[0, 0] if k == 0 else track[k, 0] - track[k - 1, 0]
+        if zs[k] >= z_lo and zs[k] <= z_hi and track[k, 0] * side > 0.5 and \
+                step_x * side > 0:
+            gap = math.sqrt((track[k, 0] - me_x) ** 2 + (track[k, 1] - me_y) ** 2)
+            if gap < best:
+                best, k_best = gap, k
+    if k_best < 0:
+        out[0], out[1], out[2] = 0.0, 0.0, -1.0
+    else:
+        out[0] = track[k_best, 0] - me_x
+        out[1] = track[k_best, 1] - me_y
+        out[2] = (k_best + 1) * step_s
+
+
+@njit(cache=True)
+def chase_rows(track, bounce_s, me, vel_me, bounced, band_lo, band_hi, z_lo, z_hi, step_s,
+               horizon_s, strike_max_z_m, reach_m, fps, accel_mps2, cap_mps, late, unit,
+               along, least):
+    """`KeepChasing.late`'s reading of the due rows: each flight `track` (n, N, 3) (the
+    forecast's path, `bounce_s` (n,) its next bounce's time), the player due at `me` (n, 2)
+    running at `vel_me` (n, 2); `bounced` (n,) the ball has bounced already; `band_lo`,
+    `band_hi` the high-ball band (NaN: none); `accel_mps2`, `cap_mps` (n,) -> `late` (n,)
+    bool, `unit` (n, 2), `along`, `least` (n,)."""
+    near = np.empty(3)
+    band = np.empty(3)
+    n_pts = track.shape[1]
+    zs = np.empty(n_pts)
+    for r in range(track.shape[0]):
+        for k in range(n_pts):
+            zs[k] = track[r, k, 2]
+        _nearest_playable(track[r], me[r, 0], me[r, 1], z_lo, z_hi, step_s, zs, near)
+        if not np.isnan(band_lo):
+            high = False
+            for k in range(n_pts):
+                after = bounced[r] or ((k + 1) * step_s > bounce_s[r] and
+                                       bounce_s[r] < horizon_s)
+                zs[k] = track[r, k, 2] if after else -1.0
+                high = high or zs[k] > strike_max_z_m
+            if high:
+                _nearest_playable(track[r], me[r, 0], me[r, 1], band_lo, band_hi, step_s, zs,
+                                  band)
+                if band[2] > 0:
+                    near[:] = band
+        dist = math.sqrt(near[0] * near[0] + near[1] * near[1])
+        ux, uy = near[0] / max(dist, 1e-6), near[1] / max(dist, 1e-6)
+        v_along = vel_me[r, 0] * ux + vel_me[r, 1] * uy
+        need = dist - reach_m
+        late[r] = near[2] > 0 and need > 0 and v_along * near[2] < need
+        unit[r, 0], unit[r, 1] = ux, uy
+        along[r] = v_along
+        wanted = need / max(near[2], 1e-3)
+        least[r] = min(min(v_along + accel_mps2[r] / fps, wanted), cap_mps[r])

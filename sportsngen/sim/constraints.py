@@ -524,7 +524,9 @@ class KeepChasing:
         if self.max_speed_rows_mps is not None:
             own = self.max_speed_rows_mps[rows, role.cpu().numpy()]
             cap = torch.minimum(cap, torch.as_tensor(own, dtype=dtype, device=dev))
-        if due.any():
+        if due.any() and _on_cpu(pos_m, vel_mps):
+            self._read_compiled(rows, due, role, pos_m, vel_mps, cap, late, unit, along, least)
+        elif due.any():
             i = torch.as_tensor(np.flatnonzero(due), device=dev)
             recent = torch.as_tensor(t.recent_frames(rows[due]), dtype=dtype, device=dev)
             prev_vel = (recent[:, -2, BALL] - recent[:, -3, BALL]) * self.fps
@@ -554,6 +556,38 @@ class KeepChasing:
             self._at[rows] = np.arange(len(rows))
             self._tries[:] = 0
         return out
+
+    def _read_compiled(self, rows: np.ndarray, due: np.ndarray, role: torch.Tensor,
+                       pos_m: torch.Tensor, vel_mps: torch.Tensor, cap: torch.Tensor,
+                       late: torch.Tensor, unit: torch.Tensor, along: torch.Tensor,
+                       least: torch.Tensor) -> None:
+        """`late`'s reading of the due rows by `constraint_kernel.chase_rows` (the torch
+        operations in `late` are its reference), written into its outputs."""
+        t = self.tracker
+        i = np.flatnonzero(due)
+        recent = t.recent_frames(rows[due])
+        prev_vel = torch.as_tensor((recent[:, -2, BALL] - recent[:, -3, BALL]) * self.fps,
+                                   dtype=pos_m.dtype)
+        ball = pos_m[i, BALL]
+        columns, track = ball_forecast(ball, vel_mps[i, BALL], prev_vel, self.fps, path=True)
+        who = role.numpy()[i]
+        shot = t.n_shots[rows[due]]
+        accel = np.where(shot >= self.accel_from_shot, self.accel_mps2, 0.0)
+        lo, hi = (np.nan, np.nan) if self.band_m is None else self.band_m
+        n = len(i)
+        out_late, out_unit = np.empty(n, dtype=np.bool_), np.empty((n, 2))
+        out_along, out_least = np.empty(n), np.empty(n)
+        constraint_kernel.chase_rows(
+            track.numpy(), columns[:, -1].double().numpy(), pos_m[i, who, :2].double().numpy(),
+            vel_mps[i, who, :2].double().numpy(), t.n_bounces[rows[due]] >= 1, lo, hi,
+            PLAYABLE_Z_M[0], PLAYABLE_Z_M[1], STEP_S, HORIZON_S, STRIKE_MAX_Z_M, self.reach_m,
+            self.fps, accel, cap.numpy()[i].astype(np.float64), out_late, out_unit, out_along,
+            out_least)
+        j = torch.as_tensor(i)
+        late[j] = torch.from_numpy(out_late)
+        unit[j] = torch.from_numpy(out_unit).to(unit.dtype)
+        along[j] = torch.from_numpy(out_along).to(along.dtype)
+        least[j] = torch.from_numpy(out_least).to(least.dtype)
 
     def _high_ball_target(self, track: torch.Tensor, bounce_s: torch.Tensor, me: torch.Tensor,
                           near: torch.Tensor, bounced: torch.Tensor) -> torch.Tensor:
