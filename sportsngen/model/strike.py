@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from sportsngen.model import strike_kernel
 from sportsngen.model.centre import (
     DRAG_PER_M,
     GRAVITY_MPS2,
@@ -171,7 +172,15 @@ def _centre_acceleration(v: np.ndarray, prev_v: np.ndarray, fps: float) -> np.nd
 def fly_on(frames_m: np.ndarray, fps: float, n_frames: int = MAX_FLIGHT_FRAMES) -> np.ndarray:
     """(N, >= 3, 3) a flight's frames so far -> (N, n_frames, 3) the frames after them as the
     physics centre steps them (a rollout whose ball stays in the centre bins), the ground
-    ignored."""
+    ignored. Compiled (`strike_kernel.fly_on_rows`); `fly_on_numpy` is the reference."""
+    out = np.empty((len(frames_m), n_frames, 3))
+    strike_kernel.fly_on_rows(np.ascontiguousarray(frames_m, dtype=float), float(fps), out)
+    return out
+
+
+def fly_on_numpy(frames_m: np.ndarray, fps: float,
+                 n_frames: int = MAX_FLIGHT_FRAMES) -> np.ndarray:
+    """`fly_on` in numpy operations, the reference its kernel is tested against."""
     p = frames_m[:, -1].astype(float)
     v = (frames_m[:, -1] - frames_m[:, -2]) * fps
     prev = (frames_m[:, -2] - frames_m[:, -3]) * fps
