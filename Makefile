@@ -10,12 +10,14 @@ STAMP := $(VENV)/.installed
 setup: $(STAMP)
 
 # torch goes in first and alone: a CPU wheel pinned by TORCH_SPEC, so nothing that depends on
-# torch pulls a multi-gigabyte CUDA build from the registry.
+# torch pulls a multi-gigabyte CUDA build from the registry. Then the numba kernels are
+# compiled and cached by one rally (`sportsngen.sim.warm`), so no run pays for it.
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
 	$(BIN)/python -m pip install -q "$(TORCH_SPEC)"
 	$(BIN)/python -m pip install -q -e ".[dev]"
+	$(BIN)/python -m sportsngen.sim.warm
 	touch $(STAMP)
 
 demo: $(STAMP)

@@ -276,8 +276,11 @@ def test_the_compiled_limits_are_the_torch_ones(monkeypatch, rules):
     """`sim.constraint_kernel`'s limits against the torch operations, on players walking,
     running, braking and turning: the same float32 frames."""
     from sportsngen.sim import kinematics
-    from sportsngen.sim.kinematics import PlayerLimits, limit_player_acceleration, \
-        limit_player_speed
+    from sportsngen.sim.kinematics import (
+        PlayerLimits,
+        limit_player_acceleration,
+        limit_player_speed,
+    )
 
     g = torch.Generator().manual_seed(4)
     n = 5000

@@ -659,6 +659,12 @@ def test_the_compiled_head_draw_is_the_torch_one(monkeypatch, dims, top_p, split
                                                  top_p_regions):
     """The fused kernel reads the generator's stream as the torch path does (the same state
     after) and draws the same bins from the same uniforms, regions, nuclei and biases."""
+    from sportsngen.model import head_kernel, heads
+
+    monkeypatch.setattr(heads, "HEAD_KERNEL_ROWS", 10 ** 6)    # every row through the kernel
+    calls = []
+    real = head_kernel.factorised_rows
+    monkeypatch.setattr(head_kernel, "factorised_rows", lambda *a: (calls.append(1), real(*a)))
     torch.manual_seed(5)
     head = FactorisedHead(32, 15, dims, hidden=24).eval()
     for p in head.parameters():             # logits spread over a few units, as a model's do
@@ -671,6 +677,7 @@ def test_the_compiled_head_draw_is_the_torch_one(monkeypatch, dims, top_p, split
         fast = head.sample(h, top_p, g_fast, regions, top_p_regions, dim_bias=bias)
         ref = _torch_draw(monkeypatch, head, h, top_p, g_ref, regions, top_p_regions,
                           dim_bias=bias)
+    assert calls == [1]
     assert torch.equal(g_fast.get_state(), g_ref.get_state())
     assert (fast == ref).all(-1).float().mean() >= 0.999       # float32 rounding at an edge
     assert len(torch.unique(fast[:, 0])) > 5                     # a real spread was drawn
@@ -680,11 +687,14 @@ def test_the_compiled_head_draw_is_the_torch_one(monkeypatch, dims, top_p, split
                                                  torch.Generator().manual_seed(9)))
 
 
-def test_the_compiled_head_draw_follows_changed_weights():
+def test_the_compiled_head_draw_follows_changed_weights(monkeypatch):
     """The packed weights are packed again after an in-place update (fine-tuning)."""
+    from sportsngen.model import heads
+
+    monkeypatch.setattr(heads, "HEAD_KERNEL_ROWS", 10 ** 6)
     torch.manual_seed(0)
     head = FactorisedHead(8, 11, 2, hidden=8).eval()
-    h = torch.randn(50, 8)
+    h = torch.randn(30, 8)
     with torch.inference_mode():
         before = head.sample(h, 1.0, torch.Generator().manual_seed(1))
     with torch.no_grad():

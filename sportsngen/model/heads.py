@@ -164,10 +164,18 @@ class FactorisedHead(nn.Module):
         return torch.from_numpy(out).reshape(*lead, self.dims)
 
 
+# Up to this many rows a head's draw is compiled: one player row and frame costs ~0.03 ms
+# there, and torch's batched matrix products win from about 32 rows on (32 rallies: 1.08
+# against 1.14 ms for both heads; 100: 3.1 against 2.4; scratch outputs/s102/head_batch.py).
+HEAD_KERNEL_ROWS = 32
+
+
 def _compiled_draw(h: torch.Tensor) -> bool:
-    """Whether a head's draw takes the compiled kernel: float32 CPU states outside autograd
-    (training and other devices keep the torch path)."""
+    """Whether a head's draw takes the compiled kernel: a few float32 CPU rows outside
+    autograd (training, large batches and other devices keep the torch path; both read the
+    same uniforms)."""
     return (h.device.type == "cpu" and h.dtype == torch.float32
+            and h.numel() <= HEAD_KERNEL_ROWS * h.shape[-1]
             and not (torch.is_grad_enabled() and h.requires_grad))
 
 
