@@ -131,7 +131,6 @@ class FactorisedHead(nn.Module):
                                           generator)
         return chosen
 
-
     def _sample_compiled(self, h: torch.Tensor, top_p: float | torch.Tensor,
                          generator: torch.Generator | None, regions: torch.Tensor | None,
                          top_p_regions: float | None, dim_bias: torch.Tensor | None
@@ -141,11 +140,14 @@ class FactorisedHead(nn.Module):
         lead = h.shape[:-1]
         flat = h.detach().reshape(-1, h.shape[-1]).contiguous().numpy()
         rows = len(flat)
-        p = np.broadcast_to(np.asarray(top_p.detach().cpu() if isinstance(top_p, torch.Tensor)
-                                       else top_p, dtype=np.float32), lead).reshape(rows)
+        if isinstance(top_p, torch.Tensor):
+            p = np.ascontiguousarray(np.broadcast_to(
+                top_p.detach().cpu().numpy().astype(np.float32), lead).reshape(rows))
+        else:
+            p = np.full(rows, top_p, dtype=np.float32)
         inner = p if top_p_regions is None else np.full(rows, top_p_regions, np.float32)
         for name, q in (("top_p", p), ("top_p_regions", inner)):
-            if not ((q > 0.0) & (q <= 1.0)).all():
+            if not (q.min() > 0.0 and q.max() <= 1.0):
                 raise ValueError(f"{name} must be in (0, 1], got {q}")
         if regions is None:
             mask = np.zeros(self.n_bins, dtype=np.bool_)
@@ -159,8 +161,7 @@ class FactorisedHead(nn.Module):
         u = torch.rand(int(split) + self.dims, rows, generator=generator).numpy()
         out = np.empty((rows, self.dims), dtype=np.int64)
         weights = packed(self, lambda: head_kernel.pack_factorised(self))
-        head_kernel.factorised_rows(flat, *weights, bias, np.ascontiguousarray(p),
-                                    np.ascontiguousarray(inner), mask, split, u, out)
+        head_kernel.factorised_rows(flat, *weights, bias, p, inner, mask, split, u, out)
         return torch.from_numpy(out).reshape(*lead, self.dims)
 
 
