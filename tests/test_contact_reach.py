@@ -214,3 +214,33 @@ def test_states_are_read_from_generated_rallies():
     near = st.cell // cr.N_ASIDE_CELLS
     assert np.median(near[st.kind == 0]) <= 5                # within 1.5 frames of his line
     assert (st.kind == 0).mean() < 0.1                       # most frames: flight
+
+
+@pytest.mark.parametrize("frame_kind", ["world", "server"])
+def test_the_compiled_shifts_are_the_torch_ones(monkeypatch, frame_kind):
+    """`reach_kernel.reach_bias_rows` against `contact_bin_kinds` + `ball_dim_bias`, on balls
+    coming to and going from either player at either end, in either model frame."""
+    from sportsngen.model import decoder
+
+    model = with_contact_reach(small_model(n_bins=61, frame=frame_kind))
+    g = torch.Generator().manual_seed(2)
+    model.contact_reach.copy_(torch.randn(model.contact_reach.shape, generator=g))
+    n = 5000
+    end = torch.where(torch.rand(n, generator=g) < 0.5, -1.0, 1.0)
+    pos = torch.zeros(n, 3, 3)
+    pos[:, 0, 0] = -12.0 * end
+    pos[:, 1, 0] = 12.0 * end + torch.randn(n, generator=g)
+    pos[:, :2, 1] = torch.randn(n, 2, generator=g) * 2
+    pos[:, 2, 0] = torch.empty(n).uniform_(-16, 16, generator=g)
+    pos[:, 2, 1] = torch.randn(n, generator=g) * 2
+    pos[:, 2, 2] = torch.empty(n).uniform_(0.2, 2.5, generator=g)
+    vel = torch.zeros(n, 3, 3)
+    vel[:, 2] = torch.randn(n, 3, generator=g) * torch.tensor([25.0, 3.0, 4.0])
+    centre = model.centres(pos, vel, vel)
+    got = model.contact_reach_bias(pos, vel, centre)
+    with monkeypatch.context() as m:
+        m.setattr(decoder, "_compiled_rows", lambda *t: False)
+        want = model.contact_reach_bias(pos, vel, centre)
+    assert torch.equal(got, want)
+    assert (want[:, 0] != 0).any(-1).float().mean() > 0.2          # shifted rows
+    assert (want[:, 1:] == 0).all()

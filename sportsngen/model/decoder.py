@@ -29,6 +29,7 @@ from torch import nn
 from sportsngen.data.tokens import BALL, GENERIC_ID, N_FEATURES, N_OBJECTS, N_SPECIAL_IDS
 from sportsngen.model import (
     contact_reach,
+    reach_kernel,
     receiver_start,
     serve_bias,
     step_kernel,
@@ -129,6 +130,16 @@ class Block(nn.Module):
 # against 0.79 in torch, 0.73 against 1.12 at two; at four, torch's BLAS is as fast
 # (scratch outputs/s102/step_check.py, one thread).
 STEP_KERNEL_ROWS = 2
+
+
+_FRAMES_EDGES = np.array(contact_reach.FRAMES_EDGES, dtype=np.float32)
+_ASIDE_EDGES_M = np.array(contact_reach.ASIDE_EDGES_M, dtype=np.float32)
+
+
+def _compiled_rows(*tensors: torch.Tensor) -> bool:
+    """Whether per-frame arithmetic runs compiled: float32 CPU tensors outside autograd."""
+    return all(t.device.type == "cpu" and t.dtype == torch.float32 and not t.requires_grad
+               for t in tensors)
 
 
 def _compiled_blocks(x: torch.Tensor, k_rings: list[torch.Tensor], training: bool) -> bool:
@@ -654,9 +665,25 @@ class SportsNGEN(nn.Module):
         no table."""
         if self.contact_reach is None:
             return None
+        if pos_m.dim() == 3 and _compiled_rows(pos_m, vel_mps, centre_m, self.contact_reach):
+            return self._contact_reach_bias_compiled(pos_m, vel_mps, centre_m)
         strike, jolt = self.contact_bin_kinds(pos_m, centre_m)
         return contact_reach.ball_dim_bias(self.contact_reach, pos_m, vel_mps, strike, jolt,
                                            self.cfg.fps)
+
+    def _contact_reach_bias_compiled(self, pos_m: torch.Tensor, vel_mps: torch.Tensor,
+                                     centre_m: torch.Tensor) -> torch.Tensor:
+        """`contact_reach_bias` of (B, 3, 3) frames by `reach_kernel.reach_bias_rows`."""
+        sign = self.frame_sign(pos_m)
+        sign = np.ones(len(pos_m), np.float32) if sign is None else \
+            sign.reshape(-1).float().numpy()
+        out = np.empty((len(pos_m), 3, self.cfg.n_bins), dtype=np.float32)
+        reach_kernel.reach_bias_rows(
+            pos_m.numpy(), vel_mps.numpy(), centre_m[:, BALL, 0].contiguous().numpy(), sign,
+            self._ball_bin_x_m.numpy(), self.contact_bins().numpy(),
+            self.contact_reach.float().numpy(), _FRAMES_EDGES, _ASIDE_EDGES_M,
+            np.float32(self.cfg.fps), np.float32(contact_reach.MIN_INCOMING_MPS), out)
+        return torch.from_numpy(out)
 
     @torch.no_grad()
     def place_strikes(self, h: torch.Tensor, pos_m: torch.Tensor, vel_mps: torch.Tensor,
