@@ -379,3 +379,28 @@ def test_the_compiled_physics_step_is_the_torch_one_to_float32_rounding(net, wit
     wide = physics_step_m(pos.double(), vel.double(), None if prev is None else prev.double(),
                           50.0, net)
     assert wide.dtype == torch.float64 and (wide - want).abs().max().item() < 1e-4
+
+
+def test_the_compiled_forecast_columns_are_the_torch_ones(monkeypatch):
+    """`forecast_columns`' one compiled call (CPU float32, no intercept) against its torch
+    operations, over random flights with and without a frame before: equal to the bit."""
+    from sportsngen.data.tokens import N_FEATURES, POS_SCALE_M, VEL_SCALE_MPS
+    from sportsngen.model import forecast
+
+    pos, vel, prev = forecast.random_flights(600, seed=4)
+    scale = torch.as_tensor(POS_SCALE_M, dtype=torch.float32)
+    feats = torch.randn(2, 300, 3, N_FEATURES, generator=torch.Generator().manual_seed(1))
+    feats[..., 2, 0:3] = (pos / scale).reshape(2, 300, 3)
+    feats[..., 2, 3:6] = (vel / VEL_SCALE_MPS).reshape(2, 300, 3)
+    before = torch.full_like(feats, float("nan"))
+    before[..., 2, 3:6] = (prev / VEL_SCALE_MPS).reshape(2, 300, 3)   # every 7th NaN: no spin
+    got = forecast.forecast_columns(feats, before, 25.0)
+    with monkeypatch.context() as m:
+        m.setattr(forecast, "_forecast_columns_compiled",
+                  lambda *a: pytest.fail("the torch path was asked for"))
+        feats_t = feats.clone().requires_grad_(False)
+        m.setattr(torch.compiler, "is_compiling", lambda: True)     # takes the torch path
+        want = forecast.forecast_columns(feats_t, before, 25.0)
+    assert torch.equal(got, want)
+    assert got.shape == (2, 300, 3, forecast.FORECAST_FEATURES)
+    assert (got[..., 2, :] == 0).all() and got[..., :2, :].abs().max() > 1.0

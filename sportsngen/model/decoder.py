@@ -722,7 +722,9 @@ class SportsNGEN(nn.Module):
                 raise ValueError("this model's strike head reads the serve (cfg.strike_roles): "
                                  "give serve")
             role = None if self.strike_role is None else strike_heads.role_index(recv, serve)
-            strike_h = self.strike_input(h[:, BALL], role, shot, hitter, opponent)
+
+            def strike_h() -> torch.Tensor:     # asked only on a frame that holds a strike
+                return self.strike_input(h[:, BALL], role, shot, hitter, opponent)
         serve_shift = None
         if self.serve_bias is not None and server_ident is not None and serve is not None:
             def serve_shift(rows: torch.Tensor) -> torch.Tensor:

@@ -256,3 +256,36 @@ def physics_rows(pos, vel, prev, has_prev, fps, net, out):
         if nz < _R and vz < _ZERO:
             nz = _R + _REST * (_R - nz)
         out[i, 0], out[i, 1], out[i, 2] = nx, ny, nz
+
+
+@njit(cache=True)
+def feature_columns_rows(feats, prev_feats, col_scale, vel_scale, fps, step_s, n_steps, mark1,
+                         mark2, horizon_s, keep_xy, out):
+    """`forecast.forecast_columns` without the intercept: object features `feats` (n, 3, F)
+    and the frame before's `prev_feats` (n, 3, F) (NaN rows: none) float32 -> `out` (n, 3, 9):
+    each player's forecast columns, the ball's zeros. `col_scale` (9,) the columns' scales
+    (its first three the positions'), `vel_scale` the velocities', float32 like torch's."""
+    n = feats.shape[0]
+    pos = np.empty((n, 3), dtype=np.float32)
+    vel = np.empty((n, 3), dtype=np.float32)
+    prev = np.empty((n, 3), dtype=np.float32)
+    for i in range(n):
+        for k in range(3):
+            pos[i, k] = feats[i, 2, k] * col_scale[k]
+            vel[i, k] = feats[i, 2, 3 + k] * vel_scale
+            prev[i, k] = prev_feats[i, 2, 3 + k] * vel_scale
+    columns = np.empty((n, out.shape[2]), dtype=np.float32)
+    track = np.empty((n, n_steps, 3), dtype=np.float32)
+    flight_rows(pos, vel, prev, True, fps, step_s, n_steps, n_steps, mark1, mark2, horizon_s,
+                keep_xy, columns, track)
+    n_cols = out.shape[2]
+    for i in range(n):
+        for p in range(2):
+            for c in range(n_cols):
+                ahead = columns[i, c] / col_scale[c]
+                # Less his own position: x, y, z at each horizon; x, y at the bounce; 0 at its time.
+                own = feats[i, p, c % 3] if c < n_cols - 3 else \
+                    (feats[i, p, c - (n_cols - 3)] if c < n_cols - 1 else _ZERO)
+                out[i, p, c] = ahead - own
+        for c in range(n_cols):
+            out[i, 2, c] = _ZERO

@@ -32,7 +32,7 @@ from sportsngen.model.centre import (
     read_lift_mps2,
     split_lift,
 )
-from sportsngen.model.flight_kernel import flight_rows
+from sportsngen.model.flight_kernel import feature_columns_rows, flight_rows
 from sportsngen.tennis.court import BALL_RADIUS_M
 
 STEP_S = 0.04
@@ -242,13 +242,17 @@ def forecast_columns(feats: torch.Tensor, prev_feats: torch.Tensor | None,
     over `HORIZON_S`); zeros on the ball's own token, whose bins follow its flight already.
     With `intercept`, `INTERCEPT_FEATURES` more columns: the playable ball nearest him
     (`nearest_playable`, scaled the same way, its time over `INTERCEPT_HORIZON_S`)."""
+    if not intercept and prev_feats is not None and feats.device.type == "cpu" \
+            and feats.dtype == torch.float32 and prev_feats.dtype == torch.float32 \
+            and not feats.requires_grad and not torch.compiler.is_compiling():
+        return _forecast_columns_compiled(feats, prev_feats, fps)
     scale = _COLUMN_SCALE.to(feats.device)
     ball = feats[..., BALL, :].float()
     prev = None if prev_feats is None else prev_feats[..., BALL, 3:6].float() * VEL_SCALE_MPS
     forecast = _OUTSIDE_GRAPH if _OUTSIDE_GRAPH is not None and torch.compiler.is_compiling() \
         else ball_forecast
-    flown = forecast(ball[..., 0:3] * scale[:3], ball[..., 3:6] * VEL_SCALE_MPS, prev,
-                          fps, path=intercept)
+    flown = forecast(ball[..., 0:3] * scale[:3], ball[..., 3:6] * VEL_SCALE_MPS, prev, fps,
+                     path=intercept)
     ahead = (flown[0] if intercept else flown) / scale
     own = feats[..., :BALL, 0:3].float()
     own = torch.cat([own] * len(HORIZONS_S) + [own[..., :2], torch.zeros_like(own[..., :1])],
@@ -259,3 +263,23 @@ def forecast_columns(feats: torch.Tensor, prev_feats: torch.Tensor | None,
         columns = [torch.cat([columns[0], near / _INTERCEPT_SCALE.to(feats.device)], dim=-1)]
     out = torch.cat([*columns, torch.zeros_like(columns[0][..., :1, :])], dim=-2)
     return out.to(feats.dtype)
+
+
+_COLUMN_SCALE_NP = _COLUMN_SCALE.numpy()
+
+
+def _forecast_columns_compiled(feats: torch.Tensor, prev_feats: torch.Tensor,
+                               fps: float) -> torch.Tensor:
+    """`forecast_columns` without the intercept in one compiled call
+    (`flight_kernel.feature_columns_rows`): at a rally's one frame its tensor glue around the
+    flight loop was 5 % of a simulated frame (py-spy, docs/benchmarks.md, issue 19). The same
+    float32 operations in the same order: equal to the torch path to the bit."""
+    lead = feats.shape[:-2]
+    rows = feats.reshape(-1, *feats.shape[-2:]).contiguous().numpy()
+    before = prev_feats.reshape(-1, *prev_feats.shape[-2:]).contiguous().numpy()
+    out = np.empty((len(rows), 3, FORECAST_FEATURES), dtype=np.float32)
+    n_steps = int(round(HORIZON_S / STEP_S))
+    marks = [int(round(h / STEP_S)) for h in HORIZONS_S]
+    feature_columns_rows(rows, before, _COLUMN_SCALE_NP, np.float32(VEL_SCALE_MPS), float(fps),
+                         STEP_S, n_steps, marks[0], marks[1], HORIZON_S, BOUNCE_KEEP_XY, out)
+    return torch.from_numpy(out).reshape(*lead, 3, FORECAST_FEATURES)

@@ -99,7 +99,7 @@ def place_strikes(strike_head, serve_head, h: torch.Tensor, pos_m: torch.Tensor,
                   generator: torch.Generator | None = None, top_p: float = 1.0,
                   allowed: torch.Tensor | None = None, forced: torch.Tensor | None = None,
                   top_p_serve: float = 1.0,
-                  strike_h: torch.Tensor | None = None,
+                  strike_h: torch.Tensor | Callable[[], torch.Tensor] | None = None,
                   serve_bias: Callable[[torch.Tensor], torch.Tensor] | None = None,
                   strike_bias: Callable[[torch.Tensor], torch.Tensor] | None = None
                   ) -> tuple[torch.Tensor, torch.Tensor]:
@@ -112,7 +112,8 @@ def place_strikes(strike_head, serve_head, h: torch.Tensor, pos_m: torch.Tensor,
     Either head may be None. Returns (nxt, the launch's next two frames (B, 2, 3), NaN for
     rows without a strike or whose launch was not found).
     `strike_h` (B, D): the strike head's input where it is not the ball token's state
-    (`SportsNGEN.strike_input`); `serve_bias`: the served rows (R,) -> the shifts of the serve
+    (`SportsNGEN.strike_input`), or a callable that makes it, asked only on a frame that holds
+    a strike (most frames hold none); `serve_bias`: the served rows (R,) -> the shifts of the serve
     head's logits for them (R, 4, bins) (`SportsNGEN.serve_head_bias`), asked only on a frame
     that holds a serve; `strike_bias` the same for the strike head's rows
     (`SportsNGEN.strike_head_bias`)."""
@@ -152,6 +153,8 @@ def place_strikes(strike_head, serve_head, h: torch.Tensor, pos_m: torch.Tensor,
             if len(rows) == 0:
                 break
             r = torch.as_tensor(rows, device=h.device)
+            if callable(states):
+                states = states()
             idx = (head.sample(states[r], p, generator) if bias is None
                    else head.sample(states[r], p, generator, dim_bias=bias(r)))
             u = uniform_in_bin(idx.shape, h.device, generator)
