@@ -38,7 +38,7 @@ def _frames(n: int, seed: int):
 
 def _reference(monkeypatch, fn, *args):
     with monkeypatch.context() as m:
-        m.setattr(constraints, "_on_cpu", lambda *t: False)
+        m.setattr(constraints, "kernel_inputs", lambda *t: False)
         return fn(*args)
 
 

@@ -239,7 +239,7 @@ def test_the_compiled_shifts_are_the_torch_ones(monkeypatch, frame_kind):
     centre = model.centres(pos, vel, vel)
     got = model.contact_reach_bias(pos, vel, centre)
     with monkeypatch.context() as m:
-        m.setattr(decoder, "_compiled_rows", lambda *t: False)
+        m.setattr(decoder, "kernel_inputs", lambda *t: False)
         want = model.contact_reach_bias(pos, vel, centre)
     assert torch.equal(got, want)
     assert (want[:, 0] != 0).any(-1).float().mean() > 0.2          # shifted rows

@@ -398,9 +398,8 @@ def test_the_compiled_forecast_columns_are_the_torch_ones(monkeypatch):
     with monkeypatch.context() as m:
         m.setattr(forecast, "_forecast_columns_compiled",
                   lambda *a: pytest.fail("the torch path was asked for"))
-        feats_t = feats.clone().requires_grad_(False)
-        m.setattr(torch.compiler, "is_compiling", lambda: True)     # takes the torch path
-        want = forecast.forecast_columns(feats_t, before, 25.0)
+        m.setattr(forecast, "kernel_inputs", lambda *t: False)      # the torch path
+        want = forecast.forecast_columns(feats, before, 25.0)
     assert torch.equal(got, want)
     assert got.shape == (2, 300, 3, forecast.FORECAST_FEATURES)
     assert (got[..., 2, :] == 0).all() and got[..., :2, :].abs().max() > 1.0

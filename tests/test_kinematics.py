@@ -293,7 +293,7 @@ def test_the_compiled_limits_are_the_torch_ones(monkeypatch, rules):
     fast = limit_player_acceleration(nxt, pos, vel, 25.0, lim)
     fast_top = limit_player_speed(nxt, pos, 25.0, top)
     with monkeypatch.context() as m:
-        m.setattr(kinematics, "_compiled", lambda *t: False)
+        m.setattr(kinematics, "kernel_inputs", lambda *t: False)
         slow = limit_player_acceleration(nxt, pos, vel, 25.0, lim)
         slow_top = limit_player_speed(nxt, pos, 25.0, top)
     assert (fast - slow).abs().max() < 1e-5

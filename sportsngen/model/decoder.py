@@ -49,7 +49,7 @@ from sportsngen.model.forecast import (
     forecast_outside_graph,
 )
 from sportsngen.model.heads import FactorisedHead, SubBinHead, make_head
-from sportsngen.model.packed import packed
+from sportsngen.model.packed import kernel_inputs, packed
 from sportsngen.model.sampling import uniform_in_bin
 
 # Object-feature columns that change sign when the court is turned about the vertical through
@@ -136,21 +136,11 @@ _FRAMES_EDGES = np.array(contact_reach.FRAMES_EDGES, dtype=np.float32)
 _ASIDE_EDGES_M = np.array(contact_reach.ASIDE_EDGES_M, dtype=np.float32)
 
 
-def _compiled_rows(*tensors: torch.Tensor) -> bool:
-    """Whether per-frame arithmetic runs compiled: float32 CPU tensors outside autograd."""
-    return all(t.device.type == "cpu" and t.dtype == torch.float32 and not t.requires_grad
-               for t in tensors)
-
-
 def _compiled_blocks(x: torch.Tensor, k_rings: list[torch.Tensor], training: bool) -> bool:
-    """Whether a cached step's blocks run compiled: a few float32 CPU rallies outside
-    training and autograd, the rings contiguous (they are as `KVCache` makes them), and not
-    under `torch.compile` (dynamo cannot trace numba)."""
-    return (len(x) <= STEP_KERNEL_ROWS and x.device.type == "cpu"
-            and x.dtype == torch.float32 and not training
-            and not (torch.is_grad_enabled() and x.requires_grad)
-            and all(k.is_contiguous() for k in k_rings)
-            and not torch.compiler.is_compiling())
+    """Whether a cached step's blocks run compiled: a few rallies outside training, the rings
+    contiguous (they are as `KVCache` makes them) and `kernel_inputs`."""
+    return (len(x) <= STEP_KERNEL_ROWS and not training
+            and all(k.is_contiguous() for k in k_rings) and kernel_inputs(x))
 
 
 def _layer_norm(ln: nn.LayerNorm, x: torch.Tensor) -> torch.Tensor:
@@ -665,7 +655,7 @@ class SportsNGEN(nn.Module):
         no table."""
         if self.contact_reach is None:
             return None
-        if pos_m.dim() == 3 and _compiled_rows(pos_m, vel_mps, centre_m, self.contact_reach):
+        if pos_m.dim() == 3 and kernel_inputs(pos_m, vel_mps, centre_m, self.contact_reach):
             return self._contact_reach_bias_compiled(pos_m, vel_mps, centre_m)
         strike, jolt = self.contact_bin_kinds(pos_m, centre_m)
         return contact_reach.ball_dim_bias(self.contact_reach, pos_m, vel_mps, strike, jolt,

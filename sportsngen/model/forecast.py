@@ -33,6 +33,7 @@ from sportsngen.model.centre import (
     split_lift,
 )
 from sportsngen.model.flight_kernel import feature_columns_rows, flight_rows
+from sportsngen.model.packed import kernel_inputs
 from sportsngen.tennis.court import BALL_RADIUS_M
 
 STEP_S = 0.04
@@ -242,9 +243,7 @@ def forecast_columns(feats: torch.Tensor, prev_feats: torch.Tensor | None,
     over `HORIZON_S`); zeros on the ball's own token, whose bins follow its flight already.
     With `intercept`, `INTERCEPT_FEATURES` more columns: the playable ball nearest him
     (`nearest_playable`, scaled the same way, its time over `INTERCEPT_HORIZON_S`)."""
-    if not intercept and prev_feats is not None and feats.device.type == "cpu" \
-            and feats.dtype == torch.float32 and prev_feats.dtype == torch.float32 \
-            and not feats.requires_grad and not torch.compiler.is_compiling():
+    if not intercept and prev_feats is not None and kernel_inputs(feats, prev_feats):
         return _forecast_columns_compiled(feats, prev_feats, fps)
     scale = _COLUMN_SCALE.to(feats.device)
     ball = feats[..., BALL, :].float()

@@ -8,34 +8,20 @@ each paying dispatch far above its arithmetic; the heads' draws were 16 % of a s
 
 The uniforms are drawn by the caller in one `torch.rand` call, in the order the torch path
 draws them one call a dimension (a CPU generator's stream is the same cut either way), so the
-two paths read the same numbers. The logits are float32 like torch's but summed in another
-order, so they agree to float32 rounding, not to the bit; a draw differs only where a
+two paths read the same numbers. The logits are float32 like torch's, from the decoder step's
+matrix-vector product and GELU (`step_kernel.affine`, `gelu`), summed in another order, so
+they agree to float32 rounding, not to the bit; a draw differs only where a
 uniform falls within that rounding of a class's edge (tests/test_model.py).
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 import torch
 from numba import njit
 
 from sportsngen.model.sampling import nucleus_one
-
-_INV_SQRT2 = 0.7071067811865476
-
-
-@njit(cache=True)
-def _affine(w_t, b, x, n_in, out):
-    """out = b + x[:n_in] @ w_t[:n_in]; `w_t` (>= n_in, n_out) is the layer's weight
-    transposed, so the inner loop runs along contiguous outputs."""
-    for j in range(out.shape[0]):
-        out[j] = b[j]
-    for i in range(n_in):
-        xi = x[i]
-        for j in range(out.shape[0]):
-            out[j] += xi * w_t[i, j]
+from sportsngen.model.step_kernel import affine, gelu
 
 
 @njit(cache=True)
@@ -55,15 +41,17 @@ def factorised_rows(h, first_t, first_b, emb, w1_t, b1, w2_t, b2, bias, top_p, t
     n = first_b.shape[0]
     e = emb.shape[2]
     hidden = b1.shape[1]
-    logits = np.empty(n, dtype=np.float32)
-    x = np.empty(d + (dims - 1) * e, dtype=np.float32)
-    hid = np.empty(hidden, dtype=np.float32)
+    # One-row 2-D buffers for `step_kernel.affine`, and their rows.
+    logits_1 = np.empty((1, n), dtype=np.float32)
+    x_1 = np.empty((1, d + (dims - 1) * e), dtype=np.float32)
+    hid_1 = np.empty((1, hidden), dtype=np.float32)
+    logits, x, hid = logits_1[0], x_1[0], hid_1[0]
     cdf = np.empty(n, dtype=np.float32)
     neg_inf = np.float32(-np.inf)
     for r in range(n_rows):
         for i in range(d):
             x[i] = h[r, i]
-        _affine(first_t, first_b, x, d, logits)
+        affine(first_t, first_b, x_1[:, :d], logits_1)
         for j in range(n):
             logits[j] += bias[r, 0, j]
         row_p = top_p[r]
@@ -97,11 +85,10 @@ def factorised_rows(h, first_t, first_b, emb, w1_t, b1, w2_t, b2, bias, top_p, t
             base = d + (k - 1) * e
             for i in range(e):
                 x[base + i] = emb[k - 1, out[r, k - 1], i]
-            _affine(w1_t[k - 1], b1[k - 1], x, d + k * e, hid)
+            affine(w1_t[k - 1], b1[k - 1], x_1[:, :d + k * e], hid_1)
             for i in range(hidden):
-                v = hid[i]
-                hid[i] = np.float32(0.5 * v * (1.0 + math.erf(v * _INV_SQRT2)))
-            _affine(w2_t[k - 1], b2[k - 1], hid, hidden, logits)
+                hid[i] = gelu(hid[i])
+            affine(w2_t[k - 1], b2[k - 1], hid_1, logits_1)
             for j in range(n):
                 logits[j] += bias[r, k, j]
             out[r, k] = nucleus_one(logits, row_p, u[first_u + k, r], cdf)

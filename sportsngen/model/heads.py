@@ -22,7 +22,7 @@ from torch import nn
 from sportsngen.model import head_kernel
 from sportsngen.model.bins import flat_index, unflat_index
 from sportsngen.model.embedding import run_mlp
-from sportsngen.model.packed import packed
+from sportsngen.model.packed import kernel_inputs, packed
 from sportsngen.model.sampling import sample_top_p, sample_top_p_in_regions
 
 
@@ -175,9 +175,7 @@ def _compiled_draw(h: torch.Tensor) -> bool:
     """Whether a head's draw takes the compiled kernel: a few float32 CPU rows outside
     autograd (training, large batches and other devices keep the torch path; both read the
     same uniforms)."""
-    return (h.device.type == "cpu" and h.dtype == torch.float32
-            and h.numel() <= HEAD_KERNEL_ROWS * h.shape[-1]
-            and not (torch.is_grad_enabled() and h.requires_grad))
+    return h.numel() <= HEAD_KERNEL_ROWS * h.shape[-1] and kernel_inputs(h)
 
 
 class SubBinHead(nn.Module):

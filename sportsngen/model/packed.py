@@ -1,11 +1,21 @@
-"""Weights packed for the compiled kernels (`head_kernel`, `step_kernel`), kept on the module
-and packed again only after they change."""
+"""What the compiled kernels share: which inputs they take (`kernel_inputs`) and their weights
+packed as numpy copies (`packed`), kept on the module and packed again only after they
+change."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
 
 import torch
+
+
+def kernel_inputs(*tensors: torch.Tensor | None) -> bool:
+    """Whether tensors go to a numba kernel: each given one a float32 CPU tensor outside
+    autograd, and no `torch.compile` tracing (dynamo cannot trace numba). Elsewhere (other
+    devices, dtypes, training) the torch operations the kernels are tested against run."""
+    return not torch.compiler.is_compiling() and all(
+        t.device.type == "cpu" and t.dtype == torch.float32 and not t.requires_grad
+        for t in tensors if t is not None)
 
 
 def packed(module: torch.nn.Module, pack: Callable[[], tuple],

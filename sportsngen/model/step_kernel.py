@@ -29,6 +29,12 @@ _INV_SQRT2 = 0.7071067811865476
 _FAST = {"reassoc", "contract", "nsz", "arcp"}
 
 
+@njit(cache=True)
+def gelu(v):
+    """The exact GELU (torch's default) of one float32 value."""
+    return np.float32(0.5 * v * (1.0 + math.erf(v * _INV_SQRT2)))
+
+
 @njit(cache=True, fastmath=_FAST)
 def _layer_norm(x, w, b, eps, out):
     n = x.shape[0]
@@ -47,7 +53,7 @@ def _layer_norm(x, w, b, eps, out):
 
 
 @njit(cache=True, fastmath=_FAST)
-def _affine(w_t, b, x, out):
+def affine(w_t, b, x, out):
     """out = b + x @ w_t for every token: `x` (T, n_in), `out` (T, n_out), `w_t` (n_in, n_out)
     a layer's weight transposed; a weight row is read once for all the tokens."""
     for t in range(out.shape[0]):
@@ -87,7 +93,7 @@ def blocks_rows(x, k_rings, v_rings, lo, n_keys, ln1_w, ln1_b, qkv_t, qkv_b, out
             kr, vr = k_rings[layer], v_rings[layer]
             for t in range(n_tok):
                 _layer_norm(cur[t], ln1_w[layer], ln1_b[layer], eps, xn[t])
-            _affine(qkv_t[layer], qkv_b[layer], xn, qkv)
+            affine(qkv_t[layer], qkv_b[layer], xn, qkv)
             for t in range(n_tok):
                 for hh in range(n_heads):
                     for i in range(dh):
@@ -115,17 +121,16 @@ def blocks_rows(x, k_rings, v_rings, lo, n_keys, ln1_w, ln1_b, qkv_t, qkv_b, out
                         p = att[s] / total
                         for i in range(dh):
                             y[t, q0 + i] += p * vr[r, hh, s, i]
-            _affine(out_t[layer], out_b[layer], y, a)
+            affine(out_t[layer], out_b[layer], y, a)
             for t in range(n_tok):
                 for i in range(d):
                     cur[t, i] += a[t, i]
                 _layer_norm(cur[t], ln2_w[layer], ln2_b[layer], eps, xn[t])
-            _affine(ff1_t[layer], ff1_b[layer], xn, hid)
+            affine(ff1_t[layer], ff1_b[layer], xn, hid)
             for t in range(n_tok):
                 for i in range(hidden):
-                    v = hid[t, i]
-                    hid[t, i] = np.float32(0.5 * v * (1.0 + math.erf(v * _INV_SQRT2)))
-            _affine(ff2_t[layer], ff2_b[layer], hid, a)
+                    hid[t, i] = gelu(hid[t, i])
+            affine(ff2_t[layer], ff2_b[layer], hid, a)
             for t in range(n_tok):
                 for i in range(d):
                     cur[t, i] += a[t, i]

@@ -27,6 +27,7 @@ from sportsngen.model.forecast import (
     ball_forecast,
     nearest_playable,
 )
+from sportsngen.model.packed import kernel_inputs
 from sportsngen.sim import constraint_kernel
 from sportsngen.tennis.court import (
     FENCE_X_M,
@@ -128,13 +129,6 @@ def contact_reaches(tracker, rows, return_reach_m: float | None, rows_m: np.ndar
     return np.where(awaiting_return(n_shots), ret, rally)
 
 
-def _on_cpu(*tensors: torch.Tensor | float | None) -> bool:
-    """Whether the compiled judgements (`sim.constraint_kernel`) apply: every tensor given on
-    the CPU and outside autograd (other devices keep the torch operations)."""
-    return all(t.device.type == "cpu" and not t.requires_grad for t in tensors
-               if isinstance(t, torch.Tensor))
-
-
 def _per_row(value: np.ndarray | float, n: int) -> np.ndarray:
     """A reach (one value or one a row) as (n,) float64, the kernels' input."""
     return np.ascontiguousarray(np.broadcast_to(np.asarray(value, dtype=np.float64), (n,)))
@@ -186,7 +180,7 @@ class PhysicalLimits:
 
     def accept(self, rows: np.ndarray, frame: int, pos_m: torch.Tensor,
                next_pos_m: torch.Tensor, vel_mps: torch.Tensor | None = None) -> torch.Tensor:
-        if _on_cpu(pos_m, next_pos_m, vel_mps):
+        if kernel_inputs(pos_m, next_pos_m, vel_mps):
             check = self.reach_m is not None and vel_mps is not None
             out = np.empty(len(pos_m), dtype=np.bool_)
             constraint_kernel.physical_rows(
@@ -385,7 +379,7 @@ class StrikeInReach:
         sampled frame (a ball rising above a racket is left to come down). `reach_m` (B,): each
         row's reach where it is not the rule's."""
         reach = self.reach_m if reach_m is None else reach_m
-        if _on_cpu(pos_m, next_pos_m, vel_mps, role, end, reach_m):
+        if kernel_inputs(pos_m, next_pos_m, vel_mps, reach_m):
             out = np.empty(len(pos_m), dtype=np.bool_)
             nan = float("nan")
             constraint_kernel.passes_rows(
@@ -524,7 +518,7 @@ class KeepChasing:
         if self.max_speed_rows_mps is not None:
             own = self.max_speed_rows_mps[rows, role.cpu().numpy()]
             cap = torch.minimum(cap, torch.as_tensor(own, dtype=dtype, device=dev))
-        if due.any() and _on_cpu(pos_m, vel_mps):
+        if due.any() and kernel_inputs(pos_m, vel_mps):
             self._read_compiled(rows, due, role, pos_m, vel_mps, cap, late, unit, along, least)
         elif due.any():
             i = torch.as_tensor(np.flatnonzero(due), device=dev)

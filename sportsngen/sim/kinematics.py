@@ -44,6 +44,7 @@ import torch
 
 from sportsngen.data.tokens import BALL
 from sportsngen.errors import ArgumentError
+from sportsngen.model.packed import kernel_inputs
 from sportsngen.sim import constraint_kernel
 
 # A velocity change of at least this share of the limit is flat out: the generator's players'
@@ -120,13 +121,6 @@ class PlayerLimits:
         return None if checked["accel_mps2"] is None else cls(**checked)
 
 
-def _compiled(*tensors: torch.Tensor) -> bool:
-    """Whether the limits run compiled (`sim.constraint_kernel`): float32 CPU frames outside
-    autograd; the torch operations below are the reference and serve the rest."""
-    return all(t.device.type == "cpu" and not t.requires_grad for t in tensors) and \
-        all(t.dtype == torch.float32 for t in tensors[:2])
-
-
 def limit_player_acceleration(next_pos_m: torch.Tensor, pos_m: torch.Tensor,
                               vel_mps: torch.Tensor, fps: float,
                               limits: PlayerLimits) -> torch.Tensor:
@@ -138,7 +132,7 @@ def limit_player_acceleration(next_pos_m: torch.Tensor, pos_m: torch.Tensor,
     with `limits.keep_heading_deg` a flat-out change that near a running player's heading is
     turned onto it."""
     full_from_frac, keep_heading_deg = limits.full_from_frac, limits.keep_heading_deg
-    if _compiled(next_pos_m, pos_m, vel_mps):
+    if kernel_inputs(next_pos_m, pos_m, vel_mps):
         out = np.empty(next_pos_m.shape, dtype=np.float32)
         nan = np.float32("nan")
         constraint_kernel.accel_rows(
@@ -176,10 +170,10 @@ def limit_player_speed(next_pos_m: torch.Tensor, pos_m: torch.Tensor, fps: float
     players within their speed unchanged."""
     if top_speed_mps.shape != (len(pos_m), BALL):
         raise ValueError(f"top_speed_mps must be (B, {BALL}), got {tuple(top_speed_mps.shape)}")
-    if _compiled(next_pos_m, pos_m, top_speed_mps):
+    if kernel_inputs(next_pos_m, pos_m, top_speed_mps):
         out = np.empty(next_pos_m.shape, dtype=np.float32)
         constraint_kernel.speed_rows(next_pos_m.numpy(), pos_m.numpy(), np.float32(fps),
-                                     top_speed_mps.float().numpy(), out)
+                                     top_speed_mps.numpy(), out)
         return torch.from_numpy(out)
     step = next_pos_m[:, :BALL, :2] - pos_m[:, :BALL, :2]
     norm = step.norm(dim=-1, keepdim=True)

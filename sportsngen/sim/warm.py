@@ -9,8 +9,10 @@ import time
 
 
 def warm_kernels(n_rallies: int = 2, seed: int = 0) -> float:
-    """Play `n_rallies` first serves of the bundled model (every kernel a rally uses is
-    compiled and cached on the way) -> the seconds it took."""
+    """Play `n_rallies` first serves of the bundled model, then one alone (every kernel a
+    rally uses is compiled and cached on the way) -> the seconds it took. Both batch sizes,
+    since numba compiles a kernel once per array layout: a frame sliced from a batch of one
+    is contiguous, from a batch of two it is not."""
     from sportsngen.sim import Simulator
 
     start = time.perf_counter()
