@@ -183,6 +183,10 @@ class RallyTracker:
     once a frame from the first frame.
     """
 
+    # `update` by the compiled kernel (`rally_kernel`); False: by the numpy methods, its
+    # reference (the tests compare them).
+    compiled = True
+
     def __init__(self, server_end, side, serve_number, fps: float,
                  max_duration_s: float = MAX_RALLY_S):
         end = np.atleast_1d(np.asarray(server_end)).astype(int)
@@ -341,6 +345,9 @@ class RallyTracker:
         live = ~self.ended if active is None else ~self.ended & np.asarray(active, dtype=bool)
         if not live.any():
             return self.ended.copy()
+        if self.compiled:
+            self._update_compiled(pos, live)
+            return self.ended.copy()
         self._hist[live, :-1] = self._hist[live, 1:]
         self._hist[live, -1] = pos[live]
         self.seen[live] += 1
@@ -348,6 +355,22 @@ class RallyTracker:
             self._impulses(live & (self.seen >= 4))
             self._frame_rules(live & ~self.ended)
         return self.ended.copy()
+
+    def _update_compiled(self, pos: np.ndarray, live: np.ndarray) -> None:
+        """`update`'s step by `rally_kernel.update_rows` (the numpy methods below are its
+        reference), after making room for one more contact and bounce a rally."""
+        from sportsngen.tennis import rally_kernel
+
+        self._room(self.n_shots, ("contact_frame", "contact_hitter", "contact_m",
+                                  "contact_gap_m"))
+        self._room(self.n_bounces_total, ("bounce_frame", "bounce_m"))
+        rally_kernel.update_rows(
+            np.ascontiguousarray(pos), live, self.fps, self._hist, self.seen, self.ended,
+            self.end_frame, self.winner, self._reason, self._detail, self.hitter, self.n_shots,
+            self.n_bounces, self._last_contact, self._last_bounce, self._serve_next, self._rest,
+            self._through, self.flags, self.contact_frame, self.contact_hitter, self.contact_m,
+            self.contact_gap_m, self.bounce_frame, self.bounce_m, self.n_bounces_total,
+            self.server_end, self.deuce, self.serve_number, self.max_frames)
 
     def _impulses(self, live: np.ndarray) -> None:
         """Contacts and bounces inside the segment (t-2, t-1)."""
