@@ -358,3 +358,26 @@ def test_the_compiled_reading_is_the_torch_one(monkeypatch, band_m):
     same = got[0] == want[0]
     for a, b in zip(got[1:], want[1:]):
         assert (a[same] - b[same]).abs().max() < 1e-3
+
+
+def test_the_numpy_verdict_is_the_torch_one(monkeypatch):
+    """`accept`'s numpy lines against its torch ones, on the same reading: the same verdict
+    for every row, late or not, slowing or not, fresh or out of tries."""
+    from sportsngen.sim import constraints
+
+    g = torch.Generator().manual_seed(9)
+    n = 2000
+    pos, vel, hist = _state(np.c_[-np.linspace(13.0, 6.0, n), np.linspace(-5.0, 5.0, n)],
+                            torch.randn(n, 2, generator=g).numpy() * 4)
+    moves = torch.randn(n, 2, generator=g).numpy() * 6
+    nxt = _moved(pos, moves)
+    verdicts = []
+    for fast in (True, False):
+        rule = KeepChasing(_Tracker(hist, np.full(n, 10)), fps=FPS, accel_mps2=6.0)
+        rule._tries[::5] = rule.max_tries                      # out of tries: accepted
+        with monkeypatch.context() as m:
+            if not fast:
+                m.setattr(constraints, "kernel_inputs", lambda *t: False)
+            verdicts.append(rule.accept(np.arange(n), None, pos, nxt, vel))
+    assert torch.equal(verdicts[0], verdicts[1])
+    assert 0.05 < (~verdicts[0]).float().mean() < 0.95

@@ -67,23 +67,33 @@ def ball_forecast(pos_m: torch.Tensor, vel_mps: torch.Tensor,
     CPU whatever the tensors' device; `ball_forecast_torch` is the same loop in torch
     operations, the reference it is tested against."""
     shape, dev = pos_m.shape[:-1], pos_m.device
-    n_steps = int(round(HORIZON_S / STEP_S))
-    n_path = max(n_steps, int(round(INTERCEPT_HORIZON_S / STEP_S))) if path else n_steps
-    marks = [int(round(h / STEP_S)) for h in HORIZONS_S]
 
     def rows(x: torch.Tensor):
         return np.ascontiguousarray(x.detach().reshape(-1, 3).to("cpu", torch.float32).numpy())
 
-    pos = rows(pos_m)
-    columns = np.empty((len(pos), FORECAST_FEATURES), dtype=np.float32)
-    track = np.empty((len(pos), n_path, 3), dtype=np.float32)
-    prev = pos if prev_vel_mps is None else rows(prev_vel_mps)
-    flight_rows(pos, rows(vel_mps), prev, prev_vel_mps is not None, float(fps), STEP_S,
-                n_steps, n_path, marks[0], marks[1], HORIZON_S, BOUNCE_KEEP_XY, columns, track)
+    columns, track = forecast_rows(rows(pos_m), rows(vel_mps),
+                                   None if prev_vel_mps is None else rows(prev_vel_mps), fps,
+                                   path)
     out = torch.from_numpy(columns).reshape(*shape, FORECAST_FEATURES).to(dev, pos_m.dtype)
     if not path:
         return out
-    return out, torch.from_numpy(track).reshape(*shape, n_path, 3).to(dev, pos_m.dtype)
+    return out, torch.from_numpy(track).reshape(*shape, -1, 3).to(dev, pos_m.dtype)
+
+
+def forecast_rows(pos_m: np.ndarray, vel_mps: np.ndarray, prev_vel_mps: np.ndarray | None,
+                  fps: float = 25.0, path: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """`ball_forecast` of (n, 3) contiguous float32 arrays -> the columns (n,
+    `FORECAST_FEATURES`) and the path (n, N, 3) (`HORIZON_S`'s steps only, without `path`):
+    the compiled loop without torch, for callers that hold numpy rows."""
+    n_steps = int(round(HORIZON_S / STEP_S))
+    n_path = max(n_steps, int(round(INTERCEPT_HORIZON_S / STEP_S))) if path else n_steps
+    marks = [int(round(h / STEP_S)) for h in HORIZONS_S]
+    columns = np.empty((len(pos_m), FORECAST_FEATURES), dtype=np.float32)
+    track = np.empty((len(pos_m), n_path, 3), dtype=np.float32)
+    prev = pos_m if prev_vel_mps is None else prev_vel_mps
+    flight_rows(pos_m, vel_mps, prev, prev_vel_mps is not None, float(fps), STEP_S,
+                n_steps, n_path, marks[0], marks[1], HORIZON_S, BOUNCE_KEEP_XY, columns, track)
+    return columns, track
 
 
 def ball_forecast_torch(pos_m: torch.Tensor, vel_mps: torch.Tensor,

@@ -25,6 +25,7 @@ from sportsngen.model.forecast import (
     PLAYABLE_Z_M,
     STEP_S,
     ball_forecast,
+    forecast_rows,
     nearest_playable,
 )
 from sportsngen.model.packed import kernel_inputs
@@ -502,9 +503,15 @@ class KeepChasing:
         own top speed where lower (`max_speed_rows_mps`). With `frame`, read once a frame:
         the redraws of a frame ask again for some of its rows, in the same state."""
         rows = np.asarray(rows)
+        fast = kernel_inputs(pos_m, vel_mps)
         if frame is not None and self._frame == frame and (self._at[rows] >= 0).all():
-            i = torch.as_tensor(self._at[rows], device=pos_m.device)
+            at = self._at[rows]
+            if fast:
+                return tuple(torch.from_numpy(x.numpy()[at]) for x in self._late)
+            i = torch.as_tensor(at, device=pos_m.device)
             return tuple(x[i] for x in self._late)
+        if fast:
+            return self._remember(frame, rows, self._late_compiled(rows, pos_m, vel_mps))
         t = self.tracker
         dev, dtype = pos_m.device, pos_m.dtype
         due = ~t.ended[rows] & (t.hitter[rows] >= 0) & (t.n_bounces[rows] <= 1) & \
@@ -518,9 +525,7 @@ class KeepChasing:
         if self.max_speed_rows_mps is not None:
             own = self.max_speed_rows_mps[rows, role.cpu().numpy()]
             cap = torch.minimum(cap, torch.as_tensor(own, dtype=dtype, device=dev))
-        if due.any() and kernel_inputs(pos_m, vel_mps):
-            self._read_compiled(rows, due, role, pos_m, vel_mps, cap, late, unit, along, least)
-        elif due.any():
+        if due.any():
             i = torch.as_tensor(np.flatnonzero(due), device=dev)
             recent = torch.as_tensor(t.recent_frames(rows[due]), dtype=dtype, device=dev)
             prev_vel = (recent[:, -2, BALL] - recent[:, -3, BALL]) * self.fps
@@ -543,7 +548,10 @@ class KeepChasing:
             # A late player is slower than he needs (v_along < wanted), so this is never
             # below his speed but where he already runs flat out, which the rule leaves.
             least[i] = torch.minimum(torch.minimum(v_along + accel / self.fps, wanted), cap[i])
-        out = (late, role, unit, along, least, cap)
+        return self._remember(frame, rows, (late, role, unit, along, least, cap))
+
+    def _remember(self, frame: int | None, rows: np.ndarray, out: tuple) -> tuple:
+        """`late`'s reading `out` of `rows`, kept for the frame's redraws (with `frame`)."""
         if frame is not None:
             self._frame, self._late = frame, out
             self._at[:] = -1
@@ -551,37 +559,47 @@ class KeepChasing:
             self._tries[:] = 0
         return out
 
-    def _read_compiled(self, rows: np.ndarray, due: np.ndarray, role: torch.Tensor,
-                       pos_m: torch.Tensor, vel_mps: torch.Tensor, cap: torch.Tensor,
-                       late: torch.Tensor, unit: torch.Tensor, along: torch.Tensor,
-                       least: torch.Tensor) -> None:
-        """`late`'s reading of the due rows by `constraint_kernel.chase_rows` (the torch
-        operations in `late` are its reference), written into its outputs."""
+    def _late_compiled(self, rows: np.ndarray, pos_m: torch.Tensor,
+                       vel_mps: torch.Tensor) -> tuple:
+        """`late`'s reading in numpy, its flights by `forecast_rows` and the players' by
+        `constraint_kernel.chase_rows` (the torch operations in `late` are its reference):
+        the same values, as CPU tensors over numpy arrays (a frame's torch operations on
+        one row were most of the rule's cost)."""
         t = self.tracker
-        i = np.flatnonzero(due)
-        recent = t.recent_frames(rows[due])
-        prev_vel = torch.as_tensor((recent[:, -2, BALL] - recent[:, -3, BALL]) * self.fps,
-                                   dtype=pos_m.dtype)
-        ball = pos_m[i, BALL]
-        columns, track = ball_forecast(ball, vel_mps[i, BALL], prev_vel, self.fps, path=True)
-        who = role.numpy()[i]
-        shot = t.n_shots[rows[due]]
-        accel = np.where(shot >= self.accel_from_shot, self.accel_mps2, 0.0)
-        lo, hi = (np.nan, np.nan) if self.band_m is None else self.band_m
-        n = len(i)
-        out_late, out_unit = np.empty(n, dtype=np.bool_), np.empty((n, 2))
-        out_along, out_least = np.empty(n), np.empty(n)
-        constraint_kernel.chase_rows(
-            track.numpy(), columns[:, -1].double().numpy(), pos_m[i, who, :2].double().numpy(),
-            vel_mps[i, who, :2].double().numpy(), t.n_bounces[rows[due]] >= 1, lo, hi,
-            PLAYABLE_Z_M[0], PLAYABLE_Z_M[1], STEP_S, HORIZON_S, STRIKE_MAX_Z_M, self.reach_m,
-            self.fps, accel, cap.numpy()[i].astype(np.float64), out_late, out_unit, out_along,
-            out_least)
-        j = torch.as_tensor(i)
-        late[j] = torch.from_numpy(out_late)
-        unit[j] = torch.from_numpy(out_unit).to(unit.dtype)
-        along[j] = torch.from_numpy(out_along).to(along.dtype)
-        least[j] = torch.from_numpy(out_least).to(least.dtype)
+        n = len(rows)
+        hitter = t.hitter[rows]
+        due = ~t.ended[rows] & (hitter >= 0) & (t.n_bounces[rows] <= 1) & \
+            (t.frames_since_contact(rows) >= self.react_frames)
+        role = 1 - np.clip(hitter, 0, 1)
+        late = np.zeros(n, dtype=bool)
+        unit = np.zeros((n, 2), dtype=np.float32)
+        along = np.zeros(n, dtype=np.float32)
+        least = np.zeros(n, dtype=np.float32)
+        cap = np.full(n, self.max_speed_mps, dtype=np.float32)
+        if self.max_speed_rows_mps is not None:
+            cap = np.minimum(cap, self.max_speed_rows_mps[rows, role].astype(np.float32))
+        if due.any():
+            i = np.flatnonzero(due)
+            recent = t.recent_frames(rows[i])
+            prev_vel = ((recent[:, -2, BALL] - recent[:, -3, BALL]) * self.fps).astype(
+                np.float32)
+            pos, vel = pos_m.numpy(), vel_mps.numpy()
+            columns, track = forecast_rows(np.ascontiguousarray(pos[i, BALL]),
+                                           np.ascontiguousarray(vel[i, BALL]), prev_vel,
+                                           self.fps, path=True)
+            who = role[i]
+            accel = np.where(t.n_shots[rows[i]] >= self.accel_from_shot, self.accel_mps2, 0.0)
+            lo, hi = (np.nan, np.nan) if self.band_m is None else self.band_m
+            out_late, out_unit = np.empty(len(i), dtype=np.bool_), np.empty((len(i), 2))
+            out_along, out_least = np.empty(len(i)), np.empty(len(i))
+            constraint_kernel.chase_rows(
+                track, columns[:, -1].astype(np.float64), pos[i, who, :2].astype(np.float64),
+                vel[i, who, :2].astype(np.float64), t.n_bounces[rows[i]] >= 1, lo, hi,
+                PLAYABLE_Z_M[0], PLAYABLE_Z_M[1], STEP_S, HORIZON_S, STRIKE_MAX_Z_M,
+                self.reach_m, self.fps, accel, cap[i].astype(np.float64), out_late, out_unit,
+                out_along, out_least)
+            late[i], unit[i], along[i], least[i] = out_late, out_unit, out_along, out_least
+        return tuple(torch.from_numpy(x) for x in (late, role, unit, along, least, cap))
 
     def _high_ball_target(self, track: torch.Tensor, bounce_s: torch.Tensor, me: torch.Tensor,
                           near: torch.Tensor, bounced: torch.Tensor) -> torch.Tensor:
@@ -616,10 +634,17 @@ class KeepChasing:
         # while any row of the batch is rejected, up to twice the largest `max_tries` of its
         # constraints, and one player the model insists on braking held a whole batch of
         # rollouts there (four times slower).
-        fresh = torch.as_tensor(self._tries[rows] < self.max_tries, device=pos_m.device)
+        fresh = self._tries[rows] < self.max_tries
         self._tries[rows] += 1
+        if kernel_inputs(pos_m, next_pos_m, vel_mps):
+            # The torch lines below in numpy: the same float32 operations, a tenth the cost.
+            i, who = np.arange(len(rows)), role.numpy()
+            step = (next_pos_m.numpy()[i, who, :2] - pos_m.numpy()[i, who, :2]) * unit.numpy()
+            speed = (step[:, 0] + step[:, 1]) * np.float32(self.fps)
+            slows = (speed < least.numpy()) & (along.numpy() < cap.numpy())
+            return torch.from_numpy(~(late.numpy() & slows & fresh))
         slows = (self._speed_along(pos_m, next_pos_m, role, unit) < least) & (along < cap)
-        return ~(late & slows & fresh)
+        return ~(late & slows & torch.as_tensor(fresh, device=pos_m.device))
 
     def _speed_along(self, pos_m, next_pos_m, role, unit) -> torch.Tensor:
         """(B,) the player due's speed in the sampled frame along his way to the ball (m/s)."""
