@@ -59,6 +59,26 @@ def test_an_evenly_spread_table_places_draws_as_the_bins_do():
                                atol=1e-7, rtol=0)
 
 
+def test_the_numpy_placement_is_the_torch_one_to_the_bit(monkeypatch):
+    """`place_in_bins`' numpy lines (CPU float32) against its torch ones, on a fitted table's
+    uneven quantiles, draws at a bin's ends included, in a rollout's (B, 2, 2) shape."""
+    import sportsngen.model.bin_quantiles as bq
+
+    g = np.random.default_rng(1)
+    bins = Bins((0.4, 0.4), 9, "nonuniform")
+    offsets = g.standard_t(3, size=(20000, 2)) * 0.05
+    table = torch.as_tensor(fit_bin_quantiles(offsets, bins.edges.double().numpy(), 16),
+                            dtype=torch.float32)
+    idx = torch.as_tensor(g.integers(0, 9, (500, 2, 2)))
+    u = torch.as_tensor(g.random((500, 2, 2)), dtype=torch.float32)
+    u[0], u[1] = 0.0, float(np.nextafter(np.float32(1), np.float32(0)))
+    fast = place_in_bins(table, idx, u)
+    monkeypatch.setattr(bq, "kernel_inputs", lambda *t: False)
+    ref = place_in_bins(table, idx, u)
+    assert fast.dtype == ref.dtype == torch.float32 and fast.shape == ref.shape
+    assert torch.equal(fast, ref)
+
+
 def _frames(server_x0: float) -> tuple[pd.DataFrame, pd.DataFrame]:
     """One rally of five frames: the server accelerating along y by 0.01 m a frame a frame,
     the receiver moving at constant velocity, frame 3 of the receiver missing."""

@@ -222,11 +222,14 @@ def _wait_step(tracker, alive: np.ndarray, pos: torch.Tensor, vel: torch.Tensor,
     """The live rows' receivers' waits for the serve after the frame `pos`, `vel`
     (`model.receiver_start`): a frame more where he waits and, where the tracker counts shots,
     the return is not yet struck (`n_shots` at most 1, the serve)."""
-    waiting = receiver_waiting(pos, vel)
     shots = getattr(tracker, "n_shots", None)
-    if shots is not None:
-        waiting = waiting & torch.as_tensor(np.asarray(shots)[alive] <= 1, device=pos.device)
-    return wait_frames(wait, waiting)
+    if shots is None:
+        return wait_frames(wait, receiver_waiting(pos, vel))
+    pending = np.asarray(shots)[alive] <= 1
+    if not pending.any():        # most frames: every return struck, nobody waits
+        return torch.zeros_like(wait)
+    return wait_frames(wait, receiver_waiting(pos, vel) &
+                       torch.as_tensor(pending, device=pos.device))
 
 
 class _NoTracker:
@@ -463,7 +466,9 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
             p_bias = None
             if wait is not None:
                 wait = _wait_step(tracker, alive, pos, vel, wait)
-                p_bias = model.receiver_start_bias(ident[:, 0], serve, wait)
+                # No receiver waiting: every shift is 0, which the heads may as well not add.
+                if bool(wait.any()):
+                    p_bias = model.receiver_start_bias(ident[:, 0], serve, wait)
             top = None if top_all is None else top_all[torch.as_tensor(alive, device=dev)]
             drawing = None if starts is None else np.flatnonzero(starts[alive] <= n)
             if drawing is None or len(drawing) == len(alive):
