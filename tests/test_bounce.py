@@ -8,6 +8,7 @@ from sportsngen.data.tokens import BALL
 from sportsngen.model.centre import read_lift_mps2
 from sportsngen.sim.bounce import bounce_frames, bouncing_rows, place_bounces, spin_from_lift_mps
 from sportsngen.synth.physics import fly
+from sportsngen.tennis.court import BALL_RADIUS_M
 
 FPS = 25.0
 
@@ -145,3 +146,25 @@ def test_the_surfaces_bounce_needs_a_model_that_plans_frames(tiny_model_file):
     assert sim.model.strike_head is None and sim.model.serve_head is None
     with pytest.raises(ArgumentError, match="physical_bounce"):
         Simulator.from_pretrained(tiny_model_file, physical_bounce=True)
+
+
+def test_the_numpy_reading_of_a_bounce_is_the_torch_one(monkeypatch):
+    """`bouncing_rows`' numpy lines against its torch ones: balls falling and rising at every
+    height around the ground, flights and jolts, and heights a float32 step from the radius."""
+    import sportsngen.sim.bounce as bounce
+
+    g = torch.Generator().manual_seed(3)
+    n = 20000
+    pos, vel, prev = (torch.zeros(n, 3, 3) for _ in range(3))
+    pos[:, 2, 2] = torch.empty(n).uniform_(-0.05, 0.6, generator=g)
+    vel[:, 2] = torch.randn(n, 3, generator=g) * torch.tensor([20.0, 4.0, 8.0])
+    prev[:, 2] = vel[:, 2] + torch.randn(n, 3, generator=g) * 0.5
+    # z_next exactly at the radius's float32 neighbours: a still ball (no fall, no flight).
+    r = np.float32(BALL_RADIUS_M)
+    pos[:3, 2, 2] = torch.tensor([np.nextafter(r, 0), r, np.nextafter(r, 1)])
+    vel[:3, 2], prev[:3, 2] = torch.tensor([0.0, 0.0, -1e-30]), 0.0
+    fast = bouncing_rows(pos, vel, prev, FPS)
+    monkeypatch.setattr(bounce, "kernel_inputs", lambda *t: False)
+    ref = bouncing_rows(pos, vel, prev, FPS)
+    assert torch.equal(fast, ref)
+    assert 0.05 < ref.float().mean() < 0.5
