@@ -13,9 +13,12 @@ def kernel_inputs(*tensors: torch.Tensor | None) -> bool:
     """Whether tensors go to a numba kernel: each given one a float32 CPU tensor outside
     autograd, and no `torch.compile` tracing (dynamo cannot trace numba). Elsewhere (other
     devices, dtypes, training) the torch operations the kernels are tested against run."""
-    return not torch.compiler.is_compiling() and all(
-        t.device.type == "cpu" and t.dtype == torch.float32 and not t.requires_grad
-        for t in tensors if t is not None)
+    # A loop and `is_cpu`, not all() over `device.type`: asked some 30 times a simulated
+    # frame, the generator form was 2.4 % of a match (1.7 us a call against 0.5).
+    for t in tensors:
+        if t is not None and (t.dtype is not torch.float32 or not t.is_cpu or t.requires_grad):
+            return False
+    return not torch.compiler.is_compiling()
 
 
 def packed(module: torch.nn.Module, pack: Callable[[], tuple],
