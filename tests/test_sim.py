@@ -223,7 +223,7 @@ def test_simulate_py_learned_engine_writes_outputs(tiny_model_file, tmp_path, ca
     over = [f"output_dir={tmp_path}", "engine=sportsngen", f"model_file={tiny_model_file}",
             "player1=Toy Alpha", "player2=Toy Beta", "format.best_of=1",
             "format.games_per_set=2", "format.tiebreak_at=1", "format.no_ad=true", "top_p=0.9",
-            "animation_max_frames=12", "report_whatif_rollouts=4"]
+            "animation_max_frames=12", "report_whatif_rollouts=4", "lookahead=0"]
     with initialize_config_dir(config_dir=str(REPO / "conf"), version_base=None):
         cfg = compose("simulate", overrides=over)
     # Keep the CLI quick: short, unretried rallies, no physical limits (redrawing the untrained

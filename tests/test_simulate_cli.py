@@ -103,3 +103,20 @@ def test_the_demos_extras_are_off_unless_asked_for():
     assert _gif_frames(given) == 40 and _extra(given, "report_whatif_shots", 2) == 1
     with pytest.raises(ArgumentError, match="animation_max_frames"):
         _gif_frames(OmegaConf.create({"animation_max_frames": -1}))
+
+
+def test_lookahead_auto_takes_one_worker_for_one_match_on_two_cores_or_more():
+    from sportsngen.errors import ArgumentError
+    from sportsngen.sim.cli import lookahead_workers
+
+    assert lookahead_workers("auto", 1, cores=2) == 1
+    assert lookahead_workers("auto", 1, cores=16) == 1
+    assert lookahead_workers("auto", 1, cores=1) == 0
+    assert lookahead_workers("auto", 4, cores=16) == 0      # several matches: batched instead
+    assert lookahead_workers(0, 1) == 0 and lookahead_workers(3, 1) == 3
+    assert lookahead_workers(3, 2) == 0
+    assert lookahead_workers("auto", 1) in (0, 1)           # this machine's cores
+    for bad in ("x", -1, 1.5):
+        for n_matches in (1, 2):
+            with pytest.raises(ArgumentError, match="lookahead"):
+                lookahead_workers(bad, n_matches)

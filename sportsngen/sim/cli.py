@@ -16,6 +16,7 @@ Both write the match report of the first match, `report.html` (`sportsngen.repor
 from __future__ import annotations
 
 import logging
+import os
 import time
 from pathlib import Path
 
@@ -129,12 +130,12 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
     kw = {k: kind(cfg[k]) for k, kind in SAMPLING_OPTIONS.items() if cfg.get(k) is not None}
     if cfg.get("top_p") is not None:     # one nucleus for both, over their own
         kw.update(top_p_player=float(cfg.top_p), top_p_ball=float(cfg.top_p))
+    lookahead = lookahead_workers(cfg.get("lookahead", 0), int(cfg.n_matches))
     sim = Simulator.from_pretrained(cfg.get("model_file"), **kw)
     names = (str(cfg.player1), str(cfg.player2))
-    lookahead = check_int("lookahead", cfg.get("lookahead", 0), 0, 64)
     results = sim.simulate_matches([names] * int(cfg.n_matches), str(cfg.surface), fmt=fmt,
                                    seed=int(cfg.seed), first_server=int(cfg.first_server),
-                                   lookahead=lookahead if int(cfg.n_matches) == 1 else 0)
+                                   lookahead=lookahead)
     for i, res in enumerate(results):
         print(f"match {i + 1}: {res.score_line}  ({len(res.points)} points, "
               f"{res.n_discarded} rallies set aside as non-realistic or undecided, "
@@ -155,6 +156,22 @@ def run_learned(cfg: DictConfig, fmt: MatchFormat, out_dir: Path) -> pd.DataFram
             model_name=str(cfg.get("model_file") or "bundled sportsngen-small"))
         print(f"report: {path} ({time.perf_counter() - t0:.1f} s)")
     return pd.concat([r.points for r in results], ignore_index=True)
+
+
+def lookahead_workers(setting, n_matches: int, cores: int | None = None) -> int:
+    """`simulate.py`'s `lookahead` -> worker processes for `sim.lookahead`: a count, or "auto":
+    one where a single match is played on a machine with 2 or more cores (`cores`, default
+    the cores this process may run on), else none. On 2 cores a best-of-3 took 54.0 s
+    without and 50.0 s with one worker, the same match (docs/benchmarks.md); several matches
+    already play their rallies together."""
+    if setting != "auto":
+        workers = check_int("lookahead", setting, 0, 64)
+    else:
+        if cores is None:
+            cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") \
+                else (os.cpu_count() or 1)
+        workers = 1 if cores >= 2 else 0
+    return workers if n_matches == 1 else 0
 
 
 def _extra(cfg: DictConfig, key: str, full: int) -> int:

@@ -16,11 +16,14 @@ worker's rally that left the path is dropped when done. The calling process play
 needs itself unless a worker is playing it; then it plays the next free rally of the path
 meanwhile.
 
-What it buys: on this machine's 2 cores, little. A best-of-1 six-game match (seed 1, 92 rallies,
-`bench/bench_lookahead.py`) took 80.5 s alone and 76.3 s with one worker: about half the
-rallies played ahead were needed (24 of 48), and the calling process's own rallies took about
-12 % longer on average beside the worker. It is off by default (`simulate.py lookahead=0`);
-with more cores more workers play further along the path. The workers are spawned
+What it buys: on this machine's 2 cores, a little. A best-of-1 six-game match (seed 1, 92
+rallies, `bench/bench_lookahead.py`) took 80.5 s alone and 76.3 s with one worker: about half
+the rallies played ahead were needed (24 of 48), and the calling process's own rallies took
+about 12 % longer on average beside the worker. With the compiled frame (issue 19, fourth
+step) `simulate.py`'s best-of-3 took 54.0 s alone and 50.0 s with one worker (two runs each,
+the same match), so `simulate.py` takes one worker where there are 2 or more cores
+(`lookahead=auto`, `sim.cli.lookahead_workers`); `simulate_matches` itself defaults to none.
+With more cores more workers play further along the path. The workers are spawned
 processes: a script that turns it on needs the `if __name__ == "__main__":` guard.
 """
 
