@@ -92,3 +92,13 @@ def test_analyse_rallies_reads_the_same_either_way(generated, monkeypatch):
     monkeypatch.setattr(RallyTracker, "compiled", False)
     ref = analyse_rally_data(data)
     assert fast.equals(ref)
+
+
+def test_the_compiled_net_height_is_the_courts():
+    from sportsngen.tennis.court import NET_POST_Y_M, net_height_m
+    from sportsngen.tennis.rally_kernel import net_height_m as compiled
+
+    ys = np.r_[np.linspace(-9.0, 9.0, 4001), 0.0, NET_POST_Y_M, -NET_POST_Y_M]
+    got = np.array([compiled(y) for y in ys])
+    np.testing.assert_array_equal(got, net_height_m(ys), strict=True)
+    assert got[-3] == 0.914 and got[-2] == got[-1] == pytest.approx(1.07)

@@ -19,22 +19,11 @@ import numpy as np
 from numba import njit
 
 from sportsngen.model.centre import GRAVITY_MPS2
-from sportsngen.tennis.court import (
-    FENCE_X_M,
-    FENCE_Y_M,
-    NET_HEIGHT_CENTRE_M,
-    NET_HEIGHT_POST_M,
-    NET_POST_Y_M,
-)
+from sportsngen.tennis.court import FENCE_X_M, FENCE_Y_M
 from sportsngen.tennis.rally import CONTACT_MAX_Z_M, NET_ZONE_M, SHOT_MIN_VX_MPS
+from sportsngen.tennis.rally_kernel import net_height_m
 
 BALL = 2
-
-
-@njit(cache=True)
-def _net_cord_m(y_m):
-    sag = (min(abs(y_m), NET_POST_Y_M) / NET_POST_Y_M) ** 2
-    return NET_HEIGHT_CENTRE_M + (NET_HEIGHT_POST_M - NET_HEIGHT_CENTRE_M) * sag
 
 
 @njit(cache=True)
@@ -87,7 +76,7 @@ def physical_rows(pos, nxt, vel, reach_m, check_reach, ground_tol_m, net_tol_m, 
             frac = a[0] / (a[0] - b[0] + 1e-12)
             y = a[1] + frac * (b[1] - a[1])
             z = a[2] + frac * (b[2] - a[2])
-            ok = z >= _net_cord_m(y) - net_tol_m
+            ok = z >= net_height_m(y) - net_tol_m
         out[r] = ok
 
 

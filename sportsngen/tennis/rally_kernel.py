@@ -121,7 +121,8 @@ def _share(before, during, after):
 
 
 @njit(cache=True, error_model="numpy")
-def _net_height_m(y_m):
+def net_height_m(y_m):
+    """`court.net_height_m` of one lateral position, compiled (the same float64 result)."""
     y = min(abs(y_m), NET_POST_Y_M)
     q = y / NET_POST_Y_M
     return NET_HEIGHT_CENTRE_M + _NET_RISE_M * (q * q)
@@ -352,7 +353,7 @@ def _impulses(r, fps, dt, hist, seen, ended, end_frame, winner, reason, end_deta
                          end_frame)
     e_h = _end_of(hitter[r], end)
     net = not hit and not ended[r] and hitter[r] >= 0 and abs(p0[0]) < NET_ZONE_M and \
-        p0[2] < _net_height_m(p0[1]) + NET_ZONE_ABOVE_M and va[0] * e_h < -SHOT_MIN_VX_MPS and \
+        p0[2] < net_height_m(p0[1]) + NET_ZONE_ABOVE_M and va[0] * e_h < -SHOT_MIN_VX_MPS and \
         vb[0] * e_h > -NET_STOP_VX_MPS
     if net:
         _hitter_loses(r, _NET, seg, n_shots, serve_number, hitter, ended, winner, reason,
@@ -384,7 +385,7 @@ def _frame_rules(r, fps, hist, seen, ended, end_frame, winner, reason, end_detai
         w = abs(x0) / (abs(x0) + abs(x1))
         y_net = prev[BALL, 1] + w * (now[BALL, 1] - prev[BALL, 1])
         z_net = prev[BALL, 2] + w * (now[BALL, 2] - prev[BALL, 2])
-        if z_net - BALL_RADIUS_M < _net_height_m(y_net) - NET_THROUGH_TOL_M:
+        if z_net - BALL_RADIUS_M < net_height_m(y_net) - NET_THROUGH_TOL_M:
             through[r] = _sign(x1)
         elif _sign(x1) != through[r]:
             through[r] = 0.0
