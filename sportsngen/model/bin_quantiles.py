@@ -69,7 +69,7 @@ def place_in_bins(quantiles_m: torch.Tensor, idx: torch.Tensor, u: torch.Tensor)
     fractions `u` (..., dims) in [0, 1) -> offsets (..., dims) at quantile `u` of each bin."""
     n_q = quantiles_m.shape[-1] - 1
     if kernel_inputs(quantiles_m, u) and idx.device.type == "cpu":
-        return torch.from_numpy(_place_in_bins_numpy(quantiles_m.numpy(), idx.numpy(),
+        return torch.from_numpy(_place_in_bins_compiled(quantiles_m.numpy(), idx.numpy(),
                                                      u.numpy()))
     dim = torch.arange(idx.shape[-1], device=idx.device).expand_as(idx)
     rows = quantiles_m[dim, idx]                                      # (..., dims, n_q + 1)
@@ -80,9 +80,9 @@ def place_in_bins(quantiles_m: torch.Tensor, idx: torch.Tensor, u: torch.Tensor)
     return lo + (at - i) * (hi - lo)
 
 
-def _place_in_bins_numpy(quantiles_m: np.ndarray, idx: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """`place_in_bins`' torch lines compiled (`_place_rows`), float32 throughout (the same
-    roundings): a rollout frame's one or two rows cost a tenth of the torch dispatch."""
+def _place_in_bins_compiled(quantiles_m: np.ndarray, idx: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """`place_in_bins` by the compiled loop `_place_rows`, float32 throughout (the torch
+    lines' roundings): a rollout frame's one or two rows cost a tenth of the torch dispatch."""
     out = np.empty(u.shape, dtype=np.float32)
     dims = idx.shape[-1]
     _place_rows(quantiles_m, np.ascontiguousarray(idx.reshape(-1, dims), dtype=np.int64),

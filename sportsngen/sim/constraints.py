@@ -514,17 +514,13 @@ class KeepChasing:
             return self._remember(frame, rows, self._late_compiled(rows, pos_m, vel_mps))
         t = self.tracker
         dev, dtype = pos_m.device, pos_m.dtype
-        due = ~t.ended[rows] & (t.hitter[rows] >= 0) & (t.n_bounces[rows] <= 1) & \
-            (t.frames_since_contact(rows) >= self.react_frames)
-        role = torch.as_tensor(1 - np.clip(t.hitter[rows], 0, 1), device=dev)
+        due, role, cap = self._due(rows)
+        role = torch.as_tensor(role, device=dev)
+        cap = torch.as_tensor(cap, dtype=dtype, device=dev)
         late = torch.zeros(len(rows), dtype=torch.bool, device=dev)
         unit = torch.zeros(len(rows), 2, dtype=dtype, device=dev)
         along = torch.zeros(len(rows), dtype=dtype, device=dev)
         least = torch.zeros(len(rows), dtype=dtype, device=dev)
-        cap = torch.full((len(rows),), self.max_speed_mps, dtype=dtype, device=dev)
-        if self.max_speed_rows_mps is not None:
-            own = self.max_speed_rows_mps[rows, role.cpu().numpy()]
-            cap = torch.minimum(cap, torch.as_tensor(own, dtype=dtype, device=dev))
         if due.any():
             i = torch.as_tensor(np.flatnonzero(due), device=dev)
             recent = torch.as_tensor(t.recent_frames(rows[due]), dtype=dtype, device=dev)
@@ -559,6 +555,20 @@ class KeepChasing:
             self._tries[:] = 0
         return out
 
+    def _due(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(rows,) bool: the ball is his to chase and he has had his reaction time; (rows,) the
+        role of the player due; (rows,) float64 his speed cap (`max_speed_mps`, or his own
+        top speed where lower). Rounded once to a reading's dtype, as a float32 cap is."""
+        t = self.tracker
+        hitter = t.hitter[rows]
+        due = ~t.ended[rows] & (hitter >= 0) & (t.n_bounces[rows] <= 1) & \
+            (t.frames_since_contact(rows) >= self.react_frames)
+        role = 1 - np.clip(hitter, 0, 1)
+        cap = np.full(len(rows), self.max_speed_mps)
+        if self.max_speed_rows_mps is not None:
+            cap = np.minimum(cap, self.max_speed_rows_mps[rows, role])
+        return due, role, cap
+
     def _late_compiled(self, rows: np.ndarray, pos_m: torch.Tensor,
                        vel_mps: torch.Tensor) -> tuple:
         """`late`'s reading in numpy, its flights by `forecast_rows` and the players' by
@@ -567,17 +577,12 @@ class KeepChasing:
         one row were most of the rule's cost)."""
         t = self.tracker
         n = len(rows)
-        hitter = t.hitter[rows]
-        due = ~t.ended[rows] & (hitter >= 0) & (t.n_bounces[rows] <= 1) & \
-            (t.frames_since_contact(rows) >= self.react_frames)
-        role = 1 - np.clip(hitter, 0, 1)
+        due, role, cap = self._due(rows)
+        cap = cap.astype(np.float32)
         late = np.zeros(n, dtype=bool)
         unit = np.zeros((n, 2), dtype=np.float32)
         along = np.zeros(n, dtype=np.float32)
         least = np.zeros(n, dtype=np.float32)
-        cap = np.full(n, self.max_speed_mps, dtype=np.float32)
-        if self.max_speed_rows_mps is not None:
-            cap = np.minimum(cap, self.max_speed_rows_mps[rows, role].astype(np.float32))
         if due.any():
             i = np.flatnonzero(due)
             recent = t.recent_frames(rows[i])
