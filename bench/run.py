@@ -22,7 +22,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "benchmarks.md"
-ALL_SECTIONS = ("generator", "training", "precision", "simulation", "analysis")
+ALL_SECTIONS = ("generator", "training", "precision", "simulation", "floors", "analysis")
 
 # One generator run in a child process: wall time, points, frames, peak RSS of the process and
 # of its worker processes (the per-worker figure is the one that must stay flat).
@@ -122,8 +122,8 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="small sizes (smoke run)")
     parser.add_argument("--only", default=",".join(ALL_SECTIONS),
                         help="comma list of generator, training, precision, simulation, "
-                             "analysis (the other sections of docs/benchmarks.md are kept as "
-                             "they are)")
+                             "floors, analysis (the other sections of docs/benchmarks.md are "
+                             "kept as they are)")
     parser.add_argument("--threads", type=int, default=2,
                         help="torch threads (simulation, precision)")
     args = parser.parse_args()
@@ -148,6 +148,11 @@ def main() -> None:
         from bench_sim import bench_simulation
 
         lines, _ = bench_simulation(args.quick, threads=args.threads)
+        sections[lines[0]] = lines
+    if "floors" in only:
+        from bench_floors import bench_floors
+
+        lines, _ = bench_floors(threads=args.threads)
         sections[lines[0]] = lines
     if "analysis" in only:
         from bench_analysis import bench_analysis
