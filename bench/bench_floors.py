@@ -14,11 +14,14 @@ before its third shot) and counts every decoder pass they make:
   in the bundled file: the rollout then reads the rally as training's windows do,
   docs/evaluation.md).
 
-FLOPs (multiply-add = 2) are read off the model's own layers (`token_flops`, `window_flops`):
-every linear layer of the object embedding and the blocks a token passes, and attention over
-the pairs the mask lets a token see. Heads, sampling, layer norms and GELUs are left out, so
-the floors are low. Each floor is those FLOPs at this machine's matmul peak, as if every pass
-ran at the speed of one large 1024^2 float32 product.
+FLOPs (multiply-add = 2) are read off the model's own layers (the child's `TOKEN`,
+`step_flops` and `window_flops`): every linear layer of the object embedding and the blocks a
+token passes, and attention over the pairs the mask lets a token see. A full-window pass after
+the first step is counted as a refresh (a rollout's later batches would be miscounted as
+refreshes if their initial frames were exactly a window; these workloads' are not). Heads,
+sampling, layer norms and GELUs are left out, so the floors are low. Each floor is those FLOPs
+at this machine's matmul peak, as if every pass ran at the speed of one large 1024^2 float32
+product.
 """
 
 from __future__ import annotations
