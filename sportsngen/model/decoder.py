@@ -687,7 +687,8 @@ class SportsNGEN(nn.Module):
                       receiver_ident: torch.Tensor | None = None,
                       returning: torch.Tensor | None = None,
                       shot: torch.Tensor | None = None,
-                      surface: torch.Tensor | None = None
+                      surface: torch.Tensor | None = None,
+                      veto: Callable[[np.ndarray, np.ndarray, bool], np.ndarray] | None = None
                       ) -> tuple[torch.Tensor, torch.Tensor]:
         """This model's strike and serve heads' draws placed in the sampled frames `nxt`
         (`strike_heads.place_strikes`; `serve` (B,) the rallies' serve, 0 first, 1 second,
@@ -698,8 +699,9 @@ class SportsNGEN(nn.Module):
         reads on a strike from the receiver's end; `shot` (B,): the rallies' contacts so far,
         the number of a strike drawn now (1 the return), which `cfg.strike_shots` and
         `cfg.strike_late` read; `surface` (B,): the surfaces' indices, which
-        `cfg.strike_return_surface` reads). ->
-        (nxt, the launches' next two frames (B, 2, 3))."""
+        `cfg.strike_return_surface` reads; `veto`: which launches may stand, as
+        `strike_heads.place_strikes` takes it). -> (nxt, the launches' next two frames
+        (B, 2, 3))."""
         # Whose strike a frame would be: the receiver's on his end, else the server's.
         recv = strike_heads.ball_on_receivers_end(pos_m)
         hitter = opponent = None
@@ -730,7 +732,8 @@ class SportsNGEN(nn.Module):
                                              None if surface is None else surface[rows])
         return strike_heads.place_strikes(self.strike_head, self.serve_head, h, pos_m, vel_mps,
                                           nxt, self.cfg.fps, generator, top_p, allowed, forced,
-                                          top_p_serve, strike_h, serve_shift, strike_shift)
+                                          top_p_serve, strike_h, serve_shift, strike_shift,
+                                          veto)
 
     def nll(self, h: torch.Tensor, player_idx: torch.Tensor, ball_idx: torch.Tensor):
         """Per-token NLL: players (..., 2), ball (...)."""

@@ -20,6 +20,7 @@ from sportsngen.model.sampling import uniform_in_bin
 
 SERVER = OBJECTS.index("server")
 FORCED_DRAWS = 8       # draws of the strike head for a forced strike until one launches
+VETO_DRAWS = 1000      # the most draws a vetoed row gets (the veto gives up well before)
 N_STRIKE_ROLES = 4     # (server, receiver) x (first serve, second serve)
 # Shots 1 (the return) to 6 each, then the receiver's (odd) and the server's (even) pooled.
 N_SHOT_BUCKETS = 8
@@ -101,7 +102,8 @@ def place_strikes(strike_head, serve_head, h: torch.Tensor, pos_m: torch.Tensor,
                   top_p_serve: float = 1.0,
                   strike_h: torch.Tensor | Callable[[], torch.Tensor] | None = None,
                   serve_bias: Callable[[torch.Tensor], torch.Tensor] | None = None,
-                  strike_bias: Callable[[torch.Tensor], torch.Tensor] | None = None
+                  strike_bias: Callable[[torch.Tensor], torch.Tensor] | None = None,
+                  veto: Callable[[np.ndarray, np.ndarray, bool], np.ndarray] | None = None
                   ) -> tuple[torch.Tensor, torch.Tensor]:
     """Where the sampled next frames `nxt` (B, 3, 3) hold a rally strike (the ball sent back,
     or stopped: `strike.is_strike_begun`), or in the rows `forced` (B,) bool whatever they
@@ -116,7 +118,10 @@ def place_strikes(strike_head, serve_head, h: torch.Tensor, pos_m: torch.Tensor,
     a strike (most frames hold none); `serve_bias`: the served rows (R,) -> the shifts of the serve
     head's logits for them (R, 4, bins) (`SportsNGEN.serve_head_bias`), asked only on a frame
     that holds a serve; `strike_bias` the same for the strike head's rows
-    (`SportsNGEN.strike_head_bias`)."""
+    (`SportsNGEN.strike_head_bias`). `veto(rows, landing_xy (R, 2) m in the world, serve) ->
+    (R,) bool`: whether each found launch may stand; a rejected one is drawn again from its
+    head (a counterfactual's shot, `sim.whatif.ShotConstraint.judge_strikes`), until the veto
+    passes it (it must give up in time: at most `VETO_DRAWS` draws)."""
     plan = torch.full((len(nxt), 2, 3), float("nan"), device=nxt.device)
     if strike_head is None and serve_head is None:
         return nxt, plan
@@ -149,7 +154,8 @@ def place_strikes(strike_head, serve_head, h: torch.Tensor, pos_m: torch.Tensor,
         # whose launch is not found is drawn again (from 4 m behind the baseline 3 % were not,
         # and the ball flew past a receiver who had it in reach: docs/evaluation.md,
         # twenty-sixth part).
-        for _ in range(FORCED_DRAWS if edges is None else 1):
+        draws = (FORCED_DRAWS if edges is None else 1) if veto is None else VETO_DRAWS
+        for attempt in range(draws):
             if len(rows) == 0:
                 break
             r = torch.as_tensor(rows, device=h.device)
@@ -163,11 +169,20 @@ def place_strikes(strike_head, serve_head, h: torch.Tensor, pos_m: torch.Tensor,
             contact = ball[rows]                  # the contact is taken on the struck frame
             side = np.sign(ball[rows, 0])
             v0, found = solve(contact, side, values, fps)
+            again = ~found & must[rows] & (attempt < draws - 1)
+            if veto is not None and found.any():
+                # The head's values put the landing point on the far side of the contact.
+                land = -side[found, None] * values[found, :2]
+                vetoed = np.zeros(len(rows), dtype=bool)
+                vetoed[found] = ~veto(rows[found], land, edges is not None)
+                found &= ~vetoed
+                must[rows[vetoed]] = True     # its sampled frame is no fallback either
+                again |= vetoed
             frames = strike.launch_frames(contact, v0, values[:, 3], fps)
             keep = torch.as_tensor(rows[found], device=h.device)
             frames = torch.as_tensor(frames[found], dtype=nxt.dtype, device=nxt.device)
             nxt = nxt.clone()
             nxt[keep, BALL] = frames[:, 0]
             plan[keep] = frames[:, 1:]
-            rows = rows[~found & must[rows]]
+            rows = rows[again]
     return nxt, plan

@@ -688,13 +688,24 @@ class KeepChasing:
 
 class AllOf:
     """Several constraints at once: a frame must satisfy all of them. When the rollout gives
-    up on rows, each part is told only the rows it rejected on their last draw."""
+    up on rows, each part is told only the rows it rejected on their last draw.
+
+    Each part keeps its own number of tries: a rejection asks for a redraw (`asks`) only while
+    the row has been judged at most `2 * max_tries` times in the frame, so it is drawn again at
+    most `2 * max_tries` times as under that part alone; past it the part's rejection stands
+    until the rollout gives up on the row (a forced strike, say). Without this a
+    counterfactual's shot constraint (200 tries) gave every rule its 200: the rule for balls in
+    reach rejected 44,359 draws of a 2 x 100 counterfactual where a win probability's rollouts
+    see 2,051 (docs/evaluation.md, session s104)."""
 
     def __init__(self, *constraints):
         self.parts = [c for c in constraints if c is not None]
         self.max_tries = max(c.max_tries for c in self.parts)
-        self._last_rows = np.zeros(0, dtype=np.int64)
-        self._last_ok: list[torch.Tensor] = []
+        self._frame: int | None = None
+        self._judged = np.zeros(0, dtype=np.int64)   # by row: judgements in `_frame`
+        # (parts, rows): the part rejected the row's last draw in `_frame`.
+        self._rejected = np.ones((len(self.parts), 0), dtype=bool)
+        self.asks = np.zeros(0, dtype=bool)          # the last judged rows a part redraws
 
     @property
     def offset(self) -> int:
@@ -707,23 +718,48 @@ class AllOf:
 
     def accept(self, rows, frame, pos_m, next_pos_m, vel_mps=None) -> torch.Tensor:
         oks = [c.accept(rows, frame, pos_m, next_pos_m, vel_mps) for c in self.parts]
-        # The rows given up on are always among the last draw's (the rollout redraws every
-        # rejected row each time), so remembering the last verdicts is enough.
-        self._last_rows = np.asarray(rows, dtype=np.int64)
-        self._last_ok = oks
+        rows = np.asarray(rows, dtype=np.int64)
         ok = oks[0]
         for o in oks[1:]:
             ok = ok & o
+        # Each part's last verdict on each row of the frame, for `give_up`: a row whose
+        # rejecting parts are spent is not drawn again, so it may not be in the last draw.
+        if frame != self._frame:
+            self._judged[:] = 0
+            self._rejected[:] = True
+            self._frame = frame
+        if len(rows) and rows.max() >= len(self._judged):
+            more = int(rows.max()) + 1 - len(self._judged)
+            self._judged = np.concatenate([self._judged, np.zeros(more, dtype=np.int64)])
+            self._rejected = np.concatenate(
+                [self._rejected, np.ones((len(self.parts), more), dtype=bool)], axis=1)
+        self._judged[rows] += 1
+        judged = self._judged[rows]
+        self.asks = np.zeros(len(rows), dtype=bool)
+        for i, (c, o) in enumerate(zip(self.parts, oks)):
+            no = ~o.cpu().numpy()
+            self._rejected[i, rows] = no
+            self.asks |= no & (judged <= 2 * c.max_tries)
+        return ok
+
+    @property
+    def judges_strikes(self) -> bool:
+        return any(getattr(c, "judges_strikes", False) for c in self.parts)
+
+    def judge_strikes(self, rows, frame, pos_m, land_xy, serve) -> np.ndarray:
+        """(R,) bool: every part that judges the heads' strikes lets each stand."""
+        ok = np.ones(len(rows), dtype=bool)
+        for c in self.parts:
+            if getattr(c, "judges_strikes", False):
+                ok &= c.judge_strikes(rows, frame, pos_m, land_xy, serve)
         return ok
 
     def _rejected_by(self, rows: np.ndarray) -> list[np.ndarray]:
-        """Per part, (rows,) bool: it rejected the row's last draw (every part, for a row this
-        object never judged)."""
-        at = {r: i for i, r in enumerate(self._last_rows.tolist())}
-        if not all(r in at for r in rows.tolist()):
+        """Per part, (rows,) bool: it rejected the row's last draw in this frame (every part,
+        for a row this object has not judged in it)."""
+        if len(rows) and rows.max() >= self._rejected.shape[1]:
             return [np.ones(len(rows), dtype=bool) for _ in self.parts]
-        where = np.array([at[r] for r in rows.tolist()], dtype=np.int64)
-        return [~ok.cpu().numpy()[where] for ok in self._last_ok]
+        return [r[rows] for r in self._rejected]
 
     def give_up(self, rows) -> None:
         rows = np.asarray(rows, dtype=np.int64)

@@ -19,7 +19,7 @@ rallies cost.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Protocol
@@ -141,10 +141,11 @@ def redraw_rejected(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top
     wants struck anyway). `frame`: the model's `sampling_frame` of all rows, whose rows the
     redraws reuse."""
     bad = ~constraint.accept(alive, n, pos, nxt, vel)
+    redo = _asked(constraint, bad)
     tries = 0
     drawn = np.zeros(len(alive), dtype=np.int64)
-    while bool(bad.any()) and tries < 2 * constraint.max_tries:
-        idx = torch.nonzero(bad).squeeze(1)
+    while bool(redo.any()) and tries < 2 * constraint.max_tries:
+        idx = torch.nonzero(redo).squeeze(1)
         # When the nucleus holds no acceptable frame, the rest of the distribution may.
         wide = tries >= constraint.max_tries
         given = {} if frame is None else \
@@ -165,6 +166,7 @@ def redraw_rejected(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top
         drawn[idx.cpu().numpy()] += 1
         ok = constraint.accept(alive[idx.cpu().numpy()], n, pos[idx], again, vel[idx])
         bad[idx] = ~ok
+        redo[idx] = _asked(constraint, ~ok)
         tries += 1
     strike = np.zeros(len(alive), dtype=bool)
     if bool(bad.any()):
@@ -182,6 +184,13 @@ def redraw_rejected(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top
     return nxt, drawn, strike
 
 
+def _asked(constraint, bad: torch.Tensor) -> torch.Tensor:
+    """The rejected rows `bad` to draw again: those a part with tries left rejects (`AllOf.asks`
+    of the last judgement); every one for a constraint without parts."""
+    asks = getattr(constraint, "asks", None)
+    return bad.clone() if asks is None else bad & torch.as_tensor(asks, device=bad.device)
+
+
 def _follow_strikes(model: SportsNGEN, h: torch.Tensor, pos: torch.Tensor, vel: torch.Tensor,
                     nxt: torch.Tensor, plan: torch.Tensor, generator: torch.Generator,
                     forced: np.ndarray | None = None, top_p_serve: float = 1.0,
@@ -190,7 +199,8 @@ def _follow_strikes(model: SportsNGEN, h: torch.Tensor, pos: torch.Tensor, vel: 
                     receiver_ident: torch.Tensor | None = None,
                     returning: torch.Tensor | None = None,
                     shot: torch.Tensor | None = None,
-                    surface: torch.Tensor | None = None
+                    surface: torch.Tensor | None = None,
+                    veto: Callable[[np.ndarray, np.ndarray, bool], np.ndarray] | None = None
                     ) -> tuple[torch.Tensor, torch.Tensor]:
     """With a strike head: a ball in the frames after its strike flies the launch solved at the
     strike (`plan`, (B, 2, 3), NaN where none), so the physics centre reads the strike's spin
@@ -202,7 +212,8 @@ def _follow_strikes(model: SportsNGEN, h: torch.Tensor, pos: torch.Tensor, vel: 
     per-hitter shift (`cfg.strike_bias`), with `returning` (B,) bool (only the serve struck
     so far) the returns' (`cfg.strike_return`), with `shot` (B,) (the contacts so far) the
     strike's number (`cfg.strike_shots`, `cfg.strike_late`), with `surface` (B,) the
-    surfaces' indices (`cfg.strike_return_surface`)."""
+    surfaces' indices (`cfg.strike_return_surface`). `veto`: which of the heads' launches may
+    stand (`strike_heads.place_strikes`)."""
     planned = ~torch.isnan(plan[:, 0, 0])
     if bool(planned.any()):
         nxt = nxt.clone()
@@ -213,7 +224,8 @@ def _follow_strikes(model: SportsNGEN, h: torch.Tensor, pos: torch.Tensor, vel: 
     nxt, new = model.place_strikes(h, pos, vel, nxt, generator, allowed=~planned, forced=force,
                                    top_p_serve=top_p_serve, serve=serve,
                                    server_ident=server_ident, receiver_ident=receiver_ident,
-                                   returning=returning, shot=shot, surface=surface)
+                                   returning=returning, shot=shot, surface=surface,
+                                   veto=veto)
     return nxt, torch.where(torch.isnan(new[:, :1, :1]), plan, new)
 
 
@@ -407,9 +419,13 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
                 shot = None if shots is None or (model.strike_shot is None
                                                  and model.strike_late is None) else \
                     torch.as_tensor(np.asarray(shots)[rows], device=dev)
+                veto = None
+                if getattr(constraint, "judges_strikes", False):
+                    def veto(r, land_xy, serving):
+                        return constraint.judge_strikes(rows[r], n, pos[r], land_xy, serving)
                 nxt, plan = _follow_strikes(model, h, pos, vel, nxt, plan, generator, forced,
                                             top_p_serve, serve, ident[:, 0], ident[:, 1],
-                                            returning, shot, surface)
+                                            returning, shot, surface, veto)
             if bounce_surfaces is not None and n >= 3:
                 nxt, plan = place_bounces(nxt, plan, pos, vel, prev_vel, fps, bounce_surfaces,
                                           rows, planned)
