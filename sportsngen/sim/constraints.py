@@ -706,6 +706,7 @@ class AllOf:
         # (parts, rows): the part rejected the row's last draw in `_frame`.
         self._rejected = np.ones((len(self.parts), 0), dtype=bool)
         self.asks = np.zeros(0, dtype=bool)          # the last judged rows a part redraws
+        self.judges_strikes = any(getattr(c, "judges_strikes", False) for c in self.parts)
 
     @property
     def offset(self) -> int:
@@ -734,17 +735,17 @@ class AllOf:
             self._rejected = np.concatenate(
                 [self._rejected, np.ones((len(self.parts), more), dtype=bool)], axis=1)
         self._judged[rows] += 1
+        self.asks = ~ok.cpu().numpy()
+        if not self.asks.any():                  # most judgements: nothing rejected
+            self._rejected[:, rows] = False
+            return ok
         judged = self._judged[rows]
-        self.asks = np.zeros(len(rows), dtype=bool)
+        self.asks[:] = False
         for i, (c, o) in enumerate(zip(self.parts, oks)):
             no = ~o.cpu().numpy()
             self._rejected[i, rows] = no
             self.asks |= no & (judged <= 2 * c.max_tries)
         return ok
-
-    @property
-    def judges_strikes(self) -> bool:
-        return any(getattr(c, "judges_strikes", False) for c in self.parts)
 
     def judge_strikes(self, rows, frame, pos_m, land_xy, serve) -> np.ndarray:
         """(R,) bool: every part that judges the heads' strikes lets each stand."""
