@@ -135,7 +135,8 @@ def redraw_rejected(model, constraint, alive, n, h, pos, vel, prev_vel, nxt, top
                     player_bias=None, player_limits=None, player_top_speed_mps=None,
                     player_quantiles=None, frame=None):
     """Resample the rows `constraint` rejects: up to its max_tries from the nucleus, then as
-    many from the whole distribution (each draw within `player_limits`, where given, and
+    many from the whole distribution; with parts (`AllOf`), a row only while a part that
+    rejects it has tries of its own left (each draw within `player_limits`, where given, and
     every row's final frame within its players' `player_top_speed_mps` (B, 2), where given). ->
     (frames, redraws per live row, (B,) bool: the rows given up on whose ball the constraint
     wants struck anyway). `frame`: the model's `sampling_frame` of all rows, whose rows the
