@@ -193,22 +193,29 @@ def kv_bytes_per_frame(cfg, n_frames_cached: int) -> float:
     return float(cfg.n_layers * 2 * n_keys * cfg.d_model * 4)
 
 
+def token_flops(cfg, embed: bool = True) -> float:
+    """Floating-point operations (multiply-add = 2) of one token through the object embedding
+    (`embed`; context tokens skip it) and every block's projections, attention left out."""
+    d = cfg.d_model
+    sizes = [8 + cfg.id_dim, *cfg.embed_hidden, d]
+    mlp = sum(2 * a * b for a, b in zip(sizes[:-1], sizes[1:])) if embed else 0
+    return float(mlp + cfg.n_layers * (2 * d * 3 * d + 2 * d * d + 2 * 2 * d * cfg.ff_mult * d))
+
+
 def flops_per_frame(cfg, n_frames_cached: int) -> float:
     """Floating-point operations (multiply-add = 2) of one simulated frame of one rally with
     the cache holding `n_frames_cached` frames: object embedding, the blocks' projections and
     attention over the cached keys, the factorised heads. LayerNorm, GELU and softmax left out.
     """
     d, k = cfg.d_model, 3
-    sizes = [8 + cfg.id_dim, *cfg.embed_hidden, d]
-    embed = sum(2 * a * b for a, b in zip(sizes[:-1], sizes[1:]))
     n_keys = 4 + 3 * n_frames_cached
-    block = 2 * d * 3 * d + 2 * d * d + 2 * 2 * d * cfg.ff_mult * d + 2 * 2 * d * n_keys
     nb, hid, emb = cfg.n_bins, cfg.head_hidden, 32
 
     def head(dims: int) -> int:
         return 2 * d * nb + sum(2 * (d + j * emb) * hid + 2 * hid * nb
                                 for j in range(1, dims))
-    return float(k * (embed + cfg.n_layers * block) + 2 * head(2) + head(3))
+    return float(k * (token_flops(cfg) + cfg.n_layers * 2 * 2 * d * n_keys)
+                 + 2 * head(2) + head(3))
 
 
 def _child(code: str, *args: object) -> dict:
