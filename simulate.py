@@ -1,6 +1,6 @@
 """Simulate tennis matches: `python simulate.py [player1=... player2=... engine=... seed=...]`.
 
-Thin Hydra entry point; the work is in `sportsngen.sim.cli`.
+Thin Hydra entry point; the work is in `sportsngen.cli.simulate`.
 """
 
 import hydra
@@ -9,7 +9,7 @@ from omegaconf import DictConfig
 
 @hydra.main(version_base=None, config_path="conf", config_name="simulate")
 def main(cfg: DictConfig) -> None:
-    from sportsngen.sim.cli import run_simulation
+    from sportsngen.cli.simulate import run_simulation
 
     run_simulation(cfg)
 

@@ -13,12 +13,12 @@ import pandas as pd
 import pytest
 from hydra import compose, initialize_config_dir
 
+from sportsngen.cli.simulate import run_simulation
 from sportsngen.data.toy import make_toy_rallies
 from sportsngen.data.tracking import FRAME_COLUMNS, RALLY_COLUMNS, SHOT_COLUMNS, RallyData
 from sportsngen.errors import ArgumentError, ModelFileError, SportsNGENError, TrackingDataError
 from sportsngen.model.export import load_model
 from sportsngen.sim import Simulator
-from sportsngen.sim.cli import run_simulation
 from sportsngen.sim.simulator import model_path
 from sportsngen.tennis.scoring import MatchFormat, MatchState
 from sportsngen.train.datamodule import load_rally_data

@@ -218,7 +218,7 @@ def test_stored_sim_defaults_are_defaults_and_arguments_win(tiny_model_file, tmp
 
 
 def test_simulate_py_learned_engine_writes_outputs(tiny_model_file, tmp_path, capsys):
-    from sportsngen.sim.cli import run_simulation
+    from sportsngen.cli.simulate import run_simulation
 
     over = [f"output_dir={tmp_path}", "engine=sportsngen", f"model_file={tiny_model_file}",
             "player1=Toy Alpha", "player2=Toy Beta", "format.best_of=1",

@@ -5,7 +5,8 @@ from pathlib import Path
 import pytest
 from hydra import compose, initialize_config_dir
 
-from sportsngen.sim.cli import run_simulation, serve_model
+from sportsngen.baselines.serve_model import serve_model
+from sportsngen.cli.simulate import run_simulation
 from sportsngen.tennis.scoring import MatchFormat, MatchState
 
 CONF = str(Path(__file__).resolve().parents[1] / "conf")
@@ -90,8 +91,8 @@ def test_the_learned_engine_forwards_each_sampling_option_of_the_config(tmp_path
 def test_the_demos_extras_are_off_unless_asked_for():
     from omegaconf import OmegaConf
 
+    from sportsngen.cli.simulate import _extra, _gif_frames
     from sportsngen.errors import ArgumentError
-    from sportsngen.sim.cli import _extra, _gif_frames
 
     base = {"animation_max_frames": None, "report_whatif_shots": None}
     off = OmegaConf.create({**base, "extras": False})
@@ -107,7 +108,7 @@ def test_the_demos_extras_are_off_unless_asked_for():
 
 def test_lookahead_auto_takes_one_worker_for_one_match_on_two_cores_or_more():
     from sportsngen.errors import ArgumentError
-    from sportsngen.sim.cli import lookahead_workers
+    from sportsngen.sim.lookahead import lookahead_workers
 
     assert lookahead_workers("auto", 1, cores=2) == 1
     assert lookahead_workers("auto", 1, cores=16) == 1

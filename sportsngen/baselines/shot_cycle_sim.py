@@ -28,6 +28,7 @@ from sportsngen.baselines.shot_cycle_table import (
     region,
     speed_bin,
 )
+from sportsngen.data.points import score_row
 from sportsngen.data.tracking import (
     FPS_DEFAULT,
     FRAME_COLUMNS,
@@ -37,7 +38,6 @@ from sportsngen.data.tracking import (
 )
 from sportsngen.synth import cycle
 from sportsngen.synth.cycle import Body, Intercept, RallyResult, Shot, ShotPlan
-from sportsngen.synth.generate import score_row
 from sportsngen.tennis import court
 from sportsngen.tennis.scoring import MatchFormat, MatchState
 

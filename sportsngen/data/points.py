@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import pandas as pd
 
+from sportsngen.tennis.scoring import MatchState
+
 POINTS_DTYPES: dict[str, str] = {
     "match_id": "string",
     "point": "int64",
@@ -63,3 +65,13 @@ def as_points_table(df: pd.DataFrame) -> pd.DataFrame:
     for col, dtype in POINTS_DTYPES.items():
         out[col] = out[col].astype(dtype)
     return out.reset_index(drop=True)
+
+
+def score_row(state: MatchState, server: int) -> dict:
+    """The score columns of a rallies-table row, from the server's view."""
+    receiver = 1 - server
+    sets = state.sets_won
+    return {"set_no": state.set_no, "server_sets": sets[server], "receiver_sets": sets[receiver],
+            "server_games": state.games[server], "receiver_games": state.games[receiver],
+            "server_points": state.points[server], "receiver_points": state.points[receiver],
+            "in_tiebreak": state.in_tiebreak, "score": state.score_str()}

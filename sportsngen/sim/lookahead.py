@@ -22,7 +22,7 @@ the rallies played ahead were needed (24 of 48), and the calling process's own r
 about 12 % longer on average beside the worker. With the compiled frame (issue 19, fourth
 step) `simulate.py`'s best-of-3 took 54.0 s alone and 50.0 s with one worker (two runs each,
 the same match), so `simulate.py` takes one worker where there are 2 or more cores
-(`lookahead=auto`, `sim.cli.lookahead_workers`); `simulate_matches` itself defaults to none.
+(`lookahead=auto`, `lookahead_workers`); `simulate_matches` itself defaults to none.
 With more cores more workers play further along the path. The workers are spawned
 processes: a script that turns it on needs the `if __name__ == "__main__":` guard.
 """
@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
+import os
 import pickle
 import time
 from concurrent.futures import Future, ProcessPoolExecutor
@@ -149,3 +150,19 @@ class Lookahead:
                 continue
             self._futures[seed] = self._pool.submit(_worker_play, row, seed)
             busy += 1
+
+
+def lookahead_workers(setting, n_matches: int, cores: int | None = None) -> int:
+    """`simulate.py`'s `lookahead` -> worker processes for `sim.lookahead`: a count, or "auto":
+    one where a single match is played on a machine with 2 or more cores (`cores`, default
+    the cores this process may run on), else none. On 2 cores a best-of-3 took 54.0 s
+    without and 50.0 s with one worker, the same match (docs/benchmarks.md); several matches
+    already play their rallies together."""
+    if setting != "auto":
+        workers = check_int("lookahead", setting, 0, 64)
+    else:
+        if cores is None:
+            cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") \
+                else (os.cpu_count() or 1)
+        workers = 1 if cores >= 2 else 0
+    return workers if n_matches == 1 else 0

@@ -25,11 +25,11 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
+from sportsngen.data.points import score_row
 from sportsngen.data.tracking import SURFACES, RallyData
 from sportsngen.errors import ArgumentError, check_choice, check_int, check_players
 from sportsngen.eval.stats import serve_stats
 from sportsngen.sim.lookahead import Lookahead
-from sportsngen.synth.generate import score_row
 from sportsngen.tennis.scoring import MatchFormat, MatchState
 
 

@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 
+from sportsngen.data.points import score_row
 from sportsngen.data.tracking import (
     FPS_DEFAULT,
     FRAME_COLUMNS,
@@ -116,16 +117,6 @@ def match_specs(players: PlayersArg, surface: str | Sequence[str], n_points: int
         child = np.random.SeedSequence(seed, spawn_key=(i,))
         yield MatchSpec(i, pairs[i % len(pairs)], surfaces[i % len(surfaces)], fmt,
                         int(child.generate_state(1, dtype=np.uint64)[0]), n_points, fps, render)
-
-
-def score_row(state: MatchState, server: int) -> dict:
-    """The score columns of a rallies-table row, from the server's view."""
-    receiver = 1 - server
-    sets = state.sets_won
-    return {"set_no": state.set_no, "server_sets": sets[server], "receiver_sets": sets[receiver],
-            "server_games": state.games[server], "receiver_games": state.games[receiver],
-            "server_points": state.points[server], "receiver_points": state.points[receiver],
-            "in_tiebreak": state.in_tiebreak, "score": state.score_str()}
 
 
 def play_match(spec: MatchSpec) -> MatchTables:

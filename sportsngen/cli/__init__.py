@@ -1,0 +1,2 @@
+"""What the entry points do: `simulate.py` (`cli.simulate`). The top of the dependency order:
+it may read any module, none reads it."""
