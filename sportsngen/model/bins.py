@@ -9,9 +9,13 @@ Offsets beyond the range fall in the outermost bins.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import torch
 from torch import nn
+
+if TYPE_CHECKING:
+    from sportsngen.model.config import ModelConfig
 
 
 def flat_index(idx: torch.Tensor, n_bins: int) -> torch.Tensor:
@@ -100,3 +104,14 @@ class Bins(nn.Module):
         s = sigma_m.clamp_min(1e-6) * math.sqrt(2.0)
         mass = 0.5 * (torch.erf((hi - mean_m) / s) - torch.erf((lo - mean_m) / s))
         return -torch.log(mass.clamp_min(1e-12))
+
+
+def player_bins(cfg: ModelConfig) -> Bins:
+    """A player's bins of a model with config `cfg`: his top speed's step each way in x and y."""
+    return Bins((cfg.player_max_speed_mps * (1.0 / cfg.fps),) * 2, cfg.n_bins, cfg.bin_spacing)
+
+
+def ball_bins(cfg: ModelConfig) -> Bins:
+    """The ball's bins of a model with config `cfg`, around its centre (`model.centre`): the one
+    rule the decoder and the checks of its resolution read."""
+    return Bins(cfg.ball_bin_half_ranges_m, cfg.n_bins, cfg.bin_spacing)

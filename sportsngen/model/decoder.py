@@ -38,7 +38,7 @@ from sportsngen.model import (
 )
 from sportsngen.model import strike_bias as strike_bias_table
 from sportsngen.model.bin_quantiles import place_in_bins
-from sportsngen.model.bins import Bins
+from sportsngen.model.bins import ball_bins, player_bins
 from sportsngen.model.centre import object_centres_m
 from sportsngen.model.config import FEATURE_GROUPS, ModelConfig
 from sportsngen.model.embedding import ContextEmbedding, ObjectEmbedding, run_mlp
@@ -246,10 +246,8 @@ class SportsNGEN(nn.Module):
                                           cfg.attn_dropout)
                                     for _ in range(cfg.n_layers))
         self.ln_f = nn.LayerNorm(cfg.d_model)
-        dt = 1.0 / cfg.fps
-        self.player_bins = Bins((cfg.player_max_speed_mps * dt,) * 2, cfg.n_bins,
-                                cfg.bin_spacing)
-        self.ball_bins = Bins(cfg.ball_bin_half_ranges_m, cfg.n_bins, cfg.bin_spacing)
+        self.player_bins = player_bins(cfg)
+        self.ball_bins = ball_bins(cfg)
         mid = (self.ball_bins.edges[0, :-1] + self.ball_bins.edges[0, 1:]) / 2
         self.register_buffer("_contact_bins", mid.abs() > CONTACT_OFFSET_M, persistent=False)
         self.register_buffer("_ball_bin_x_m", mid, persistent=False)
