@@ -8,6 +8,12 @@ from pathlib import Path
 _REPO_ROOT = Path(__file__).resolve().parents[2]
 
 
+def conf_dir() -> Path:
+    """The project's Hydra configs as the package carries them: `sportsngen/conf`, a link to the
+    checkout's `conf/` that a wheel holds as a copy, so an installed package finds them too."""
+    return Path(__file__).resolve().parents[1] / "conf"
+
+
 def _shared_dir_with(subfolder: str) -> Path | None:
     """The first shared data folder holding `subfolder`: `$SPORTSNGEN_SHARED_DATA`, then
     `../shared/data` beside the repository (the layout of a checkout next to the project's
