@@ -462,3 +462,25 @@ def test_movement_onsets_are_the_frames_that_start_a_run():
     # where the stop ends (frame 6: 0 after -0.6).
     changes = movement_changes(vel, pos, nxt, fps)
     assert changes[0, :, 1].tolist() == [False, False, True, False, False, True, True, False]
+
+
+def test_logger_and_callback_groups_build_each_stage(tmp_path):
+    """conf/logger and conf/callbacks: CSV metrics in <run>/<stage> (TensorBoard's only where
+    tensorboard is installed), checkpoints in <run>/checkpoints_<stage>, the decoder's best
+    by validation loss."""
+    from lightning.pytorch.callbacks import ModelCheckpoint
+    from lightning.pytorch.loggers import CSVLogger
+
+    from sportsngen.train.run import _callbacks, _installed, _loggers
+
+    cfg = _compose(["experiment=tiny", "data=toy"])
+    for stage, monitor in (("decoder", "val/loss"), ("events", None)):
+        loggers = _loggers(cfg, tmp_path, stage)
+        assert isinstance(loggers[0], CSVLogger)
+        assert Path(loggers[0].log_dir) == tmp_path / stage
+        assert len(loggers) == 1 + _installed(cfg.logger[stage].tensorboard)
+        (ckpt,) = _callbacks(cfg, tmp_path, stage)
+        assert isinstance(ckpt, ModelCheckpoint) and ckpt.monitor == monitor
+        assert ckpt.dirpath == str(tmp_path / f"checkpoints_{stage}") and ckpt.save_last
+    no_tb = _loggers(_compose(["logger.decoder.tensorboard=null"]), tmp_path, "decoder")
+    assert [type(x) for x in no_tb] == [CSVLogger]

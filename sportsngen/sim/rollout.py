@@ -338,184 +338,285 @@ def rollout(model: SportsNGEN, inputs: RolloutInputs, max_frames: int,
     their bins the players' draws land (`SportsNGEN.sample_next`). Cached rollouts of up to
     `SINGLE_THREAD_ROWS` rallies run on one CPU thread.
     """
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+    if bounce_surfaces is not None and model.strike_head is None and model.serve_head is None:
+        raise ValueError("bounce_surfaces plans the frame after a bounce as a strike's "
+                         "launch frames are: it needs a model with a strike or serve head")
+    if max_frames < inputs.init_pos_m.shape[1]:
+        raise ValueError(f"max_frames ({max_frames}) is shorter than the initial frames "
+                         f"({inputs.init_pos_m.shape[1]})")
     small = (mode == "cache" and len(inputs.init_pos_m) <= SINGLE_THREAD_ROWS
              and next(model.parameters()).device.type == "cpu")
     with cpu_threads(1 if small else None):
-        if mode not in MODES:
-            raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
-        if bounce_surfaces is not None and model.strike_head is None and \
-                model.serve_head is None:
-            raise ValueError("bounce_surfaces plans the frame after a bounce as a strike's "
-                             "launch frames are: it needs a model with a strike or serve head")
         model.eval()
         dev = next(model.parameters()).device
-        b, t0 = inputs.init_pos_m.shape[:2]
-        if max_frames < t0:
-            raise ValueError(f"max_frames ({max_frames}) is shorter than the initial frames ({t0})")
-        # Rows with initial frames of their own count start together at the fewest; the
-        # others take their recorded frames until theirs run out (`RolloutInputs.init_frames`).
-        starts = None if inputs.init_frames is None else np.asarray(inputs.init_frames)
-        if starts is not None:
-            t0 = int(starts.min())
+        b = len(inputs.init_pos_m)
         if generator is None:
             generator = torch.Generator(device=dev)
             generator.manual_seed(0 if seed is None else int(seed))
-        tracker = tracker or _NoTracker()
-        fps, window = model.cfg.fps, model.cfg.window_frames
-
-        def tens(x, dtype):
-            return torch.as_tensor(np.array(x), dtype=dtype, device=dev)
-
-        ident = tens(inputs.ident, torch.long)
-        serve = tens(inputs.serve, torch.long)
-        surface = tens(inputs.surface, torch.long)
-        ctx = model.context_tokens(tens(inputs.surface, torch.long),
-                                   tens(inputs.tournament, torch.long),
-                                   tens(inputs.serve, torch.long),
-                                   tens(inputs.score, torch.float32))
-        hist = torch.full((b, max_frames, 3, 3), float("nan"), device=dev)
-        hist[:, :t0] = tens(inputs.init_pos_m[:, :t0], torch.float32)
-        out = np.full((b, max_frames, 3, 3), np.nan, dtype=np.float32)
-        out[:, :t0] = inputs.init_pos_m[:, :t0]
-        length = np.full(b, t0, dtype=np.int64)
-        ended = np.zeros(b, dtype=bool)
-        alive = np.arange(b)                      # original row of each live batch row
         top_all = None
         if player_top_speed_mps is not None:
-            top_all = tens(player_top_speed_mps, torch.float32)
+            top_all = _tensor(player_top_speed_mps, torch.float32, dev)
             if top_all.shape != (b, 2):
                 raise ValueError(f"player_top_speed_mps must be ({b}, 2), got "
                                  f"{tuple(top_all.shape)}")
-
         forced_all = None if forced_pos_m is None else _check_forced(forced_pos_m, b, dev)
-        resampled = np.zeros(b, dtype=np.int64)
-        forced_strikes = np.zeros(b, dtype=np.int64)
+        draws = _Draws(model, tracker or _NoTracker(), generator, top_p_player, top_p_ball,
+                       contact_odds, top_p_contact, top_p_serve, constraint, bounce_surfaces,
+                       player_limits, player_quantiles, resampled=np.zeros(b, dtype=np.int64),
+                       forced_strikes=np.zeros(b, dtype=np.int64))
+        decoder = _CachedDecoder(model, refresh_frames) if mode == "cache" else \
+            _ForwardDecoder(model, model.cfg.window_frames if mode == "window" else None)
+        return _roll(draws, decoder, inputs, max_frames, top_all, forced_all, progress)
 
-        def draw(rows, n, h, pos, vel, prev_vel, p_bias, top, plan, serve, ident, surface):
-            """The next frame of the batch rows `rows` (indices as first given), drawn by the
-            decoder with every rule applied -> (frames, their strike plans)."""
-            frame = model.sampling_frame(pos, vel, prev_vel)
-            nxt = model.sample_next(h, pos, vel, top_p_player, top_p_ball, generator, prev_vel,
-                                    contact_odds, top_p_contact, p_bias, player_quantiles,
-                                    frame=frame)
-            if player_limits is not None:
-                nxt = limit_player_acceleration(nxt, pos, vel, fps, player_limits)
-            if top is not None:
-                nxt = limit_player_speed(nxt, pos, fps, top)
-            forced = None
-            if constraint is not None:
-                nxt, drawn, forced = redraw_rejected(model, constraint, rows, n, h, pos, vel,
-                                                     prev_vel, nxt, top_p_player, top_p_ball,
-                                                     generator, contact_odds, top_p_contact,
-                                                     p_bias, player_limits, top,
-                                                     player_quantiles, frame)
-                resampled[rows] += drawn
-                if model.strike_head is not None:
-                    forced_strikes[rows] += forced
-            planned = ~torch.isnan(plan[:, 0, 0])     # this frame is a launch's or a bounce's
-            if model.strike_head is not None or model.serve_head is not None:
-                shots = getattr(tracker, "n_shots", None)
-                returning = None if shots is None or model.strike_return is None else \
-                    torch.as_tensor(awaiting_return(np.asarray(shots)[rows]), device=dev)
-                shot = None if shots is None or (model.strike_shot is None
-                                                 and model.strike_late is None) else \
-                    torch.as_tensor(np.asarray(shots)[rows], device=dev)
-                veto = None
-                if getattr(constraint, "judges_strikes", False):
-                    def veto(r, land_xy, serving):
-                        return constraint.judge_strikes(rows[r], n, pos[r], land_xy, serving)
-                nxt, plan = _follow_strikes(model, h, pos, vel, nxt, plan, generator, forced,
-                                            top_p_serve, serve, ident[:, 0], ident[:, 1],
-                                            returning, shot, surface, veto)
-            if bounce_surfaces is not None and n >= 3:
-                nxt, plan = place_bounces(nxt, plan, pos, vel, prev_vel, fps, bounce_surfaces,
-                                          rows, planned)
-            return nxt, plan
 
-        done = np.zeros(b, dtype=bool)
-        # The receivers' waits for the serve (`model.receiver_start`), counted over the initial
-        # frames but the last, which the loop's first step counts.
-        wait = None if model.receiver_start is None else \
-            torch.zeros(b, dtype=torch.long, device=dev)
-        for k in range(t0):
-            done = tracker.update(inputs.init_pos_m[:, k], ~done)
-            if wait is not None and k < t0 - 1:
-                prev_k = hist[:, k - 1] if k else hist[:, 0]
-                wait = _wait_step(tracker, np.arange(b), hist[:, k],
-                                  (hist[:, k] - prev_k) * fps, wait)
-        latest = inputs.init_pos_m[:, t0 - 1].astype(np.float32)   # every rally's newest frame
-        cache, h = None, None
-        if mode == "cache":
-            hs, cache = model(window_features(hist, 0, t0, fps), ident, ctx, return_cache=True)
-            h = hs[:, -1]
-        n, steps, frames = t0, 0, 0
-        plan = torch.full((b, 2, 3), float("nan"), device=dev)   # a struck ball's next frames
-        bar = tqdm(total=max_frames - t0, desc="frames", disable=not progress, leave=False)
-        while True:
-            if done.any():
-                ended[alive[done]] = True
-                keep = np.flatnonzero(~done)
-                alive = alive[keep]
-                if len(alive) == 0:
-                    break
-                kt = torch.as_tensor(keep, device=dev)
-                hist, ident, ctx, plan = hist[kt], ident[kt], ctx[kt], plan[kt]
-                serve, surface = serve[kt], surface[kt]
-                wait = None if wait is None else wait[kt]
-                if cache is not None:
-                    cache, h = cache.select(kt), h[kt]
-            if n >= max_frames:
+def _tensor(x, dtype: torch.dtype, dev: torch.device) -> torch.Tensor:
+    return torch.as_tensor(np.array(x), dtype=dtype, device=dev)
+
+
+@dataclass
+class _Draws:
+    """How `rollout` draws a frame (its sampling arguments) and what the redraws counted."""
+
+    model: SportsNGEN
+    tracker: Tracker
+    generator: torch.Generator
+    top_p_player: float
+    top_p_ball: float
+    contact_odds: bool
+    top_p_contact: float | None
+    top_p_serve: float
+    constraint: Constraint | None
+    bounce_surfaces: np.ndarray | None
+    player_limits: PlayerLimits | None
+    player_quantiles: torch.Tensor | None
+    resampled: np.ndarray        # (B,) frames drawn again (a constraint rejected them)
+    forced_strikes: np.ndarray   # (B,) strikes asked for where a constraint gave up
+
+    def draw(self, rows, n, h, pos, vel, prev_vel, p_bias, top, plan, serve, ident, surface):
+        """The next frame of the batch rows `rows` (indices as first given), drawn by the
+        decoder with every rule applied -> (frames, their strike plans)."""
+        model, constraint, fps = self.model, self.constraint, self.model.cfg.fps
+        frame = model.sampling_frame(pos, vel, prev_vel)
+        nxt = model.sample_next(h, pos, vel, self.top_p_player, self.top_p_ball, self.generator,
+                                prev_vel, self.contact_odds, self.top_p_contact, p_bias,
+                                self.player_quantiles, frame=frame)
+        if self.player_limits is not None:
+            nxt = limit_player_acceleration(nxt, pos, vel, fps, self.player_limits)
+        if top is not None:
+            nxt = limit_player_speed(nxt, pos, fps, top)
+        forced = None
+        if constraint is not None:
+            nxt, drawn, forced = redraw_rejected(
+                model, constraint, rows, n, h, pos, vel, prev_vel, nxt, self.top_p_player,
+                self.top_p_ball, self.generator, self.contact_odds, self.top_p_contact, p_bias,
+                self.player_limits, top, self.player_quantiles, frame)
+            self.resampled[rows] += drawn
+            if model.strike_head is not None:
+                self.forced_strikes[rows] += forced
+        planned = ~torch.isnan(plan[:, 0, 0])     # this frame is a launch's or a bounce's
+        if model.strike_head is not None or model.serve_head is not None:
+            shots = getattr(self.tracker, "n_shots", None)
+            returning = None if shots is None or model.strike_return is None else \
+                torch.as_tensor(awaiting_return(np.asarray(shots)[rows]), device=pos.device)
+            shot = None if shots is None or (model.strike_shot is None
+                                             and model.strike_late is None) else \
+                torch.as_tensor(np.asarray(shots)[rows], device=pos.device)
+            veto = None
+            if getattr(constraint, "judges_strikes", False):
+                def veto(r, land_xy, serving):
+                    return constraint.judge_strikes(rows[r], n, pos[r], land_xy, serving)
+            nxt, plan = _follow_strikes(model, h, pos, vel, nxt, plan, self.generator, forced,
+                                        self.top_p_serve, serve, ident[:, 0], ident[:, 1],
+                                        returning, shot, surface, veto)
+        if self.bounce_surfaces is not None and n >= 3:
+            nxt, plan = place_bounces(nxt, plan, pos, vel, prev_vel, fps, self.bounce_surfaces,
+                                      rows, planned)
+        return nxt, plan
+
+
+@dataclass
+class _Live:
+    """The live rallies of a rollout: their rows as first given (`alive`) and their tensors,
+    compacted as rallies end."""
+
+    alive: np.ndarray
+    hist: torch.Tensor            # (L, max_frames, 3, 3) positions so far, NaN after
+    ident: torch.Tensor
+    ctx: torch.Tensor             # context tokens
+    serve: torch.Tensor
+    surface: torch.Tensor
+    plan: torch.Tensor            # (L, 2, 3) a struck ball's next frames, NaN where none
+    wait: torch.Tensor | None     # the receivers' waits for the serve (`model.receiver_start`)
+
+    def keep(self, keep: np.ndarray) -> torch.Tensor:
+        """Keep the batch rows `keep` -> them as a tensor (to compact a cache alike)."""
+        self.alive = self.alive[keep]
+        kt = torch.as_tensor(keep, device=self.hist.device)
+        self.hist, self.ident, self.ctx, self.plan = (self.hist[kt], self.ident[kt],
+                                                      self.ctx[kt], self.plan[kt])
+        self.serve, self.surface = self.serve[kt], self.surface[kt]
+        self.wait = None if self.wait is None else self.wait[kt]
+        return kt
+
+
+class _CachedDecoder:
+    """Mode "cache": the ring key/value cache filled from the initial frames, then one token
+    step a frame; with `refresh_frames`, filled again from the last window alone every that many
+    frames once a rally outgrows the window."""
+
+    def __init__(self, model: SportsNGEN, refresh_frames: int | None):
+        self.model, self.refresh_frames = model, refresh_frames
+        self.cache, self.h = None, None
+
+    def start(self, live: _Live, t0: int) -> None:
+        hs, self.cache = self.model(window_features(live.hist, 0, t0, self.model.cfg.fps),
+                                    live.ident, live.ctx, return_cache=True)
+        self.h = hs[:, -1]
+
+    def keep(self, kt: torch.Tensor) -> None:
+        self.cache, self.h = self.cache.select(kt), self.h[kt]
+
+    def hidden(self, live: _Live, n: int, first: bool) -> torch.Tensor:
+        """The decoder's output at frame n-1 (the first step's is the filling's)."""
+        fps, window = self.model.cfg.fps, self.model.cfg.window_frames
+        if first:
+            return self.h
+        if self.refresh_frames and n > window and n % self.refresh_frames == 0:
+            hs, self.cache = self.model(window_features(live.hist, n - window, n, fps),
+                                        live.ident, live.ctx, return_cache=True)
+            self.h = hs[:, -1]
+        else:
+            self.h = self.model.forward_step(step_features(live.hist, n, fps), self.cache)[0]
+        return self.h
+
+
+class _ForwardDecoder:
+    """Modes "recompute" (`window` None: the whole rally so far) and "window" (its last
+    `window` frames): `forward` run again at every step, nothing kept between steps."""
+
+    def __init__(self, model: SportsNGEN, window: int | None):
+        self.model, self.window = model, window
+
+    def start(self, live: _Live, t0: int) -> None:
+        pass
+
+    def keep(self, kt: torch.Tensor) -> None:
+        pass
+
+    def hidden(self, live: _Live, n: int, first: bool) -> torch.Tensor:
+        lo = 0 if self.window is None else max(0, n - self.window)
+        return self.model(window_features(live.hist, lo, n, self.model.cfg.fps), live.ident,
+                          live.ctx)[:, -1]
+
+
+def _start(model: SportsNGEN, inputs: RolloutInputs, max_frames: int, t0: int,
+           tracker: Tracker) -> tuple[_Live, np.ndarray]:
+    """The batch's tensors and its first `t0` frames fed to the tracker -> (live rallies,
+    (B,) bool: ended within them)."""
+    dev = next(model.parameters()).device
+    b, fps = len(inputs.init_pos_m), model.cfg.fps
+    ctx = model.context_tokens(_tensor(inputs.surface, torch.long, dev),
+                               _tensor(inputs.tournament, torch.long, dev),
+                               _tensor(inputs.serve, torch.long, dev),
+                               _tensor(inputs.score, torch.float32, dev))
+    hist = torch.full((b, max_frames, 3, 3), float("nan"), device=dev)
+    hist[:, :t0] = _tensor(inputs.init_pos_m[:, :t0], torch.float32, dev)
+    # The receivers' waits for the serve (`model.receiver_start`), counted over the initial
+    # frames but the last, which the loop's first step counts.
+    wait = None if model.receiver_start is None else torch.zeros(b, dtype=torch.long, device=dev)
+    done = np.zeros(b, dtype=bool)
+    for k in range(t0):
+        done = tracker.update(inputs.init_pos_m[:, k], ~done)
+        if wait is not None and k < t0 - 1:
+            prev_k = hist[:, k - 1] if k else hist[:, 0]
+            wait = _wait_step(tracker, np.arange(b), hist[:, k], (hist[:, k] - prev_k) * fps,
+                              wait)
+    live = _Live(np.arange(b), hist, _tensor(inputs.ident, torch.long, dev), ctx,
+                 _tensor(inputs.serve, torch.long, dev), _tensor(inputs.surface, torch.long, dev),
+                 torch.full((b, 2, 3), float("nan"), device=dev), wait)
+    return live, done
+
+
+def _next_frame(draws: _Draws, live: _Live, h: torch.Tensor, n: int, inputs: RolloutInputs,
+                starts: np.ndarray | None, top_all: torch.Tensor | None) -> torch.Tensor:
+    """Frame n of the live rallies: drawn (`_Draws.draw`), or the recorded one for rows still
+    inside their own initial frames (`RolloutInputs.init_frames`; their strike plans stay
+    empty)."""
+    model, hist, alive, fps = draws.model, live.hist, live.alive, draws.model.cfg.fps
+    dev = hist.device
+    pos = hist[:, n - 1]
+    prev = hist[:, n - 2] if n >= 2 else pos
+    vel = (pos - prev) * fps
+    prev_vel = (prev - hist[:, n - 3]) * fps if n >= 3 else torch.zeros_like(vel)
+    p_bias = None
+    if live.wait is not None:
+        live.wait = _wait_step(draws.tracker, alive, pos, vel, live.wait)
+        # No receiver waiting: every shift is 0, which the heads may as well not add.
+        if bool(live.wait.any()):
+            p_bias = model.receiver_start_bias(live.ident[:, 0], live.serve, live.wait)
+    top = None if top_all is None else top_all[torch.as_tensor(alive, device=dev)]
+    drawing = None if starts is None else np.flatnonzero(starts[alive] <= n)
+    if drawing is None or len(drawing) == len(alive):
+        nxt, live.plan = draws.draw(alive, n, h, pos, vel, prev_vel, p_bias, top, live.plan,
+                                    live.serve, live.ident, live.surface)
+        return nxt
+    nxt = _tensor(inputs.init_pos_m[alive, n], torch.float32, dev)
+    if len(drawing):
+        d = torch.as_tensor(drawing, device=dev)
+        nxt[d], live.plan[d] = draws.draw(alive[drawing], n, h[d], pos[d], vel[d], prev_vel[d],
+                                          None if p_bias is None else p_bias[d],
+                                          None if top is None else top[d], live.plan[d],
+                                          live.serve[d], live.ident[d], live.surface[d])
+    return nxt
+
+
+def _roll(draws: _Draws, decoder: _CachedDecoder | _ForwardDecoder, inputs: RolloutInputs,
+          max_frames: int, top_all: torch.Tensor | None, forced_all: torch.Tensor | None,
+          progress: bool) -> Rollout:
+    """`rollout`'s loop: a frame of every live rally a step, finished rallies dropped."""
+    b = len(inputs.init_pos_m)
+    # Rows with initial frames of their own count start together at the fewest; the others
+    # take their recorded frames until theirs run out (`RolloutInputs.init_frames`).
+    starts = None if inputs.init_frames is None else np.asarray(inputs.init_frames)
+    t0 = inputs.init_pos_m.shape[1] if starts is None else int(starts.min())
+    live, done = _start(draws.model, inputs, max_frames, t0, draws.tracker)
+    decoder.start(live, t0)
+    out = np.full((b, max_frames, 3, 3), np.nan, dtype=np.float32)
+    out[:, :t0] = inputs.init_pos_m[:, :t0]
+    length = np.full(b, t0, dtype=np.int64)
+    ended = np.zeros(b, dtype=bool)
+    latest = inputs.init_pos_m[:, t0 - 1].astype(np.float32)   # every rally's newest frame
+    n, steps, frames = t0, 0, 0
+    bar = tqdm(total=max_frames - t0, desc="frames", disable=not progress, leave=False)
+    while True:
+        if done.any():
+            ended[live.alive[done]] = True
+            keep = np.flatnonzero(~done)
+            if len(keep) == 0:
                 break
-            if mode == "cache":
-                if steps and refresh_frames and n > window and n % refresh_frames == 0:
-                    hs, cache = model(window_features(hist, n - window, n, fps), ident, ctx,
-                                      return_cache=True)
-                    h = hs[:, -1]
-                elif steps:
-                    h = model.forward_step(step_features(hist, n, fps), cache)[0]
-            else:
-                lo = max(0, n - window) if mode == "window" else 0
-                h = model(window_features(hist, lo, n, fps), ident, ctx)[:, -1]
-            pos = hist[:, n - 1]
-            prev = hist[:, n - 2] if n >= 2 else pos
-            vel = (pos - prev) * fps
-            prev_vel = (prev - hist[:, n - 3]) * fps if n >= 3 else torch.zeros_like(vel)
-            p_bias = None
-            if wait is not None:
-                wait = _wait_step(tracker, alive, pos, vel, wait)
-                # No receiver waiting: every shift is 0, which the heads may as well not add.
-                if bool(wait.any()):
-                    p_bias = model.receiver_start_bias(ident[:, 0], serve, wait)
-            top = None if top_all is None else top_all[torch.as_tensor(alive, device=dev)]
-            drawing = None if starts is None else np.flatnonzero(starts[alive] <= n)
-            if drawing is None or len(drawing) == len(alive):
-                nxt, plan = draw(alive, n, h, pos, vel, prev_vel, p_bias, top, plan, serve,
-                                 ident, surface)
-            else:
-                # Rows still inside their own initial frames take the recorded frame (their
-                # strike plans stay empty); the others draw theirs.
-                nxt = tens(inputs.init_pos_m[alive, n], torch.float32)
-                if len(drawing):
-                    d = torch.as_tensor(drawing, device=dev)
-                    nxt[d], plan[d] = draw(alive[drawing], n, h[d], pos[d], vel[d], prev_vel[d],
-                                           None if p_bias is None else p_bias[d],
-                                           None if top is None else top[d], plan[d], serve[d],
-                                           ident[d], surface[d])
-            if forced_all is not None and n < forced_all.shape[1]:
-                f = forced_all[torch.as_tensor(alive, device=dev), n]
-                nxt = torch.where(torch.isnan(f), nxt, f)
-            hist[:, n] = nxt
-            nxt_np = nxt.cpu().numpy()
-            out[alive, n] = nxt_np
-            length[alive] = n + 1
-            latest[alive] = nxt_np
-            active = np.zeros(b, dtype=bool)
-            active[alive] = True
-            done = tracker.update(latest, active)[alive]
-            n += 1
-            steps += 1
-            frames += len(alive)
-            bar.update(1)
-        bar.close()
-        return Rollout(out[:, :int(length.max())], length, ended, steps, frames, resampled,
-                       forced_strikes)
+            decoder.keep(live.keep(keep))
+        if n >= max_frames:
+            break
+        h = decoder.hidden(live, n, first=steps == 0)
+        nxt = _next_frame(draws, live, h, n, inputs, starts, top_all)
+        alive = live.alive
+        if forced_all is not None and n < forced_all.shape[1]:
+            f = forced_all[torch.as_tensor(alive, device=nxt.device), n]
+            nxt = torch.where(torch.isnan(f), nxt, f)
+        live.hist[:, n] = nxt
+        nxt_np = nxt.cpu().numpy()
+        out[alive, n] = nxt_np
+        length[alive] = n + 1
+        latest[alive] = nxt_np
+        active = np.zeros(b, dtype=bool)
+        active[alive] = True
+        done = draws.tracker.update(latest, active)[alive]
+        n += 1
+        steps += 1
+        frames += len(alive)
+        bar.update(1)
+    bar.close()
+    return Rollout(out[:, :int(length.max())], length, ended, steps, frames, draws.resampled,
+                   draws.forced_strikes)

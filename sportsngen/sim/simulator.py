@@ -101,6 +101,13 @@ def check_plan(plan: pd.DataFrame) -> None:
         check_choice("surface", surface, SURFACES)
 
 
+def check_top_p(top_p) -> float | None:
+    """A call's `top_p` (None, or a number in (0, 1]) -> float or None."""
+    if top_p is not None and not (isinstance(top_p, (int, float)) and 0 < top_p <= 1):
+        raise ArgumentError(f"top_p must be None or a number in (0, 1], got {top_p!r}")
+    return None if top_p is None else float(top_p)
+
+
 def points_plan(server: str, receiver: str, surface: str, n_points: int, seed: int,
                 serve_number: int = 1) -> pd.DataFrame:
     """A plan of `n_points` service points of `server` against `receiver` on serve
@@ -406,7 +413,7 @@ class Simulator:
                          max_duration_s: float | np.ndarray | None = None,
                          forced_pos_m: np.ndarray | None = None,
                          init_frames: np.ndarray | None = None,
-                         label_events: bool = True) -> RallyData:
+                         label_events: bool = True, top_p: float | None = None) -> RallyData:
         """One rally for each row of `plan` (columns `PLAN_COLUMNS`), in batches of
         `batch_size` -> RallyData with the simulator's columns (see `sportsngen.sim.assemble`).
 
@@ -420,8 +427,12 @@ class Simulator:
         `init_pos_m`'s). `init_frames` (len(plan),): each rally's own count of `init_pos_m`'s
         frames (the rest of its row unread), so rallies branched at different frames share
         batches (`RolloutInputs.init_frames`). `label_events` False: no event classifier
-        labels (the rules' shots only), for callers that read positions alone."""
+        labels (the rules' shots only), for callers that read positions alone. `top_p`: both
+        kinds' nucleus for this call (None: `top_p_player` and `top_p_ball`)."""
         check_plan(plan)
+        top_p = check_top_p(top_p)
+        top_p_player, top_p_ball = (self.top_p_player, self.top_p_ball) if top_p is None \
+            else (top_p, top_p)
         for name, given in (("forced_pos_m", forced_pos_m), ("init_frames", init_frames)):
             if given is not None and len(given) != len(plan):
                 raise ArgumentError(f"{name} has {len(given)} rows, the plan {len(plan)}")
@@ -473,7 +484,7 @@ class Simulator:
             gen.manual_seed(int(rng.integers(2 ** 62)))
             t0 = inputs.init_pos_m.shape[1]
             roll = rollout(self.model, inputs, max(max_frames, t0 + 2), tracker,
-                           self.top_p_player, self.top_p_ball, generator=gen,
+                           top_p_player, top_p_ball, generator=gen,
                            progress=progress, constraint=con, contact_odds=self.contact_odds,
                            top_p_contact=self.top_p_contact,
                            refresh_frames=self.refresh_frames, top_p_serve=self.top_p_serve,
@@ -506,25 +517,19 @@ class Simulator:
         seed = check_int("seed", seed, 0)
         if serve_number is not None:
             serve_number = check_int("serve_number", serve_number, 1, 2)
-        if top_p is not None and not (isinstance(top_p, (int, float)) and 0 < top_p <= 1):
-            raise ArgumentError(f"top_p must be None or a number in (0, 1], got {top_p!r}")
+        top_p = check_top_p(top_p)
         plan = points_plan(server, receiver, surface, n_points, seed, serve_number or 1)
-        saved = self.top_p_player, self.top_p_ball
-        if top_p is not None:
-            self.top_p_player = self.top_p_ball = float(top_p)
-        try:
-            first = self.simulate_rallies(plan, seed=seed, progress=progress)
-            if serve_number is not None:
-                return first
-            faulted = first.rallies["end_reason"].to_numpy() == "fault"
-            second_plan = plan[faulted].assign(serve_number=2,
-                                               rally_id=np.arange(faulted.sum()) + n_points)
-            if not len(second_plan):
-                return first
-            second = self.simulate_rallies(second_plan, seed=seed + 1, progress=progress)
-            return RallyData.concat([first, second])
-        finally:
-            self.top_p_player, self.top_p_ball = saved
+        first = self.simulate_rallies(plan, seed=seed, progress=progress, top_p=top_p)
+        if serve_number is not None:
+            return first
+        faulted = first.rallies["end_reason"].to_numpy() == "fault"
+        second_plan = plan[faulted].assign(serve_number=2,
+                                           rally_id=np.arange(faulted.sum()) + n_points)
+        if not len(second_plan):
+            return first
+        second = self.simulate_rallies(second_plan, seed=seed + 1, progress=progress,
+                                       top_p=top_p)
+        return RallyData.concat([first, second])
 
     def simulate_both_serving(self, player1: str, player2: str, surface: str, n_points: int,
                               seed: int = 0, **kwargs) -> RallyData:
