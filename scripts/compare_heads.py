@@ -3,9 +3,9 @@
     nice -n 10 .venv/bin/python scripts/compare_heads.py --steps 2000 1000 --seeds 0 1 \\
         --seed-variants 2
 
-Every variant is trained on the same frozen data (`outputs/compare_heads/data/<name>-
-<fingerprint>`), the same `tiny` model, seed, steps and `n_bins`, then scored on its held-out
-rallies by continuous NLL, comparable across binnings (`sportsngen.studies.heads`).
+Every variant is trained on the same frozen data, the same `tiny` model, seed, steps and
+`n_bins`, then scored on its held-out rallies by continuous NLL, comparable across binnings
+(`sportsngen.studies.heads`).
 Results go to `outputs/compare_heads/<variant>_steps<n>_seed<k>/` (model, logs, `result.json`; an
 existing `result.json` is reused unless --force; --reevaluate scores it again) and the tables
 to `docs/figures/compare_heads.md`.
