@@ -10,16 +10,14 @@ fraction, read from the model file unless given). Per object kind: the model's N
 object token) and top-1 bin accuracy, beside the constant-velocity predictor's (Gaussian with
 per-dimension sigma fitted on these same tokens) and the top-1 of the bin holding the
 constant-velocity extrapolation; the ball also in flight and at racket contact (+-1 frame).
+See `sportsngen.train.evaluate.print_held_out`.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 
-import torch
-
-from sportsngen.train.evaluate import evaluate_held_out, metrics_table
+from sportsngen.train.evaluate import print_held_out
 
 
 def main() -> None:
@@ -37,19 +35,8 @@ def main() -> None:
     p.add_argument("--threads", type=int, default=None, help="torch CPU threads")
     p.add_argument("--json", default=None, help="also write every figure to this JSON file")
     args = p.parse_args()
-    if args.threads:
-        torch.set_num_threads(args.threads)
-    stats = evaluate_held_out(args.model, args.data, args.held_out_fraction, args.seed,
-                              args.batch_size, args.device)
-    print(f"{args.model} on {stats['n_rallies']} held-out rallies of {stats['data']} "
-          f"(fraction {stats['held_out_fraction']:g}, seed {stats['seed']}); NLL in nats per "
-          "object token.\n")
-    print("\n".join(metrics_table(stats)))
-    print(f"\nCV sigma fitted (m): players {stats['cv_sigma_player_m']}, "
-          f"ball {stats['cv_sigma_ball_m']}")
-    if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(stats, fh, indent=2)
+    print_held_out(args.model, args.data, args.held_out_fraction, args.seed, args.batch_size,
+                   args.device, args.threads, args.json)
 
 
 if __name__ == "__main__":

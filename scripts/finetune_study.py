@@ -7,136 +7,22 @@
     .venv/bin/python scripts/finetune_study.py --base bundled --player "Unseen M 002"
         [--population-seed 200] ...
 
-1. Base: a generic `small` decoder (`model.generic_identity=true`: one identity for every
-   player) trained on `synthetic_small` generated without the player (`--base-steps` steps).
-   Or `--base MODEL` (a model file, or `bundled`): a trained model used as it is, which plays
-   an unknown player as the mean of its players' identities; the player must then be one it
-   never saw: a population player named "Unseen M 000", ... (`players.population_prefix`),
-   drawn with `--population-seed`, whom the study's data pits against the other two.
-2. For each k > 0: `train.py experiment=finetune_player` from the base, learning only the new
-   identity row from the player's first k rallies (serving or receiving) of a separate
-   generated set (the player and two population players, round robin).
-3. Each model (k = 0 is the base, where the player is the generic identity) simulates
-   `--points` service points of the player against one population opponent on hard, from the
-   same serve starts (the player's own, drawn from the fine-tuning data), beside the
-   generator's ground truth for the same matchup: serve contact height, first-serve speed,
-   first serve in %, aces %, double faults %, serve points won %, and the non-realistic share.
-   600 points a model by default: at 150 the same base model read 76.4 % first serves in on
-   one run and 71.1 % on 600 points, a draw as large as the gaps the study reads
-   (docs/evaluation.md, forty-seventh part).
-
-Writes finetune.md, finetune.csv and finetune.png into --out. `--reuse` skips trainings whose
-model file already exists in --work. Every step runs `train.py` in a subprocess, so the
-commands in the printed log reproduce each model.
+A base model (trained without the player, or `--base MODEL`/`bundled` with an unseen
+population player) fine-tuned on k of the player's sequences, each simulated against the
+generator's ground truth (`sportsngen.studies.finetune`). Writes finetune.md, finetune.csv and
+finetune.png into --out. `--reuse` skips trainings whose model file already exists in --work.
+Every step runs `train.py` in a subprocess, so the commands in the printed log reproduce each
+model.
 """
 
 from __future__ import annotations
 
 import argparse
-import subprocess
-import sys
-import time
 from pathlib import Path
 
-import numpy as np
-import pandas as pd
-import torch
+from sportsngen.studies.finetune import finetune_study
 
 ROOT = Path(__file__).resolve().parents[1]
-NAMED = ("Roger Federer", "Rafael Nadal", "Novak Djokovic", "Andy Murray", "John Isner",
-         "Serena Williams", "Maria Sharapova")
-METRICS = (("toss_contact_height_m", "serve contact height m", 1.0),
-           ("first_serve_kmh", "1st serve km/h", 1.0),
-           ("first_serve_in", "1st in %", 100.0), ("ace", "ace %", 100.0),
-           ("double_fault", "DF %", 100.0), ("serve_points_won", "srv won %", 100.0))
-
-
-def _hydra(value) -> str:
-    """A value as Hydra override syntax (lists of strings quoted, dicts as {k: v})."""
-    if isinstance(value, list):
-        return "[" + ",".join(f'"{v}"' for v in value) + "]"
-    if isinstance(value, dict):
-        return "{" + ",".join(f"{k}:{v}" for k, v in value.items()) + "}"
-    return str(value)
-
-
-def train(args: list[str], run_dir: Path, reuse: bool) -> Path:
-    model = run_dir / "model.pt"
-    if reuse and model.is_file():
-        print(f"reusing {model}")
-        return model
-    cmd = [sys.executable, "train.py", *args, f"hydra.run.dir={run_dir}"]
-    print("$ " + " ".join(cmd), flush=True)
-    t0 = time.perf_counter()
-    with open(run_dir.parent / f"{run_dir.name}.log", "w") as log:
-        subprocess.run(cmd, cwd=ROOT, check=True, stdout=log, stderr=subprocess.STDOUT)
-    print(f"  {time.perf_counter() - t0:.0f} s", flush=True)
-    return model
-
-
-UNSEEN = "Unseen"
-
-
-def player_data(player: str, n_points: int, population_seed: int) -> dict[str, object]:
-    """Overrides of conf/data/synthetic_small.yaml: the player against the population, a
-    generator seed the base never saw. An unseen player is one of 3 renamed population players
-    (the other two are his opponents)."""
-    name = f"finetune_{player.replace(' ', '_')}"
-    if player.startswith(UNSEEN + " "):
-        return {"name": f"{name}_{population_seed}", "players.named": [],
-                "players.population": {"men": 3, "women": 0},
-                "players.population_seed": population_seed,
-                "players.population_prefix": UNSEEN, "n_points": n_points, "seed": 11}
-    return {"name": name, "players.named": [player],
-            "players.population": {"men": 2, "women": 0}, "n_points": n_points, "seed": 11}
-
-
-def data_args(overrides: dict[str, object]) -> list[str]:
-    return ["data=synthetic_small"] + [
-        f"++data.{k}={_hydra(v)}" for k, v in overrides.items()]
-
-
-def evaluate(model_path: Path, player: str, opponent: str, truth, initial, n_points: int,
-             seed: int, defaults: dict) -> dict:
-    from sportsngen.eval.physical import shot_quantities
-    from sportsngen.eval.stats import serve_stats
-    from sportsngen.model.export import load_model
-    from sportsngen.sim import Simulator
-    from sportsngen.sim.assemble import realistic_points
-
-    model, ec, vocab, _ = load_model(model_path)
-    sim = Simulator(model, ec, vocab, initial, **defaults)
-    d = sim.simulate_points(player, opponent, "hard", n_points, seed=seed)
-    out = {"non_realistic": float((~d.rallies["realistic"]).mean())}
-    for name, data in (("sim", realistic_points(d)), ("truth", truth)):
-        st = serve_stats(data.points()).reindex([player]).iloc[0]
-        q = shot_quantities(data)
-        q = q[q["hitter"] == player].groupby("quantity")["value"].median()
-        for key, _, _ in METRICS:
-            physical = key.endswith(("_m", "_kmh"))
-            out[f"{key}_{name}"] = float(q.get(key, np.nan) if physical else st[key])
-    return out
-
-
-def plot(table: pd.DataFrame, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(2, 3, figsize=(12, 6.5))
-    x = np.arange(len(table))
-    for ax, (key, label, f) in zip(axes.ravel(), METRICS):
-        ax.plot(x, table[f"{key}_sim"] * f, "o-", label="fine-tuned model")
-        ax.axhline(table[f"{key}_truth"].iloc[0] * f, color="k", ls="--", label="ground truth")
-        ax.set_xticks(x, [str(k) for k in table["k"]])
-        ax.set_xlabel("k (player sequences)")
-        ax.set_title(label)
-    axes[0, 0].legend(fontsize=8)
-    fig.suptitle("Generic model fine-tuned on k sequences of an unseen player")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def main() -> None:
@@ -158,102 +44,7 @@ def main() -> None:
                     help="a trained model file (or 'bundled') to use as the base")
     ap.add_argument("--population-seed", type=int, default=200,
                     help="population seed of an 'Unseen M 00k' player")
-    args = ap.parse_args()
-    unseen = [f"{UNSEEN} M {i:03d}" for i in range(3)]
-    if args.base is None and args.player not in NAMED:
-        raise SystemExit(f"--player must be one of the generator's named players {NAMED}")
-    if args.base is not None and args.player not in unseen:
-        raise SystemExit(f"with --base, --player must be one the base never saw: {unseen}")
-    torch.set_num_threads(args.threads)
-    work, out = ROOT / args.work, ROOT / args.out
-    work.mkdir(parents=True, exist_ok=True)
-    out.mkdir(parents=True, exist_ok=True)
-    t_start = time.perf_counter()
-    pdata_overrides = player_data(args.player, args.player_points, args.population_seed)
-    if args.base is not None:
-        from sportsngen.sim.simulator import model_path
-
-        base = model_path(None if args.base == "bundled" else args.base)
-    else:
-        others = [p for p in NAMED if p != args.player]
-        without = {"name": f"synthetic_small_without_{args.player.replace(' ', '_')}",
-                   "players.named": others, "n_points": args.base_points}
-        base = train([*data_args(without), "model=small", "model.generic_identity=true",
-                      "events.enabled=true",
-                      f"trainer.max_steps={args.base_steps}", "trainer.val_check_interval=500",
-                      f"threads={args.threads}", f"seed={args.seed}"], work / "base",
-                     args.reuse)
-    models = {0: base}
-    for k in args.ks:
-        if k > 0:
-            models[k] = train(["experiment=finetune_player", f"player={args.player}",
-                               f"init={base}", f"finetune.n_sequences={k}",
-                               f"trainer.max_steps={args.ft_steps}", f"threads={args.threads}",
-                               *data_args(pdata_overrides)],
-                              work / f"k{k}", args.reuse)
-
-    from omegaconf import OmegaConf
-
-    from sportsngen.sim.initial import InitialConditions
-    from sportsngen.synth.dataset import load_synthetic, matchups
-    from sportsngen.synth.generate import generate_matches
-
-    cfg = OmegaConf.load(ROOT / "conf/data/synthetic_small.yaml")
-    for key, value in pdata_overrides.items():
-        OmegaConf.update(cfg, key, value)
-    pdata = load_synthetic(OmegaConf.to_container(cfg, resolve=True))
-    initial = InitialConditions.from_rally_data(pdata)
-    r = pdata.rallies
-    opponent = str(r.loc[r["server"] == args.player, "receiver"].value_counts().index[0])
-    profiles = {p.name: p for pair in matchups(OmegaConf.to_container(cfg)) for p in pair}
-    truth = generate_matches([(profiles[args.player], profiles[opponent])], "hard", 3000,
-                             seed=args.seed + 100, workers=2)
-    truth = truth.subset(truth.rallies.loc[truth.rallies["server"] == args.player, "rally_id"])
-    from sportsngen.model.export import read_extra
-
-    # Every k samples as the base does, so the rows differ only in the player's identity.
-    defaults = read_extra(base).get("sim_defaults") or {}
-    rows = []
-    for k in sorted(models):
-        t0 = time.perf_counter()
-        res = evaluate(models[k], args.player, opponent, truth, initial, args.points,
-                       args.seed, defaults)
-        rows.append({"k": k, **res})
-        print(f"k={k}: " + ", ".join(f"{key} {res[key + '_sim']:.3f} (truth "
-                                     f"{res[key + '_truth']:.3f})" for key, _, _ in METRICS)
-              + f", non-realistic {res['non_realistic']:.3f} ({time.perf_counter() - t0:.0f} s)",
-              flush=True)
-    table = pd.DataFrame(rows)
-    table.to_csv(out / "finetune.csv", index=False)
-    plot(table, out / "finetune.png")
-    if args.base is None:
-        how = (f"--base-steps {args.base_steps}", f"A generic `small` model trained "
-               f"{args.base_steps} steps without {args.player}")
-    else:
-        how = (f"--base {args.base} --population-seed {args.population_seed}",
-               f"The trained model `{base.name}`, which never saw {args.player} (a population "
-               "player; at k = 0 he plays as the mean of its players' identities)")
-    lines = ["# Fine-tuning study", "",
-             f"`python scripts/finetune_study.py --player \"{args.player}\" --ks "
-             f"{' '.join(map(str, args.ks))} {how[0]} --ft-steps "
-             f"{args.ft_steps} --points {args.points} --seed {args.seed}` "
-             f"({time.perf_counter() - t_start:.0f} s). {how[1]}; k of his sequences teach it "
-             f"one new identity row ({args.ft_steps} steps, the rest frozen). {args.points} "
-             f"simulated service points of {args.player} v {opponent} (hard) per model against "
-             "the generator's ground truth of the same matchup (|sim - truth| in brackets).", "",
-             "| k | " + " | ".join(label for _, label, _ in METRICS) + " | non-realistic % |",
-             "|---:|" + "---:|" * (len(METRICS) + 1)]
-    for row in rows:
-        cells = [f"{row[key + '_sim'] * f:.2f} "
-                 f"({abs(row[key + '_sim'] - row[key + '_truth']) * f:.2f})"
-                 for key, _, f in METRICS]
-        lines.append(f"| {row['k']} | " + " | ".join(cells)
-                     + f" | {100 * row['non_realistic']:.1f} |")
-    lines.append("| truth | " + " | ".join(f"{rows[0][key + '_truth'] * f:.2f}"
-                                          for key, _, f in METRICS) + " | 0.0 |")
-    lines += ["", "![fine-tuning](finetune.png)", ""]
-    (out / "finetune.md").write_text("\n".join(lines))
-    print("\n".join(lines))
+    finetune_study(**vars(ap.parse_args()), root=ROOT)
 
 
 if __name__ == "__main__":

@@ -4,56 +4,17 @@
         [--points 100] [--out docs/figures/top_p] [--write-default]
         [--kind both|player|ball] [--other P]
 
-For each top-p (`--kind both`: the same for players and ball; `player` or `ball`: that kind's,
-the other kind held at `--other`), `--points` simulated service points of each of
-Roger Federer and Rafael Nadal against the other on hard, compared with the generator's ground
-truth of the same matchup (`sportsngen.eval.physical.compare_data`): the non-realistic rally
-share, serve statistics and the physical metrics (Wasserstein distances). The default top-p is
-the value with the smallest score = non-realistic share + mean over the physical metrics of
-(Wasserstein / reference IQR) + mean over the serve statistics of |sim - truth|; with
-`--write-default` it is stored in the model file (`sim_defaults`), where
-`Simulator.from_pretrained` reads it. Writes top_p.png, top_p.md and top_p.csv into --out.
+For each top-p, simulated Federer v Nadal points on hard against the generator's ground truth;
+the best value (smallest score) is stored in the model file with `--write-default`
+(`sportsngen.studies.top_p`). Writes top_p.png, top_p.md and top_p.csv into --out.
 """
 
 from __future__ import annotations
 
 import argparse
-import time
 from pathlib import Path
 
-import numpy as np
-import pandas as pd
-import torch
-
-from sportsngen.eval.physical import compare_data
-from sportsngen.model.export import read_extra, update_extra
-from sportsngen.sim import Simulator
-from sportsngen.sim.simulator import model_path
-from sportsngen.synth.generate import generate_matches
-
-PLAYERS = ("Roger Federer", "Rafael Nadal")
-SERVE_KEYS = ("first_serve_in", "ace", "double_fault", "serve_points_won")
-
-
-def score_rows(cmp: pd.DataFrame, unreal: float) -> dict:
-    """The sweep's summary figures from one `compare_data` table."""
-    c = cmp[cmp["group"] == "all"]
-    w = c[c["statistic"] == "wasserstein"].set_index("metric")
-    iqr = c[(c["statistic"] == "iqr")].set_index("metric")["ref"]
-    # compare_data puts a distance in whichever column is filled (the other is NaN).
-    dist = w[["sim", "ref"]].max(axis=1)
-    phys = {m: float(dist[m]) / max(float(iqr[m]), 1e-6)
-            for m in dist.index if m in iqr.index and np.isfinite(dist[m])
-            and np.isfinite(iqr[m])}
-    serve = {}
-    for k in SERVE_KEYS:
-        row = c[(c["metric"] == k) & (c["statistic"] == "value")]
-        if len(row):
-            serve[k] = abs(float(row["sim"].iat[0]) - float(row["ref"].iat[0]))
-    score = unreal + (np.mean(list(phys.values())) if phys else 1.0) + \
-        (np.mean(list(serve.values())) if serve else 1.0)
-    return {"non_realistic": unreal, **{f"w_{m}": v for m, v in phys.items()},
-            **{f"d_{k}": v for k, v in serve.items()}, "score": float(score)}
+from sportsngen.studies.top_p import top_p_sweep
 
 
 def main() -> None:
@@ -70,75 +31,7 @@ def main() -> None:
                     help="which object kind's top-p the values set")
     ap.add_argument("--other", type=float, default=0.7,
                     help="the other kind's top-p when --kind is player or ball")
-    args = ap.parse_args()
-
-    def top_ps(p: float) -> dict[str, float]:
-        return {"top_p_player": p if args.kind in ("both", "player") else args.other,
-                "top_p_ball": p if args.kind in ("both", "ball") else args.other}
-
-    if args.threads:
-        torch.set_num_threads(args.threads)
-    truth = generate_matches([PLAYERS], "hard", 2000, seed=40_000 + args.seed, workers=2)
-    rows = []
-    for p in args.values:
-        sim = Simulator.from_pretrained(args.model, **top_ps(p))
-        t0 = time.perf_counter()
-        d = sim.simulate_both_serving(*PLAYERS, "hard", args.points, seed=args.seed)
-        unreal = float((~d.rallies["realistic"].astype(bool)).mean())
-        cmp = compare_data(d, truth)
-        row = {"top_p": p, "wall_s": time.perf_counter() - t0, **score_rows(cmp, unreal)}
-        rows.append(row)
-        print(f"top-p {p:.2f}: non-realistic {100 * unreal:.1f} %, score {row['score']:.3f}, "
-              f"{row['wall_s']:.0f} s", flush=True)
-    df = pd.DataFrame(rows)
-    chosen = top_ps(float(df.loc[df["score"].idxmin(), "top_p"]))
-    args.out.mkdir(parents=True, exist_ok=True)
-    df.to_csv(args.out / "top_p.csv", index=False)
-    best = float(df.loc[df["score"].idxmin(), "top_p"])
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    cols = [c for c in df.columns if c.startswith(("w_", "d_"))] + ["non_realistic", "score"]
-    n = len(cols)
-    fig, axes = plt.subplots((n + 3) // 4, 4, figsize=(13, 2.6 * ((n + 3) // 4)))
-    for ax, c in zip(np.ravel(axes), cols):
-        ax.plot(df["top_p"], df[c], marker="o")
-        ax.axvline(best, color="grey", ls="--", lw=0.8)
-        ax.set_title(c.replace("w_", "W/IQR ").replace("d_", "|sim-truth| "), fontsize=8)
-        ax.set_xlabel("top-p", fontsize=8)
-    for ax in np.ravel(axes)[n:]:
-        ax.axis("off")
-    fig.tight_layout()
-    fig.savefig(args.out / "top_p.png", dpi=100)
-    plt.close(fig)
-    swept = {"both": "players and ball", "player": f"the players (ball {args.other:g})",
-             "ball": f"the ball (players {args.other:g})"}[args.kind]
-    show = ["top_p", "non_realistic", "d_first_serve_in", "d_ace", "d_double_fault",
-            "d_serve_points_won", "score"]
-    show = [c for c in show if c in df.columns]
-    lines = ["# Top-p sweep", "",
-             f"`python scripts/top_p_sweep.py --points {args.points} --seed {args.seed} "
-             f"--kind {args.kind}" + (f" --other {args.other:g}`" if args.kind != "both"
-                                      else "`") + f": top-p of {swept}; "
-             f"{args.points} service points per server (Federer v Nadal, hard) per value; "
-             "ground truth 2000 generated points. Score = non-realistic share + mean "
-             "Wasserstein/IQR of the physical metrics + mean |sim - truth| of the serve "
-             f"statistics. Best: **top-p {best:g}** (player {chosen['top_p_player']:g}, ball "
-             f"{chosen['top_p_ball']:g}).", "",
-             "| " + " | ".join(show) + " |", "|" + "---:|" * len(show)]
-    for _, r in df.iterrows():
-        lines.append("| " + " | ".join(f"{r[c]:.3f}" for c in show) + " |")
-    lines += ["", "![top-p](top_p.png)"]
-    (args.out / "top_p.md").write_text("\n".join(lines) + "\n")
-    print("\n".join(lines))
-    if args.write_default:
-        path = model_path(args.model)
-        # The other stored defaults (contact odds) stay.
-        kept = read_extra(path).get("sim_defaults") or {}
-        update_extra(path, sim_defaults={**kept, **chosen})
-        print(f"stored top-p {chosen} as the default of {path}")
+    top_p_sweep(**vars(ap.parse_args()))
 
 
 if __name__ == "__main__":

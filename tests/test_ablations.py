@@ -2,7 +2,6 @@
 honours them, the conf/experiment/ablation_*.yaml configs and the bundled model's unchanged
 outputs."""
 
-import importlib.util
 from pathlib import Path
 
 import pytest
@@ -13,6 +12,7 @@ from omegaconf import OmegaConf
 from sportsngen.data.tokens import N_FEATURES, Vocab
 from sportsngen.model import EventClassifier, ModelConfig, SportsNGEN, load_model, save_model
 from sportsngen.model.config import FEATURE_GROUPS
+from sportsngen.studies.ablations import overrides
 from sportsngen.train.module import DecoderModule
 from sportsngen.train.run import build_model_config
 
@@ -35,14 +35,6 @@ EXPECTED = {
     "id20": {"model.id_dim": 20},
     "id64": {"model.id_dim": 64},
 }
-
-
-def _script():
-    spec = importlib.util.spec_from_file_location("run_ablations",
-                                                  REPO / "scripts/run_ablations.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
 
 
 def _compose(overrides: list[str]):
@@ -112,10 +104,8 @@ def test_model_config_defaults_old_dicts_and_validation():
 
 @pytest.mark.parametrize("name", sorted(EXPECTED))
 def test_each_ablation_changes_only_its_switch_and_builds(name):
-    run_ablations = _script()
-    base = _flat(OmegaConf.to_container(_compose(run_ablations.overrides("default", 10, 0)),
-                                        resolve=True))
-    cfg = _compose(run_ablations.overrides(name, 10, 0))
+    base = _flat(OmegaConf.to_container(_compose(overrides("default", 10, 0)), resolve=True))
+    cfg = _compose(overrides(name, 10, 0))
     flat = _flat(OmegaConf.to_container(cfg, resolve=True))
     diff = {k: flat.get(k) for k in set(base) | set(flat) if base.get(k) != flat.get(k)}
     assert diff == EXPECTED[name]
