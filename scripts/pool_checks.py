@@ -13,25 +13,19 @@ seed's. Runs written before the checks recorded their noise are refused by name.
 from __future__ import annotations
 
 import argparse
-import json
 
-import pandas as pd
-
-from sportsngen.eval.check_noise import format_pooled, pool_gaps
+from sportsngen.errors import ArgumentError
+from sportsngen.eval.check_noise import format_pooled, pool_gaps, read_noise_runs
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("runs", nargs="+", help="check_simulation.py --json files")
     args = ap.parse_args()
-    noises = []
-    for path in args.runs:
-        with open(path) as fh:
-            run = json.load(fh)
-        if "noise" not in run:
-            raise SystemExit(f"{path} holds no noise rows: re-run check_simulation.py on it")
-        noises.append(pd.DataFrame(run["noise"]))
-    pooled = pool_gaps(noises)
+    try:
+        pooled = pool_gaps(read_noise_runs(args.runs))
+    except ArgumentError as exc:
+        raise SystemExit(str(exc)) from None
     print(f"{len(args.runs)} runs; mean gap (sim - truth) ± its standard error, z; "
           "* outside tolerance, ! a bias (|z| over 3) outside tolerance")
     print(format_pooled(pooled))
