@@ -1,10 +1,8 @@
 """How well the rally-end rules (`sportsngen.tennis.rally`) recover the generator's own labels.
 
-Generates rallies (named players round robin, hard/clay/grass), judges them from the tracks
-alone and compares with the rallies and shots tables (`sportsngen.eval.rules_check`).
-`--noise-m A` adds uniform noise of +-A m in x and +-A/2 m in y and z to the ball, and +-A m to
-the players, before judging (a crude stand-in for the model's binned tracks; the paper's
-augmentation is A = 0.025).
+Generated rallies judged from the tracks alone against their labels
+(`sportsngen.eval.rules_check`). `--noise-m A` adds uniform noise of +-A m in x and +-A/2 m in
+y and z to the ball, and +-A m to the players, first (the paper's augmentation is A = 0.025).
 
     python scripts/check_rally_rules.py                  # ~1500 points, ~2000 rallies
     python scripts/check_rally_rules.py --noise-m 0.025

@@ -1,14 +1,10 @@
 """The simulation issue's acceptance figures: simulated service points against the generator.
 
     .venv/bin/python scripts/check_simulation.py [--model PATH] [--points 500] [--seed 0]
-        [--top-p-player P] [--top-p-ball P] [--[no-]contact-odds] [--top-p-contact P]
-        [--[no-]strike-in-reach] [--strike-in-reach-from N] [--[no-]strike-in-reach-force]
-        [--top-p-serve P]
-        [--refresh-frames K] [--json out.json]
-        [--players "Roger Federer,Rafael Nadal"] [--surface hard]
+        [--top-p-player P] [--top-p-ball P] [... the sampling flags] [--refresh-frames K]
+        [--json out.json] [--players "Roger Federer,Rafael Nadal"] [--surface hard]
 
-What it prints: `sportsngen.eval.check_simulation` (3000 ground-truth points by default;
-`scripts/pool_checks.py` pools several seeds' `--json` files).
+What it prints: `sportsngen.eval.check_simulation`; `scripts/pool_checks.py` pools `--json`s.
 """
 
 from __future__ import annotations
@@ -17,11 +13,7 @@ import argparse
 from pathlib import Path
 
 from sportsngen.eval.check_simulation import PLAYERS, SURFACES, check_simulation
-from sportsngen.eval.command_line import (
-    add_points_seed,
-    add_simulator_options,
-    simulator_from_args,
-)
+from sportsngen.eval.command_line import add_points_seed, add_simulator_options, simulator_from_args
 
 
 def main() -> None:

@@ -1,7 +1,5 @@
-"""Physical sanity of generated tracking, per surface (`sportsngen.eval.synth_physics`).
-
-Toss contact height, the ball never below its radius nor through the net cord, players' peak
-speed and acceleration, and the median ball speed ratio after/before a bounce.
+"""Physical sanity of generated tracking, per surface (`sportsngen.eval.synth_physics`): toss
+height, ball against ground and net cord, players' speed and acceleration, bounce speed ratio.
 
     python scripts/check_synth_physics.py     # 600 points a surface, ~15 s
 """

@@ -3,9 +3,8 @@
     .venv/bin/python scripts/counterfactual_demo.py [--model PATH] [--n 100] [--seed 0]
         [--out docs/figures/counterfactual]
 
-Takes a generated Federer v Nadal rally of at least 5 shots (held out: a generator seed the
-training never used), branches just before its third shot, forces it cross court and down the
-line, rolls `--n` continuations of each, and writes counterfactual.png and counterfactual.md
+Branches a held-out generated rally before its third shot, forces it cross court and down the
+line, rolls `--n` continuations of each, writes counterfactual.png and counterfactual.md
 (`sportsngen.report.counterfactual`).
 """
 

@@ -1,23 +1,17 @@
-"""How returned serves end, simulated against the ground truth: by rally length (shots, the
-serve included) and end reason (an error, or a winner nobody reached), and how often the
-server wins once the serve is returned.
+"""How returned serves end, simulated against the ground truth: by rally length and end reason,
+and how often the server wins once the serve is returned.
 
     .venv/bin/python scripts/diagnose_rally_ends.py [--model PATH] [--server "Rafael Nadal"]
         [--receiver "Roger Federer"] [--points 300] [--seed 4]
 
-First serves of the server on hard, simulated and generated (the same matchup); what it
-prints: `sportsngen.eval.serve_returns.diagnose_rally_ends`.
+First serves of the server on hard (`sportsngen.eval.serve_returns.diagnose_rally_ends`).
 """
 
 from __future__ import annotations
 
 import argparse
 
-from sportsngen.eval.command_line import (
-    add_points_seed,
-    add_simulator_options,
-    simulator_from_args,
-)
+from sportsngen.eval.command_line import add_points_seed, add_simulator_options, simulator_from_args
 from sportsngen.eval.serve_returns import diagnose_rally_ends
 
 

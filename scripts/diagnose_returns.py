@@ -4,19 +4,14 @@ against the ground truth.
     .venv/bin/python scripts/diagnose_returns.py [--model PATH] [--points 150] [--seed 2]
         [--top-p-player P] [--top-p-ball P]
 
-Roger Federer serving to Rafael Nadal on hard; what it prints:
-`sportsngen.eval.serve_returns.diagnose_returns`.
+Federer serving to Nadal on hard (`sportsngen.eval.serve_returns.diagnose_returns`).
 """
 
 from __future__ import annotations
 
 import argparse
 
-from sportsngen.eval.command_line import (
-    add_points_seed,
-    add_simulator_options,
-    simulator_from_args,
-)
+from sportsngen.eval.command_line import add_points_seed, add_simulator_options, simulator_from_args
 from sportsngen.eval.serve_returns import diagnose_returns
 
 

@@ -7,11 +7,9 @@ CourtVision).
     python scripts/hawkeye_report.py --keypoints DIR --out /tmp/hawkeye_real
         # real files in the ryurko/hawkeye layout (`sportsngen.data.keypoints`)
 
-Writes ``<out>.md`` (a table: statistics by group, "generated / real", bold outside the
-README's tolerance) and ``<out>.csv`` (`sportsngen.eval.hawkeye.compare`'s columns), and prints
-the statistics outside tolerance (`sportsngen.eval.hawkeye_report.write_hawkeye_report`).
-``--before CSV`` (an earlier run's csv; generator version 5's figures are kept in
-``docs/figures/hawkeye_generator_v5.csv``) adds them in brackets.
+Writes ``<out>.md`` and ``<out>.csv`` and prints the statistics outside tolerance
+(`sportsngen.eval.hawkeye_report.write_hawkeye_report`); ``--before CSV`` (an earlier run's,
+e.g. ``docs/figures/hawkeye_generator_v5.csv``) adds its figures in brackets.
 """
 
 from __future__ import annotations

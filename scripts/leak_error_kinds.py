@@ -4,8 +4,7 @@ contacts that land in, all before the outcome is visible.
 
     python scripts/leak_error_kinds.py [--points 1500] [--seed 1] [--k 12]
 
-Federer v Nadal on hard (`sportsngen.eval.leak_causes`). A ball flying long or wide sends the
-opponent running harder than one landing in: a cause he sees in the ball's flight, not a leak.
+Federer v Nadal on hard (`sportsngen.eval.leak_causes`).
 """
 
 from __future__ import annotations

@@ -8,16 +8,8 @@
 the file is a record of version 5, whose players "know the future" (issue 16), for
 `tests/test_leaks.py`.
 
-When the check changes after version 5 is gone, generate the points in version 5's tree (the
-parent of commit 9cf9119) and extract the table with today's check. Generate from outside
-the checkout: `python -c` puts the working directory first on the path, so run from the
-checkout it would import today's generator, not version 5's.
-
-    git worktree add /tmp/v5tree 9cf9119^
-    (cd /tmp && PYTHONPATH=/tmp/v5tree $OLDPWD/.venv/bin/python -c "from sportsngen.synth \\
-        import generate_matches; generate_matches([('Roger Federer', 'Rafael Nadal')], \\
-        'hard', n_points=300, seed=5, workers=1).save('/tmp/v5data')")
-    PYTHONPATH=. .venv/bin/python scripts/leak_fixture_v5.py --data /tmp/v5data
+When the check changes after version 5 is gone: `sportsngen.eval.leak_fixture`'s doc says how
+to generate version 5's points for `--data`.
 """
 
 from __future__ import annotations

@@ -4,14 +4,11 @@ clay, `--points` each (`sportsngen.eval.leak_report`).
     python scripts/leak_report.py [--points 800] [--seed 1] [--boot 1000] [--out /tmp/leaks]
         [--before /tmp/leaks_v5] [--data /tmp/v5data/p800 | --save-data /tmp/v5data/p800]
 
-Matchup k is generated from seed + k. Writes ``<out>_<matchup>.csv``,
-``<out>_<matchup>_paths.csv`` and ``<out>.md`` (the tables) and prints how many AUCs lie outside
-[0.4, 0.6]. ``--before`` names another run's ``--out`` and adds ``<out>_compare.md``, one table
-of both (before -> now, bold outside). To measure a replaced generator with today's check,
-``--save-data PREFIX`` run from that version's tree (PYTHONPATH) only generates the points and
-saves them in ``<PREFIX>_<matchup>`` folders (`RallyData.save`), and ``--data PREFIX`` here
-reads them instead of generating. (A tree older than `sportsngen.eval.leak_report` saves them
-with `generate_matches(...).save(...)` itself: matchup k from seed + k.)
+Writes ``<out>_<matchup>.csv``, ``<out>_<matchup>_paths.csv`` and ``<out>.md`` and prints how
+many AUCs lie outside [0.4, 0.6]; ``--before`` (another run's ``--out``) adds
+``<out>_compare.md``, before -> now. ``--save-data PREFIX``, run from a replaced generator's
+tree (PYTHONPATH), only saves its points in ``<PREFIX>_<matchup>`` folders for ``--data PREFIX``
+here to check them with today's check.
 """
 
 from __future__ import annotations
@@ -19,7 +16,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from sportsngen.eval.leak_report import compare, leak_report, save_matchups
+from sportsngen.eval.leak_report import leak_report, save_matchups
 
 
 def main() -> None:
@@ -38,11 +35,7 @@ def main() -> None:
     if args.save_data is not None:
         save_matchups(args.save_data, args.points, args.seed, data=args.data)
         return
-    leak_report(args.out, args.points, args.seed, args.boot, data=args.data)
-    if args.before is not None:
-        path = args.out.parent / f"{args.out.name}_compare.md"
-        path.write_text(compare(args.before, args.out))
-        print(f"wrote {path}")
+    leak_report(args.out, args.points, args.seed, args.boot, data=args.data, before=args.before)
 
 
 if __name__ == "__main__":

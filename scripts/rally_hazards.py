@@ -4,12 +4,9 @@ Wimbledon) beside the generator (the calibration's service points against popula
     python scripts/rally_hazards.py [--players "Rafael Nadal" "Novak Djokovic"] [--points 3000]
         [--seed 5] [--max-length 10]
 
-Hazard at rally length L: the share of points reaching L shots that end there; odd L are won by
-the server, even L by the receiver (`sportsngen.eval.slam_hazards`). Needs
-../shared/data/slam_pointbypoint for the real column.
-
-Source of the real points: Jeff Sackmann / Tennis Abstract, tennis_slam_pointbypoint,
-CC BY-NC-SA 4.0.
+Hazard at rally length L: the share of points reaching L shots that end there
+(`sportsngen.eval.slam_hazards`, which names the source of the real points; needs
+../shared/data/slam_pointbypoint).
 """
 
 from __future__ import annotations

@@ -3,9 +3,7 @@
 
     python scripts/render_gallery.py [--points 300] [--seed 4] [--out docs/figures/synthetic]
 
-Rallies of `generate_matches([("Roger Federer", "Rafael Nadal")], "grass", points, seed)`; each
-picture is the first rally of its kind (the longest for the long rally;
-`sportsngen.viz.gallery`).
+Federer v Nadal on grass; each picture the first rally of its kind (`sportsngen.viz.gallery`).
 """
 
 from __future__ import annotations

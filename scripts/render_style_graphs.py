@@ -1,10 +1,8 @@
 """Render style graphs (SkillVis style) and placement / recovery heatmaps (Vid2Player style).
 
-Ground truth: synthetic tracking of four named players; simulated: the shot-cycle model fitted
-on it, or any `RallyData` folder given with ``--simulated``
-(`sportsngen.viz.style_figures.render_style_graphs`). Writes into ``--out`` (default
-docs/figures/style/): ``style_graphs.png``, ``heatmaps_<who>_<player>.png`` for two players,
-and ``summary.json`` (skill indices, similarity scores, timings). Usage:
+Ground truth: four named players generated; simulated: the shot-cycle model fitted on it, or a
+`RallyData` folder given with ``--simulated`` (`sportsngen.viz.style_figures`). Writes
+``style_graphs.png``, ``heatmaps_<who>_<player>.png`` and ``summary.json`` into ``--out``:
 
     .venv/bin/python scripts/render_style_graphs.py [--points 400] [--sim-points N]
         [--seed 0] [--surface hard] [--threshold 1.5] [--simulated FOLDER] [--out DIR]

@@ -3,20 +3,15 @@
     python scripts/strike_branches.py [--model PATH] [--points 300] [--seed 0]
         [--top-p-ball P] [--[no-]contact-odds] [--top-p-contact P] [--after -1 0 1 3]
 
-Prints, per branch point and serve number, the share of serves landing in the box and the
-shares of those wide and returned (`sportsngen.eval.diagnostics.strike_branches`), beside the
-recorded serves of the generator's Federer v Nadal on hard.
+Per branch point and serve number, the serves in the box, wide and returned, beside the
+recorded (`sportsngen.eval.diagnostics.strike_branches`; Federer v Nadal on hard).
 """
 
 from __future__ import annotations
 
 import argparse
 
-from sportsngen.eval.command_line import (
-    add_points_seed,
-    add_simulator_options,
-    simulator_from_args,
-)
+from sportsngen.eval.command_line import add_points_seed, add_simulator_options, simulator_from_args
 from sportsngen.eval.diagnostics import DiagnosticsSetup, strike_branches, truth_points
 
 

@@ -62,7 +62,7 @@ def test_leak_report_compare_tables_two_runs(tmp_path):
 
 
 def test_read_noise_runs_refuses_a_run_without_noise(tmp_path):
-    from sportsngen.eval.check_noise import read_noise_runs
+    from sportsngen.eval.check_noise import pooled_report, read_noise_runs
 
     rows = [{"server": "A", "statistic": "ace", "gap": 0.01, "se": 0.02}]
     (tmp_path / "new.json").write_text(json.dumps({"noise": rows}))
@@ -71,6 +71,9 @@ def test_read_noise_runs_refuses_a_run_without_noise(tmp_path):
     assert noise.to_dict(orient="records") == rows
     with pytest.raises(ArgumentError, match="old.json holds no noise rows"):
         read_noise_runs([str(tmp_path / "new.json"), str(tmp_path / "old.json")])
+    report = pooled_report([str(tmp_path / "new.json")] * 2).splitlines()
+    assert report[0].startswith("2 runs; mean gap") and report[2].startswith("A ")
+    assert "+1.00±1.41" in report[2]   # ace in percent: mean gap 1, se sqrt(2 * 2²) / 2
 
 
 def test_leak_fixture_refuses_other_points_and_versions(tmp_path, truth_data):

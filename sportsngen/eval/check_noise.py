@@ -146,6 +146,15 @@ def read_noise_runs(paths: list[str]) -> list[pd.DataFrame]:
     return noises
 
 
+def pooled_report(paths: list[str]) -> str:
+    """`format_pooled` of the runs' pooled gaps (`read_noise_runs`, `pool_gaps`) under a
+    heading that says how to read it."""
+    pooled = pool_gaps(read_noise_runs(paths))
+    return (f"{len(paths)} runs; mean gap (sim - truth) ± its standard error, z; "
+            "* outside tolerance, ! a bias (|z| over 3) outside tolerance\n"
+            + format_pooled(pooled))
+
+
 def pool_gaps(noises: list[pd.DataFrame]) -> pd.DataFrame:
     """Several checks' `gap_noise` tables (runs with their own seeds, so their truths and
     simulations are independent draws) -> each (server, statistic)'s mean gap over the runs

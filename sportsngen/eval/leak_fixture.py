@@ -1,11 +1,22 @@
 """The per-contact kinematics table of generator version 5 that pins its leaks in the tests
 (`tests/data/leaks_v5_fvn_hard.csv`, read by `tests/test_leaks.py`); `scripts/leak_fixture_v5.py`
-is the command line, and its docstring says how to regenerate the points in version 5's tree.
+is the command line.
 
 300 points of Roger Federer v Rafael Nadal on hard (seed 5), `contact_kinematics` at k = 6 and
 12 frames, the columns `leak_auc` needs (stratified: the players' names too), under a comment
 line naming the generator version. The file is a record of version 5, whose players "know the
 future" (issue 16): it is refused on another generator version.
+
+When the check changes after version 5 is gone, generate the points in version 5's tree (the
+parent of commit 9cf9119) and extract the table with today's check. Generate from outside
+the checkout: `python -c` puts the working directory first on the path, so run from the
+checkout it would import today's generator, not version 5's.
+
+    git worktree add /tmp/v5tree 9cf9119^
+    (cd /tmp && PYTHONPATH=/tmp/v5tree $OLDPWD/.venv/bin/python -c "from sportsngen.synth \\
+        import generate_matches; generate_matches([('Roger Federer', 'Rafael Nadal')], \\
+        'hard', n_points=300, seed=5, workers=1).save('/tmp/v5data')")
+    PYTHONPATH=. .venv/bin/python scripts/leak_fixture_v5.py --data /tmp/v5data
 """
 
 from __future__ import annotations

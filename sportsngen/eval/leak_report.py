@@ -52,11 +52,12 @@ def save_matchups(prefix: Path, n_points: int, seed: int, data: Path | None = No
         print(f"saved {prefix}_{name} (generator version {GENERATOR_VERSION})")
 
 
-def leak_report(out: Path, n_points: int, seed: int, n_boot: int,
-                data: Path | None = None) -> None:
+def leak_report(out: Path, n_points: int, seed: int, n_boot: int, data: Path | None = None,
+                before: Path | None = None) -> None:
     """Check each matchup (generated, or read from ``<data>_<matchup>`` folders), write
     ``<out>_<matchup>.csv``, ``<out>_<matchup>_paths.csv`` and ``<out>.md`` (the tables) and
-    print how many AUCs lie outside [0.4, 0.6]."""
+    print how many AUCs lie outside [0.4, 0.6]; with `before` (another run's `out`) also
+    ``<out>_compare.md``, the two runs side by side (`compare`)."""
     out.parent.mkdir(parents=True, exist_ok=True)
     source = (f"points read from {data}_*" if data is not None else
               f"generator version {GENERATOR_VERSION}: {n_points} points a matchup, seed "
@@ -81,6 +82,10 @@ def leak_report(out: Path, n_points: int, seed: int, n_boot: int,
               "outside", flush=True)
     out.with_suffix(".md").write_text("\n".join(parts))
     print(f"wrote {out.with_suffix('.md')}")
+    if before is not None:
+        path = out.parent / f"{out.name}_compare.md"
+        path.write_text(compare(before, out))
+        print(f"wrote {path}")
 
 
 def _cell(row: pd.Series) -> str:
