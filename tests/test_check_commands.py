@@ -38,7 +38,7 @@ def test_command_line_builds_the_simulator_the_flags_ask_for(monkeypatch):
 
 
 def test_markdown_table():
-    from sportsngen.report.markdown import markdown_table
+    from sportsngen.eval.markdown import markdown_table
 
     assert markdown_table(["a", "b"], [("x", 0.12345), (3, "y")]) == [
         "| a | b |", "|---|---|", "| x | 0.123 |", "| 3 | y |"]

@@ -17,7 +17,7 @@ import pandas as pd
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.leak_paths import check_fault_paths
 from sportsngen.eval.leaks import check_leaks, outside_band, render_leaks, sure_leaks, thin_cells
-from sportsngen.report.markdown import markdown_table
+from sportsngen.eval.markdown import markdown_table
 from sportsngen.synth import generate_matches
 from sportsngen.synth.dataset import GENERATOR_VERSION
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from sportsngen.report.markdown import markdown_table
+from sportsngen.eval.markdown import markdown_table
 from sportsngen.sim import Simulator
 from sportsngen.sim.whatif import counterfactual
 from sportsngen.synth.generate import generate_matches

@@ -1,4 +1,5 @@
-"""Markdown tables, the one way the reports write them."""
+"""Markdown tables, the one way the checks and reports write them (kept in eval, the lowest
+layer that writes them, so `eval`, `viz` and `report` all import it downward)."""
 
 from __future__ import annotations
 
