@@ -4,21 +4,12 @@
         [--out tests/data/leaks_v5_fvn_hard.csv] [--data FOLDER]
 
 300 points of Roger Federer v Rafael Nadal on hard (seed 5), `contact_kinematics` at k = 6 and
-12 frames, the columns `leak_auc` needs (stratified: the players' names too), under a comment
-line naming the generator
-version. Refuses to generate on another generator version: the file is a record of version 5,
-whose players "know the future" (issue 16), for `tests/test_leaks.py`.
+12 frames (`sportsngen.eval.leak_fixture`). Refuses to generate on another generator version:
+the file is a record of version 5, whose players "know the future" (issue 16), for
+`tests/test_leaks.py`.
 
-When the check changes after version 5 is gone, generate the points in version 5's tree (the
-parent of commit 9cf9119) and extract the table with today's check. Generate from outside
-the checkout: `python -c` puts the working directory first on the path, so run from the
-checkout it would import today's generator, not version 5's.
-
-    git worktree add /tmp/v5tree 9cf9119^
-    (cd /tmp && PYTHONPATH=/tmp/v5tree $OLDPWD/.venv/bin/python -c "from sportsngen.synth \\
-        import generate_matches; generate_matches([('Roger Federer', 'Rafael Nadal')], \\
-        'hard', n_points=300, seed=5, workers=1).save('/tmp/v5data')")
-    PYTHONPATH=. .venv/bin/python scripts/leak_fixture_v5.py --data /tmp/v5data
+When the check changes after version 5 is gone: `sportsngen.eval.leak_fixture`'s doc says how
+to generate version 5's points for `--data`.
 """
 
 from __future__ import annotations
@@ -26,20 +17,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from sportsngen.data.tracking import RallyData
-from sportsngen.eval.leaks import (
-    CONTACT_SPEED_COLUMNS,
-    HITTER_STRATA_COLUMNS,
-    OPPONENT_STRATA_COLUMNS,
-    STRATA_COLUMNS,
-    TABLE_COLUMNS,
-    contact_kinematics,
-)
-from sportsngen.synth import generate_matches
-from sportsngen.synth.dataset import GENERATOR_VERSION
-
-PLAYERS = ("Roger Federer", "Rafael Nadal")
-N_POINTS, SEED, SURFACE = 300, 5, "hard"
+from sportsngen.errors import ArgumentError
+from sportsngen.eval.leak_fixture import write_leak_fixture
 
 
 def main() -> None:
@@ -48,26 +27,10 @@ def main() -> None:
     ap.add_argument("--data", type=Path, default=None,
                     help="the points, saved from version 5's tree (module doc)")
     args = ap.parse_args()
-    if args.data is not None:
-        data = RallyData.load(args.data)
-        want = {"seed": SEED, "n_points": N_POINTS}
-        if {k: data.meta.get(k) for k in want} != want:
-            raise SystemExit(f"{args.data}: meta {data.meta} is not {want}")
-    elif GENERATOR_VERSION != "5":
-        raise SystemExit(f"this table records generator version 5; this is {GENERATOR_VERSION} "
-                         "(see --data)")
-    else:
-        data = generate_matches([PLAYERS], SURFACE, n_points=N_POINTS, seed=SEED, workers=1)
-    kin = contact_kinematics(data, ks=(6, 12))[
-        list(TABLE_COLUMNS + STRATA_COLUMNS + OPPONENT_STRATA_COLUMNS + HITTER_STRATA_COLUMNS
-             + CONTACT_SPEED_COLUMNS)]
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    with open(args.out, "w") as fh:
-        fh.write(f"# generator version 5: {N_POINTS} points of "
-                 f"{PLAYERS[0]} v {PLAYERS[1]} on {SURFACE}, seed {SEED}; written by "
-                 "scripts/leak_fixture_v5.py (contact_kinematics, k = 6, 12)\n")
-        kin.to_csv(fh, index=False)
-    print(f"wrote {args.out}: {len(kin)} rows, {args.out.stat().st_size / 1e3:.0f} KB")
+    try:
+        write_leak_fixture(args.out, args.data)
+    except ArgumentError as exc:
+        raise SystemExit(str(exc)) from None
 
 
 if __name__ == "__main__":

@@ -222,21 +222,16 @@ def test_repair_drops_exactly_the_named_points(tmp_path):
                                   kept.reset_index(drop=True))
 
 
-def test_report_script_on_keypoint_files(tmp_path):
-    """The statistics of real files through the same script and code as generated play."""
-    import importlib.util
-
+def test_report_on_keypoint_files(tmp_path):
+    """The statistics of real files through the same report and code as generated play."""
     from sportsngen.data.paths import hawkeye_targets_path
+    from sportsngen.eval.hawkeye_report import write_hawkeye_report
 
     if hawkeye_targets_path() is None:
         pytest.skip("real Hawk-Eye figures absent")
-    path = Path(__file__).resolve().parents[1] / "scripts" / "hawkeye_report.py"
-    spec = importlib.util.spec_from_file_location("hawkeye_report_script", path)
-    script = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(script)
     _write(tmp_path / "files")
-    assert script.main(["--keypoints", str(tmp_path / "files"), "--out",
-                        str(tmp_path / "real")]) == 0
+    assert write_hawkeye_report(tmp_path / "real", keypoints=tmp_path / "files") == 0
+    assert (tmp_path / "real.md").read_text().startswith("### Hawk-Eye statistics: real")
     cmp = pd.read_csv(tmp_path / "real.csv").set_index(["player", "surface", "statistic"])
     assert cmp.loc[("ATP", "hard", "serve_contact_z_median"), "generated"] == pytest.approx(2.775)
     assert cmp.loc[("ATP", "hard", "serve_contact_z_median"), "n_generated"] == 4

@@ -17,11 +17,13 @@ No torch; the statistics are `eval.stats.serve_stats`'s, read per point from the
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
 import pandas as pd
 
+from sportsngen.errors import ArgumentError
 from sportsngen.eval.physical import shot_quantities
 from sportsngen.eval.stats import PER_POINT_MEANS, PER_POINT_MEDIANS, per_point_frame
 
@@ -129,6 +131,28 @@ def expected_within(noise: pd.DataFrame, tolerance: dict[str, float],
     return float(sum(1.0 - chance_outside(tolerance[r.statistic],
                                           r.se * scale.get(r.statistic, 1.0))
                      for r in noise.itertuples()))
+
+
+def read_noise_runs(paths: list[str]) -> list[pd.DataFrame]:
+    """The `gap_noise` tables of `scripts/check_simulation.py --json` files; `ArgumentError`
+    names a run written before the checks recorded their noise."""
+    noises = []
+    for path in paths:
+        with open(path) as fh:
+            run = json.load(fh)
+        if "noise" not in run:
+            raise ArgumentError(f"{path} holds no noise rows: re-run check_simulation.py on it")
+        noises.append(pd.DataFrame(run["noise"]))
+    return noises
+
+
+def pooled_report(paths: list[str]) -> str:
+    """`format_pooled` of the runs' pooled gaps (`read_noise_runs`, `pool_gaps`) under a
+    heading that says how to read it."""
+    pooled = pool_gaps(read_noise_runs(paths))
+    return (f"{len(paths)} runs; mean gap (sim - truth) ± its standard error, z; "
+            "* outside tolerance, ! a bias (|z| over 3) outside tolerance\n"
+            + format_pooled(pooled))
 
 
 def pool_gaps(noises: list[pd.DataFrame]) -> pd.DataFrame:

@@ -43,6 +43,7 @@ from sportsngen.eval.hawkeye_strikes import (
     profile_tours,
     strike_keypoints,
 )
+from sportsngen.eval.markdown import markdown_table
 from sportsngen.tennis.court import BASELINE_X_M, SERVICE_LINE_X_M, serve_zone
 
 __all__ = ["STATISTICS", "STRIKE_COLUMNS", "TOLERANCES", "compare", "comparison_markdown",
@@ -310,8 +311,7 @@ def comparison_markdown(cmp: pd.DataFrame, title: str | None = None,
     old = before.set_index(["player", "surface", "statistic"]) if before is not None else None
     heads = group_labels(groups)
     lines = [f"### {title}", ""] if title else []
-    lines += ["| statistic | tol. | " + " | ".join(heads) + " |",
-              "|---|---|" + "---|" * len(groups)]
+    rows = []
     for stat in dict.fromkeys(cmp["statistic"]):
         kind = statistic_kind(stat)
         tol = TOLERANCES[stat]
@@ -329,7 +329,8 @@ def comparison_markdown(cmp: pd.DataFrame, title: str | None = None,
             cells.append(cell)
         tol_s = f"{100 * tol:.0f} pp" if kind == "share" else (
             f"{tol:.0f}" if kind == "kmh" else f"{tol:.2f}")
-        lines.append(f"| {stat} | {tol_s} | " + " | ".join(cells) + " |")
+        rows.append([stat, tol_s, *cells])
+    lines += markdown_table(["statistic", "tol.", *heads], rows)
     def within(c: pd.DataFrame, p: str, s: str) -> str:
         w = c.loc[(c["player"] == p) & (c["surface"] == s), "within"]
         return f"{int((w == True).sum())}/{int(w.notna().sum())}"  # noqa: E712

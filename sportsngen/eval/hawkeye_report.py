@@ -7,11 +7,21 @@ generator); `scripts/hawkeye_report.py` is its command line.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 
 import pandas as pd
 
-from sportsngen.eval.hawkeye import compare, hawkeye_stats, load_targets, strike_keypoints
+from sportsngen.data.paths import HAWKEYE_TARGETS_MISSING, hawkeye_targets_path
+from sportsngen.eval.hawkeye import (
+    compare,
+    comparison_markdown,
+    hawkeye_stats,
+    keypoint_strikes,
+    load_targets,
+    strike_keypoints,
+)
 
 # (players, surface) generated, and the (player or tour, surface) groups compared: those of
 # the README with enough real data (Murray and Sharapova have one real match each).
@@ -27,6 +37,11 @@ README_GROUPS: tuple[tuple[str, str], ...] = (
     ("Rafael Nadal", "clay"), ("Novak Djokovic", "hard"), ("Novak Djokovic", "clay"),
     ("Serena Williams", "hard"), ("ATP", "hard"), ("ATP", "clay"), ("WTA", "hard"),
 )
+
+# The keypoint files' names of the README's players -> the names of the figures and profiles.
+FILE_NAMES = {"R.FEDERER": "Roger Federer", "R.NADAL": "Rafael Nadal",
+              "N.DJOKOVIC": "Novak Djokovic", "A.MURRAY": "Andy Murray",
+              "S.WILLIAMS": "Serena Williams", "M.SHARAPOVA": "Maria Sharapova"}
 
 
 def _matchup_strikes(job: tuple) -> pd.DataFrame:
@@ -82,3 +97,39 @@ def outside_tolerance(cmp: pd.DataFrame) -> pd.DataFrame:
     out = cmp[cmp["within"].eq(False)].copy()
     out["excess"] = out["difference"].abs() - out["tolerance"]
     return out
+
+
+def write_hawkeye_report(out: Path, n_points: int = 2000, seed: int = 0,
+                         keypoints: Path | None = None, title: str | None = None,
+                         before: Path | None = None) -> int:
+    """Measure `n_points` generated points a README matchup (matchup k from seed + k), or the
+    real keypoint files under `keypoints`, against the real figures: write ``<out>.md`` (the
+    table, "generated / real", bold outside tolerance; `before`, an earlier run's csv, adds its
+    figures in brackets) and ``<out>.csv`` (`compare`'s columns), print the statistics outside
+    tolerance. -> 0, or 2 (said on stderr) without the real figures."""
+    if hawkeye_targets_path() is None:
+        print(HAWKEYE_TARGETS_MISSING, file=sys.stderr)
+        return 2
+    if keypoints is not None:
+        from sportsngen.data.keypoints import read_keypoints
+
+        strikes = keypoint_strikes(read_keypoints(keypoints, player_names=FILE_NAMES,
+                                                  progress=True))
+        source = f"real keypoint files under {keypoints}"
+    else:
+        strikes = generated_strikes(n_points, seed, progress=True)
+        source = f"{n_points} generated points per matchup, seed {seed}"
+    stats, cmp = hawkeye_report(strikes, groups=README_GROUPS)
+    title = title or f"Hawk-Eye statistics: {source} / real"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    cmp.to_csv(out.with_suffix(".csv"), index=False)
+    earlier = pd.read_csv(before) if before is not None else None
+    out.with_suffix(".md").write_text(comparison_markdown(cmp, title, before=earlier))
+    off = outside_tolerance(cmp)
+    print(f"{len(off)} of {int(cmp['within'].notna().sum())} comparisons outside tolerance:")
+    for _, r in off.iterrows():
+        print(f"  {r['player']:>15} {r['surface']:<5} {r['statistic']:<32} "
+              f"gen {r['generated']:8.3f}  real {r['real']:8.3f}  diff {r['difference']:+.3f} "
+              f"(tol {r['tolerance']:g}, excess {r['excess']:.3f})")
+    print(f"wrote {out.with_suffix('.md')} and {out.with_suffix('.csv')}")
+    return 0

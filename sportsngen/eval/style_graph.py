@@ -227,3 +227,30 @@ def pca_layout(points: np.ndarray) -> np.ndarray:
         v = vt[j] * np.sign(vt[j][np.argmax(np.abs(vt[j]))])
         out[:, j] = centred @ v
     return out
+
+
+def compare_style_graphs(cycles: dict[str, pd.DataFrame], players, threshold_m: float,
+                         seed: int) -> tuple[list[dict], list[StyleGraph], list[StyleGraph]]:
+    """Each player's graph of the "truth" cycles against the "sim" cycles and a second truth
+    sample's ("truth2": the similarity a finite sample of the same players reaches) -> (a row
+    a player: nodes, skill indices, similarities, cycles; the truth's graphs; the simulated
+    cycles on the truth's nodes)."""
+    rows: list[dict] = []
+    ref_graphs, sim_graphs = [], []
+    for p in players:
+        g = build_style_graph(cycles["truth"], p, threshold_m, seed)
+        g_own = build_style_graph(cycles["sim"], p, threshold_m, seed)
+        g_on = graph_on_nodes(g, cycles["sim"])
+        g2 = graph_on_nodes(g, cycles["truth2"])
+        rows.append({"player": p, "nodes": g.n_nodes, "skill_index_truth": g.skill_index,
+                     "skill_index_truth2": build_style_graph(cycles["truth2"], p,
+                                                             threshold_m,
+                                                             seed).skill_index,
+                     "skill_index_sim": g_own.skill_index, "nodes_sim": g_own.n_nodes,
+                     "similarity_sim": edge_overlap(g, g_on),
+                     "similarity_truth2": edge_overlap(g, g2),
+                     "cycles_truth": int(g.node_counts.sum()),
+                     "cycles_sim": int(g_on.node_counts.sum())})
+        ref_graphs.append(g)
+        sim_graphs.append(g_on)
+    return rows, ref_graphs, sim_graphs

@@ -30,6 +30,7 @@ from sportsngen.eval.calibration import (
     expected_calibration_error,
     reliability_table,
 )
+from sportsngen.eval.markdown import markdown_table as table_lines
 from sportsngen.report.figures import ATTRIBUTION
 from sportsngen.report.live import serve_odds
 from sportsngen.report.real import replay_event_matches, slam_folder
@@ -153,14 +154,11 @@ def plot_backtest(preds: pd.DataFrame, reliability: pd.DataFrame, table: pd.Data
 
 def markdown_table(tables: dict[str, pd.DataFrame]) -> str:
     """The back-test figures as a Markdown table, one block of rows per subset."""
-    lines = ["| subset | predictor | ECE (95 % CI) | Brier (95 % CI) | points | matches |",
-             "|---|---|---|---|---|---|"]
-    for subset, t in tables.items():
-        for name, r in t.iterrows():
-            lines.append(f"| {subset} | {name} | {r.ece:.3f} ({r.ece_lo:.3f}-{r.ece_hi:.3f}) | "
-                         f"{r.brier:.3f} ({r.brier_lo:.3f}-{r.brier_hi:.3f}) | "
-                         f"{int(r.points)} | {int(r.matches)} |")
-    return "\n".join(lines)
+    rows = [(subset, name, f"{r.ece:.3f} ({r.ece_lo:.3f}-{r.ece_hi:.3f})",
+             f"{r.brier:.3f} ({r.brier_lo:.3f}-{r.brier_hi:.3f})", int(r.points), int(r.matches))
+            for subset, t in tables.items() for name, r in t.iterrows()]
+    return "\n".join(table_lines(["subset", "predictor", "ECE (95 % CI)", "Brier (95 % CI)",
+                                   "points", "matches"], rows))
 
 
 def run_backtest(out_dir: str | Path, folder: str | Path | None = None, events=None,
