@@ -44,6 +44,7 @@ import numpy as np
 import pandas as pd
 import torch
 
+from sportsngen.baselines.serve_model import serve_model
 from sportsngen.eval.branch_points import (
     pool_branch_points,
     study_branch_points,
@@ -60,7 +61,6 @@ from sportsngen.eval.calibration import (
 )
 from sportsngen.eval.expert_outcomes import kernel_win_shares, paired_reference_gaps
 from sportsngen.sim import Simulator
-from sportsngen.sim.cli import serve_model
 from sportsngen.sim.outcome_pool import pooled_rally_win_probabilities
 from sportsngen.sim.simulator import model_path
 from sportsngen.studies.tables import write_markdown

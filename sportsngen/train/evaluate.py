@@ -28,6 +28,7 @@ import torch
 from omegaconf import OmegaConf
 from torch.utils.data import DataLoader
 
+from sportsngen.data.paths import conf_dir
 from sportsngen.data.tokens import BALL, WindowDataset, rally_arrays
 from sportsngen.model.export import load_model, read_extra
 from sportsngen.train.datamodule import (
@@ -45,7 +46,7 @@ from sportsngen.train.metrics import (
     window_states,
 )
 
-CONF_DATA = Path(__file__).resolve().parents[2] / "conf" / "data"
+CONF_DATA = conf_dir() / "data"
 LOG_2PI = math.log(2.0 * math.pi)
 
 
