@@ -11,7 +11,7 @@ import torch
 
 from sportsngen.data.tokens import BALL
 from sportsngen.sim.constraints import AllOf
-from sportsngen.sim.rollout import redraw_rejected
+from sportsngen.sim.frame_draws import redraw_rejected
 from sportsngen.sim.whatif import LEAVE_WINDOW_FRAMES, ShotConstraint
 from tests.test_head_fit import small_model
 

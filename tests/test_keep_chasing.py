@@ -205,7 +205,7 @@ def test_for_a_high_bounce_the_player_runs_to_where_it_is_at_a_comfortable_heigh
 
 def test_the_rollout_settles_the_rows_whose_redraws_all_slow():
     from sportsngen.sim.constraints import AllOf
-    from sportsngen.sim.rollout import redraw_rejected
+    from sportsngen.sim.frame_draws import redraw_rejected
 
     pos, vel, hist = _state([[-12.0, -2.0], [-12.0, 3.0]], [[0.0, 2.0], [0.0, 2.0]])
     stop = _moved(pos, [[0.0, 0.0], [0.0, 0.0]])

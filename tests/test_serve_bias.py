@@ -237,7 +237,7 @@ def test_the_named_players_data_gives_each_named_player_four_matchups():
 
 
 def test_a_rollouts_serve_is_drawn_with_its_servers_shift():
-    from sportsngen.sim.rollout import _follow_strikes
+    from sportsngen.sim.frame_draws import follow_strikes
 
     model = with_serve_bias(small_model())
     n = 64
@@ -257,7 +257,7 @@ def test_a_rollouts_serve_is_drawn_with_its_servers_shift():
     drawn = []
     real = model.serve_head.sample
     model.serve_head.sample = lambda *a, **k: drawn.append(real(*a, **k)) or drawn[-1]
-    _follow_strikes(model, h, pos, vel, nxt, plan, torch.Generator().manual_seed(0),
+    follow_strikes(model, h, pos, vel, nxt, plan, torch.Generator().manual_seed(0),
                     serve=serve, server_ident=ident)
     bins = drawn[0]
     frac = serve_bias.long_fraction()
@@ -268,7 +268,7 @@ def test_a_rollouts_serve_is_drawn_with_its_servers_shift():
     assert (frac[bins[two, 0].numpy()] > 0.5).all()
     # Without the servers' identities the table is not read: some serves go long.
     drawn.clear()
-    _follow_strikes(model, h, pos, vel, nxt, plan, torch.Generator().manual_seed(0),
+    follow_strikes(model, h, pos, vel, nxt, plan, torch.Generator().manual_seed(0),
                     serve=serve)
     assert (frac[drawn[0][:, 0].numpy()] > 0.5).any()
 

@@ -700,7 +700,7 @@ def test_a_forced_strike_is_asked_for_only_where_the_rule_itself_gave_up():
     from types import SimpleNamespace
 
     from sportsngen.sim.constraints import AllOf, StrikeInReach
-    from sportsngen.sim.rollout import redraw_rejected
+    from sportsngen.sim.frame_draws import redraw_rejected
 
     n = 3     # every row: the receiver due to return a good serve
     tracker = SimpleNamespace(ended=np.zeros(n, dtype=bool), hitter=np.zeros(n, dtype=np.int64),

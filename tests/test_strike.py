@@ -309,7 +309,7 @@ def _two_incoming_balls(monkeypatch):
 
 
 def test_a_sampled_strike_is_placed_on_its_solved_flight(monkeypatch):
-    from sportsngen.sim.rollout import _follow_strikes
+    from sportsngen.sim.frame_draws import follow_strikes
 
     model, want, ball, pos, vel = _two_incoming_balls(monkeypatch)
     nxt = pos.clone()
@@ -319,7 +319,7 @@ def test_a_sampled_strike_is_placed_on_its_solved_flight(monkeypatch):
     h = torch.randn(2, 3, model.cfg.d_model)
     g = torch.Generator().manual_seed(0)
     plan = torch.full((2, 2, 3), float("nan"))
-    out, plan = _follow_strikes(model, h, pos, vel, nxt, plan, g)
+    out, plan = follow_strikes(model, h, pos, vel, nxt, plan, g)
     assert torch.equal(out[1], nxt[1]) and torch.isnan(plan[1]).all()
     frames = [out[0, 2].double().numpy()]
     # The next two frames come from the plan whatever the model draws.
@@ -327,7 +327,7 @@ def test_a_sampled_strike_is_placed_on_its_solved_flight(monkeypatch):
     for _ in range(2):
         vel, prev = (out - prev) * FPS, out
         draw = out + vel / FPS                        # the model's draws fly on as they were
-        out, plan = _follow_strikes(model, h, out, vel, draw, plan, g)
+        out, plan = follow_strikes(model, h, out, vel, draw, plan, g)
         frames.append(out[0, 2].double().numpy())
     assert torch.isnan(plan).all()
     read = S.strike_labels(np.array(frames)[None], np.array([1.0]), FPS)
@@ -335,7 +335,7 @@ def test_a_sampled_strike_is_placed_on_its_solved_flight(monkeypatch):
 
 
 def test_a_draw_that_stops_the_incoming_ball_is_struck_on_the_heads_flight(monkeypatch):
-    from sportsngen.sim.rollout import _follow_strikes
+    from sportsngen.sim.frame_draws import follow_strikes
 
     model, want, ball, pos, vel = _two_incoming_balls(monkeypatch)
     monkeypatch.setattr("sportsngen.model.strike_heads.uniform_in_bin",    # bin centres: exact
@@ -346,7 +346,7 @@ def test_a_draw_that_stops_the_incoming_ball_is_struck_on_the_heads_flight(monke
     h = torch.randn(2, 3, model.cfg.d_model)
     g = torch.Generator().manual_seed(0)
     plan = torch.full((2, 2, 3), float("nan"))
-    out, plan = _follow_strikes(model, h, pos, vel, nxt, plan, g)
+    out, plan = follow_strikes(model, h, pos, vel, nxt, plan, g)
     assert torch.equal(out[1], nxt[1]) and torch.isnan(plan[1]).all()
     value = S.strike_bin_value(want.numpy(), np.full((1, 4), 0.5))
     contact = ball[2][None].astype(np.float64)
@@ -358,7 +358,7 @@ def test_a_draw_that_stops_the_incoming_ball_is_struck_on_the_heads_flight(monke
 
 
 def test_a_forced_strike_is_struck_from_where_the_ball_is(monkeypatch):
-    from sportsngen.sim.rollout import _follow_strikes
+    from sportsngen.sim.frame_draws import follow_strikes
 
     model, want, ball, pos, vel = _two_incoming_balls(monkeypatch)
     monkeypatch.setattr("sportsngen.model.strike_heads.uniform_in_bin",    # bin centres: exact
@@ -368,7 +368,7 @@ def test_a_forced_strike_is_struck_from_where_the_ball_is(monkeypatch):
     h = torch.randn(2, 3, model.cfg.d_model)
     g = torch.Generator().manual_seed(0)
     plan = torch.full((2, 2, 3), float("nan"))
-    out, plan = _follow_strikes(model, h, pos, vel, nxt, plan, g, np.array([False, True]))
+    out, plan = follow_strikes(model, h, pos, vel, nxt, plan, g, np.array([False, True]))
     # Row 0 keeps its pass; row 1 is struck from the current ball on the strike head's draw.
     assert torch.equal(out[0], nxt[0]) and torch.isnan(plan[0]).all()
     assert torch.equal(out[1, :2], nxt[1, :2])        # the players' draws stand
@@ -384,7 +384,7 @@ def test_a_forced_strike_is_struck_from_where_the_ball_is(monkeypatch):
 
 def test_a_forced_strike_whose_launch_is_not_found_is_drawn_again(monkeypatch):
     from sportsngen.model import strike_heads
-    from sportsngen.sim.rollout import _follow_strikes
+    from sportsngen.sim.frame_draws import follow_strikes
 
     model, want, ball, pos, vel = _two_incoming_balls(monkeypatch)
     real = S.solve_launch
@@ -402,7 +402,7 @@ def test_a_forced_strike_whose_launch_is_not_found_is_drawn_again(monkeypatch):
     nxt[0, 2] = pos[0, 2] + torch.tensor([-1.1, 0.0, 0.1])   # row 0: the model's own strike
     h = torch.randn(2, 3, model.cfg.d_model)
     plan = torch.full((2, 2, 3), float("nan"))
-    out, plan = _follow_strikes(model, h, pos, vel, nxt.clone(), plan,
+    out, plan = follow_strikes(model, h, pos, vel, nxt.clone(), plan,
                                 torch.Generator().manual_seed(0), np.array([False, True]))
     # The sampled strike keeps its own frame when its one draw fails; the forced row is drawn
     # again, alone, until a launch is found (the third solve).
@@ -414,7 +414,7 @@ def test_a_forced_strike_whose_launch_is_not_found_is_drawn_again(monkeypatch):
     monkeypatch.setattr(S, "solve_launch", lambda c, s_, v, f: (np.zeros((len(c), 3)),
                                                                    np.zeros(len(c), bool)))
     plan = torch.full((2, 2, 3), float("nan"))
-    out, plan = _follow_strikes(model, h, pos, vel, nxt.clone(), plan,
+    out, plan = follow_strikes(model, h, pos, vel, nxt.clone(), plan,
                                 torch.Generator().manual_seed(0), np.array([False, True]))
     assert torch.equal(out[1], nxt[1]) and torch.isnan(plan).all()
     assert strike_heads.FORCED_DRAWS == 8
@@ -496,7 +496,7 @@ def test_recorded_serves_are_found_once_and_read_where_they_bounced(truth_data):
 
 def test_a_sampled_serve_is_placed_on_its_solved_flight_and_a_toss_is_left_alone(monkeypatch):
     from sportsngen.model import SportsNGEN
-    from sportsngen.sim.rollout import _follow_strikes
+    from sportsngen.sim.frame_draws import follow_strikes
     from tests.test_model import tiny_cfg
 
     torch.manual_seed(0)
@@ -519,7 +519,7 @@ def test_a_sampled_serve_is_placed_on_its_solved_flight_and_a_toss_is_left_alone
     nxt[1, 2, 2] -= 0.05                                    # the toss still falling
     h = torch.randn(2, 3, model.cfg.d_model)
     plan = torch.full((2, 2, 3), float("nan"))
-    out, plan = _follow_strikes(model, h, pos, vel, nxt, plan, torch.Generator().manual_seed(0),
+    out, plan = follow_strikes(model, h, pos, vel, nxt, plan, torch.Generator().manual_seed(0),
                                 top_p_serve=0.8)
     assert torch.equal(out[1], nxt[1]) and torch.isnan(plan[1]).all()
     assert nuclei == [0.8]                                  # one draw, the serve's nucleus

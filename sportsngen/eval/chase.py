@@ -34,7 +34,8 @@ from sportsngen.eval.reach import REACH_MAX_Z_M
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.model.forecast import STEP_S, ball_forecast
 from sportsngen.sim.constraints import KeepChasing
-from sportsngen.sim.rollout import cpu_threads, redraw_rejected, step_features, window_features
+from sportsngen.sim.frame_draws import redraw_rejected
+from sportsngen.sim.rollout import cpu_threads, step_features, window_features
 from sportsngen.tennis.rally import RallyTracker
 
 AFTER_FRAMES = 3           # the branch: frames kept after the serve's contact

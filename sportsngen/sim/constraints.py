@@ -1,4 +1,4 @@
-"""Sampling constraints for rollouts: rejection of sampled frames (see `rollout.Constraint`).
+"""Sampling constraints for rollouts: rejection of sampled frames (see `frame_draws.Constraint`).
 
 `PhysicalLimits` keeps rollouts on the physically possible side of the checks a learned model
 breaks most: the ball going below the ground, the ball passing through the net and (with

@@ -48,11 +48,12 @@ from sportsngen.sim.constraints import (
     StrikeInReach,
 )
 from sportsngen.sim.events import frame_labels
+from sportsngen.sim.frame_draws import Constraint
 from sportsngen.sim.initial import InitialConditions
 from sportsngen.sim.kinematics import PlayerLimits
 from sportsngen.sim.match import MatchResult, simulate_matches
 from sportsngen.sim.reach_table import ReachTable
-from sportsngen.sim.rollout import Constraint, RolloutInputs, rollout
+from sportsngen.sim.rollout import RolloutInputs, rollout
 from sportsngen.sim.top_speed import TopSpeeds
 from sportsngen.tennis.rally import CONTACT_REACH_M, MAX_RALLY_S, RallyTracker
 
@@ -419,7 +420,7 @@ class Simulator:
 
         Rallies start from serve starts drawn from the model's pool, or from `init_pos_m`
         (len(plan), T0, 3, 3) (branching from a real rally); `constraint` restricts sampling
-        (`sportsngen.sim.rollout.Constraint`; row indices are plan positions).
+        (`sportsngen.sim.frame_draws.Constraint`; row indices are plan positions).
         `max_duration_s` (default the simulator's) cuts rallies that last longer: they end
         undecided (diagnostics that only need a rally's first shots); (len(plan),): each
         rally its own. `forced_pos_m` (len(plan), T, 3, 3), NaN where free: players' positions
