@@ -1,6 +1,7 @@
 """Train SportsNGEN (decoder f and event classifier g): `python train.py experiment=tiny`.
 
-Configs in conf/ (groups data, model, trainer, experiment); see `sportsngen.train.run`.
+Configs in conf/ (groups data, model, trainer, callbacks, logger, experiment); see
+`sportsngen.train.run`.
 """
 
 import hydra
