@@ -44,12 +44,15 @@ def main() -> None:
                     help="with --from-sims: write each rally this many times (its weight)")
     a = ap.parse_args()
     if a.from_sims:
-        write_simulated_answers(a.model, a.out, a.from_sims, a.shots, a.repeat, a.seed, a.threads)
+        write_simulated_answers(a.model, a.out, a.from_sims, shots=a.shots, repeat=a.repeat,
+                                seed=a.seed, threads=a.threads)
         return
-    write_expert_data(a.model, a.out, a.data, ExpertConfig(
-        n_branches=a.branches, min_model_frames=a.min_model_frames,
-        max_model_frames=a.max_model_frames, keep_frames=a.keep_frames, seed=a.seed),
-        a.val_fraction, a.split_seed, a.fidelity, a.late_contacts, a.threads)
+    config = ExpertConfig(n_branches=a.branches, min_model_frames=a.min_model_frames,
+                          max_model_frames=a.max_model_frames, keep_frames=a.keep_frames,
+                          seed=a.seed)
+    write_expert_data(a.model, a.out, a.data, config, val_fraction=a.val_fraction,
+                      split_seed=a.split_seed, fidelity=a.fidelity,
+                      late_contacts=a.late_contacts, threads=a.threads)
 
 
 if __name__ == "__main__":
