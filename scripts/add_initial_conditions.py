@@ -4,8 +4,7 @@
     python scripts/add_initial_conditions.py --model sportsngen/model/bundled/sportsngen-small.pt \\
         --data synthetic_small [--frames 10] [--per-key 100]
 
-`train.py` stores them in every model it exports; this is for older files, or to rebuild the
-pool from other data (`--data`: a conf/data name or a RallyData folder).
+For files exported before `train.py` stored them, or a pool from other data (a RallyData folder).
 """
 
 from __future__ import annotations

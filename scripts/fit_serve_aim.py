@@ -1,7 +1,6 @@
-"""Add and fit a model file's per-server aim of the serve inside the box (`model.serve_aim`)
-on the serves the model plays from its own tosses
-(`sportsngen.train.table_fits.fit_serve_aim_file`). The file must have the serve table
-(`scripts/fit_serve_bias.py`).
+"""Add and fit a model file's per-server aim of the serve inside the box (`model.serve_aim`) on
+the serves the model plays from its own tosses (`sportsngen.train.table_fits.fit_serve_aim_file`;
+the file must have the serve table of `scripts/fit_serve_bias.py`).
 
     python scripts/fit_serve_aim.py --model FILE --out FILE [--data synthetic_named]
         [--players "A,B"] [--max-rallies 12000] [--prior-serves 100] [--seed 0] [--threads 2]

@@ -29,18 +29,16 @@ def main() -> None:
     ap.add_argument("--states", default=None,
                     help="cache of the decoder's states: written on the first run, read after")
     ap.add_argument("--view", type=int, default=None, metavar="LEAD",
-                    help="read each strike's state from its own window ending LEAD frames "
-                         "after it, as a rollout reads it (8), not from windows tiling the "
-                         "rally (about twice the time; run with MALLOC_MMAP_THRESHOLD_=65536)")
+                    help="each strike's state from its own window ending LEAD (8) frames after "
+                         "it, as a rollout reads it (run with MALLOC_MMAP_THRESHOLD_=65536)")
     ap.add_argument("--more-data-only", action="store_true",
                     help="read the --more-data rallies alone, not the file's training split")
     ap.add_argument("--surface", action="store_true",
                     help="then add (or refit from zero) the hitters' surfaces table "
                          "(model.strike_surface) on top of every other table")
     ap.add_argument("--draws", type=int, default=0,
-                    help="with --pressure, --late, --depth, --return-surface or --surface: "
-                         "match each strike's odds at that many of the head's own draws of "
-                         "the earlier dimensions (as a rollout draws), not at the record's")
+                    help="match each strike's odds at that many of the head's own draws of "
+                         "the earlier dimensions, as a rollout draws (with --pressure, ...)")
     try:
         fit_strike_tables_file(**vars(ap.parse_args()))
     except ArgumentError as exc:

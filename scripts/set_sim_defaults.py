@@ -1,11 +1,10 @@
 """Store sampling defaults in a model file (its `sim_defaults`, used by every rollout that
 does not name them), keeping the others (`sportsngen.train.table_cli.set_sim_defaults`).
+Values: true / false, or a number.
 
     python scripts/set_sim_defaults.py MODEL KEY=VALUE [KEY=VALUE ...]
     e.g. scripts/set_sim_defaults.py sportsngen/model/bundled/sportsngen-small.pt \\
         strike_in_reach_force=true strike_in_reach_m=1.5
-
-Values: true / false, or a number.
 """
 
 from __future__ import annotations
