@@ -1,14 +1,9 @@
-"""Derive per-player serve / return / rally calibration targets from the 2011 slam files.
+"""Derive per-player serve / return / rally calibration targets from the 2011 slam files
+(`sportsngen.synth.targets.derive_targets`).
 
-Run: ``.venv/bin/python scripts/derive_player_stats.py`` (needs ../shared/data/slam_pointbypoint,
-see sportsngen.data.paths). Reads the 2011 US Open and Wimbledon point-by-point files (the two
-events with first/second serve flags and rally lengths), pools them, and writes one row per
-player to ``sportsngen/synth/data/slam2011_targets.csv`` (fractions in [0, 1], speeds in km/h;
-read it with ``pd.read_csv(path, comment="#")``). It also checks the serving figures against the
-table in the shared data README and exits non-zero when they do not match.
-
-Source: Jeff Sackmann / Tennis Abstract, tennis_slam_pointbypoint
-(https://github.com/JeffSackmann/tennis_slam_pointbypoint), CC BY-NC-SA 4.0.
+Run: ``python scripts/derive_player_stats.py`` (needs ../shared/data/slam_pointbypoint, see
+sportsngen.data.paths). Writes ``sportsngen/synth/data/slam2011_targets.csv`` (or --out) and
+exits non-zero when the serving figures do not match the shared data README's table.
 """
 
 from __future__ import annotations
@@ -17,89 +12,13 @@ import argparse
 import sys
 from pathlib import Path
 
-import pandas as pd
-
-from sportsngen.data.paths import SHARED_DATA_MISSING, slam_dir
-from sportsngen.data.slam import parse_match_id, read_slam_events
-from sportsngen.eval.stats import rally_distribution, return_stats, serve_stats, serve_stats_table
-
-EVENTS = ("2011-usopen", "2011-wimbledon")
-PLAYERS = ("Roger Federer", "Rafael Nadal", "Novak Djokovic", "Andy Murray", "John Isner",
-           "Serena Williams", "Maria Sharapova")
-OUT = Path(__file__).resolve().parents[1] / "sportsngen" / "synth" / "data" / "slam2011_targets.csv"
-SOURCE = ("Source: Jeff Sackmann / Tennis Abstract, tennis_slam_pointbypoint "
-          "(https://github.com/JeffSackmann/tennis_slam_pointbypoint), CC BY-NC-SA 4.0. "
-          "Derived by scripts/derive_player_stats.py")
-# The shared data README's table (%, km/h): 1st in, aces, DF, 1st won, 2nd won, median speeds.
-README_TABLE = {
-    "Roger Federer": (66.4, 11.1, 1.6, 78.6, 59.8, 189, 156),
-    "Rafael Nadal": (70.2, 5.9, 1.9, 73.5, 53.8, 181, 140),
-    "Novak Djokovic": (66.2, 7.4, 2.2, 75.1, 56.3, 189, 146),
-    "Serena Williams": (59.0, 14.9, 3.0, 78.0, 50.8, 168, 135),
-}
-README_COLS = ("first_serve_in", "ace", "double_fault", "first_serve_won", "second_serve_won",
-               "first_serve_kmh_median", "second_serve_kmh_median")
-
-
-def player_targets(points: pd.DataFrame, players: tuple[str, ...] = PLAYERS) -> pd.DataFrame:
-    """One row per player: serving, rally-length shares (as server) and returning figures."""
-    known = set(points["server"])
-    unknown = [p for p in players if p not in known]
-    if unknown:
-        raise ValueError(f"players not found in the points table: {unknown}")
-    serve = serve_stats(points).loc[list(players)]
-    serve = serve.rename(columns={"n_points": "n_service_points"})
-    rally = rally_distribution(points).loc[list(players)]
-    rally.columns = ["rally_" + c.replace("-", "_").replace("+", "plus") for c in rally.columns]
-    ret = return_stats(points).loc[list(players)]
-    genders = points.drop_duplicates("server").set_index("server")["match_id"]
-    out = pd.concat([serve, rally, ret], axis=1)
-    out.insert(0, "gender", [parse_match_id(genders[p])[3] for p in players])
-    out.insert(1, "events", "+".join(sorted(points["event"].unique())))
-    out.index.name = "player"
-    return out
-
-
-def check_readme(targets: pd.DataFrame) -> float:
-    """Largest deviation from the README table, printing the comparison (pp and km/h)."""
-    worst = 0.0
-    print("\nREADME check (ours / README):")
-    for name, want in README_TABLE.items():
-        got = [targets.loc[name, c] * (100.0 if "kmh" not in c else 1.0) for c in README_COLS]
-        cells = [f"{g:.1f}/{w}" for g, w in zip(got, want)]
-        print(f"  {name:<16} " + "  ".join(cells))
-        # tolerance 0.1 pp on the shares, 1 km/h on the speeds, scaled to one common number
-        worst = max(worst, *(abs(g - w) / (0.1 if "kmh" not in c else 1.0)
-                             for g, w, c in zip(got, want, README_COLS)))
-    return worst
+from sportsngen.synth.targets import TARGETS_CSV, derive_targets
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, default=OUT, help="CSV to write")
-    args = ap.parse_args(argv)
-    if slam_dir() is None:
-        print(SHARED_DATA_MISSING, file=sys.stderr)
-        return 1
-    points = read_slam_events(events=list(EVENTS))
-    targets = player_targets(points)
-    print(serve_stats_table(serve_stats(points).loc[list(PLAYERS)]))
-    print(targets[["n_return_points", "return_points_won", "return_first_won",
-                   "return_second_won"]].round(3).to_string())
-    worst = check_readme(targets)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    with open(args.out, "w", encoding="utf-8") as f:
-        f.write(f"# {SOURCE}. Events pooled: {', '.join(EVENTS)}. Fractions in [0, 1]; "
-                "speeds km/h (median, IQR); rally_* are shares of service points by rally "
-                "length (0 = double fault, 1 = ace or unreturned serve).\n")
-        targets.round(4).to_csv(f)
-    print(f"\nwrote {args.out}")
-    if worst > 1.0:
-        print(f"README table NOT reproduced (worst deviation {worst:.2f} x tolerance)",
-              file=sys.stderr)
-        return 2
-    print("README table reproduced (within 0.1 pp / 1 km/h)")
-    return 0
+    ap.add_argument("--out", type=Path, default=TARGETS_CSV, help="CSV to write")
+    return 0 if derive_targets(ap.parse_args(argv).out) else 2
 
 
 if __name__ == "__main__":

@@ -1,55 +1,20 @@
-"""Derive the bundled serve models of the Markov engine from the real 2011 Grand Slam data.
-
-Writes `sportsngen/baselines/data/serve_models_2011.json`: one `ServeModel` (serve rates, serve
-speeds, rally-length distributions, return rate) per player with at least MIN_SERVE_POINTS
-service points over the 2011 US Open and Wimbledon, and one pooled model per gender (every
-server of that gender together: the stand-in for a player without figures). Derived figures
-only; the raw files stay in ../shared/data. Source: Jeff Sackmann / Tennis Abstract,
-tennis_slam_pointbypoint, CC BY-NC-SA 4.0.
+"""Derive the bundled serve models of the Markov engine from the real 2011 Grand Slam data
+(`sportsngen.baselines.serve_models_2011`): writes
+`sportsngen/baselines/data/serve_models_2011.json` (needs ../shared/data/slam_pointbypoint).
 
     python scripts/derive_serve_models.py
 """
 
 from __future__ import annotations
 
-import dataclasses
-import json
-from pathlib import Path
+import argparse
 
-from sportsngen.baselines.serve_model import ServeModel, pooled_serve_model
-from sportsngen.data.paths import SHARED_DATA_MISSING, slam_dir
-from sportsngen.data.slam import parse_match_id, read_slam_events
-
-MIN_SERVE_POINTS = 300
-OUT = Path(__file__).resolve().parents[1] / "sportsngen/baselines/data/serve_models_2011.json"
-
-
-def _rounded(model: ServeModel) -> dict:
-    """Scalars rounded for a readable file; distributions kept exact so they sum to one."""
-    m = dataclasses.asdict(model)
-    return {k: (round(v, 5) if isinstance(v, float) else v) for k, v in m.items()}
+from sportsngen.baselines.serve_models_2011 import derive_serve_models
 
 
 def main() -> None:
-    folder = slam_dir()
-    if folder is None:
-        raise SystemExit(SHARED_DATA_MISSING)
-    points = read_slam_events(folder, events=["2011-usopen", "2011-wimbledon"])
-    counts = points.loc[points["first_serve_in"].notna(), "server"].value_counts()
-    players = sorted(counts[counts >= MIN_SERVE_POINTS].index)
-    models = {name: _rounded(ServeModel.from_points(points, name)) for name in players}
-    gender = points["match_id"].map(lambda m: parse_match_id(m)[3])
-    pooled = {g: _rounded(pooled_serve_model(points[gender == g])) for g in ("men", "women")}
-    doc = {
-        "source": "Jeff Sackmann / Tennis Abstract, tennis_slam_pointbypoint (CC BY-NC-SA 4.0);"
-                  " 2011 US Open and Wimbledon; derived by scripts/derive_serve_models.py",
-        "min_serve_points": MIN_SERVE_POINTS,
-        "players": models,
-        "pooled": pooled,
-    }
-    OUT.parent.mkdir(parents=True, exist_ok=True)
-    OUT.write_text(json.dumps(doc, indent=1, allow_nan=True))
-    print(f"wrote {len(models)} serve models to {OUT}")
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args()
+    derive_serve_models()
 
 
 if __name__ == "__main__":

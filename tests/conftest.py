@@ -10,21 +10,6 @@ from hydra import compose, initialize_config_dir
 REPO = Path(__file__).resolve().parents[1]
 
 
-@pytest.fixture
-def load_script():
-    """scripts/NAME.py loaded as a fresh module (its `main` to call, its names to patch)."""
-    import importlib.util
-
-    def load(name: str):
-        spec = importlib.util.spec_from_file_location(f"{name}_script",
-                                                      REPO / "scripts" / f"{name}.py")
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        return module
-
-    return load
-
-
 def tiny_sim(path, **kw):
     """The tiny model's Simulator for tests whose subject is not the physical limits: unretried
     rallies and no limits. The model is trained three steps, so most frames it draws fail a

@@ -162,24 +162,19 @@ def test_a_simulator_draws_each_serves_reach_from_the_files_table(tiny_model_fil
     pd.testing.assert_frame_equal(a.frames, b.frames)
 
 
-def test_the_script_writes_the_table_and_the_default_into_a_copy(
-        tiny_model_file, federer_points_and_head_model, tmp_path, monkeypatch, capsys,
-        load_script):
-    """`scripts/fit_return_reach.py` on a file, its training rallies stood in for by 80
-    generated points: the copy carries the fitted table and draws from it; the source is left
-    as it was."""
-    import sys
-
+def test_the_fit_writes_the_table_and_the_default_into_a_copy(
+        tiny_model_file, federer_points_and_head_model, tmp_path, monkeypatch, capsys):
+    """`fit_return_reach_file` (`scripts/fit_return_reach.py`) on a file, its training rallies
+    stood in for by 80 generated points: the copy carries the fitted table and draws from it;
+    the source is left as it was."""
     from sportsngen.model.export import read_extra
     from sportsngen.sim.simulator import Simulator
+    from sportsngen.train import rule_tables
 
-    script = load_script("fit_return_reach")
     data = federer_points_and_head_model[0]
-    monkeypatch.setattr(script, "training_rally_data", lambda src, more: [data])
+    monkeypatch.setattr(rule_tables, "training_rally_data", lambda src, more: [data])
     out = tmp_path / "with_reach.pt"
-    monkeypatch.setattr(sys, "argv", ["fit_return_reach.py", "--model", str(tiny_model_file),
-                                      "--out", str(out)])
-    script.main()
+    rule_tables.fit_return_reach_file(str(tiny_model_file), str(out))
     assert "good serves" in capsys.readouterr().out
     table = ReachTable.from_dict(read_extra(out)["return_reach"])
     assert table.players == {} and 1.2 < table.pooled[0] < 1.8     # 80 points: the pooled row
@@ -264,24 +259,20 @@ def test_a_simulator_draws_each_rally_balls_reach_from_the_player_due(tiny_model
     pd.testing.assert_frame_equal(a.frames, b.frames)
 
 
-def test_the_script_fits_the_rally_balls_table_with_rally(
-        tiny_model_file, federer_points_and_head_model, tmp_path, monkeypatch, capsys,
-        load_script):
-    """`--rally --serves-too` writes both tables and both defaults; `--rally` alone only the
-    rally balls' (pooled rows: 80 points are too few for a player's own)."""
-    import sys
-
+def test_the_fit_takes_the_rally_balls_table_with_rally(
+        tiny_model_file, federer_points_and_head_model, tmp_path, monkeypatch, capsys):
+    """`rally=True, serves_too=True` (`--rally --serves-too`) writes both tables and both
+    defaults; `rally` alone only the rally balls' (pooled rows: 80 points are too few for a
+    player's own)."""
     from sportsngen.model.export import read_extra
     from sportsngen.sim.simulator import Simulator
+    from sportsngen.train import rule_tables
 
-    script = load_script("fit_return_reach")
     data = federer_points_and_head_model[0]
-    monkeypatch.setattr(script, "training_rally_data", lambda src, more: [data])
+    monkeypatch.setattr(rule_tables, "training_rally_data", lambda src, more: [data])
     both, rally = tmp_path / "both.pt", tmp_path / "rally.pt"
-    for out, flags in ((both, ["--rally", "--serves-too"]), (rally, ["--rally"])):
-        monkeypatch.setattr(sys, "argv", ["fit_return_reach.py", "--model",
-                                          str(tiny_model_file), "--out", str(out), *flags])
-        script.main()
+    for out, flags in ((both, {"rally": True, "serves_too": True}), (rally, {"rally": True})):
+        rule_tables.fit_return_reach_file(str(tiny_model_file), str(out), **flags)
     printed = capsys.readouterr().out
     assert printed.count("good serves") == 1 and printed.count("good rally balls") == 2
     extra = read_extra(both)

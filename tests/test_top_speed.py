@@ -49,24 +49,20 @@ def test_the_table_round_trips_and_refuses_what_it_cannot_hold():
         TopSpeeds(6.5, {"B": float("nan")})
 
 
-def test_the_script_writes_the_table_and_the_default_into_a_copy(
-        tiny_model_file, federer_points_and_head_model, tmp_path, monkeypatch, capsys,
-        load_script):
-    """`scripts/fit_top_speed.py` on a file, its training rallies stood in for by 80 generated
-    points of Federer against Nadal: the copy carries each player's top speed (the generator's
-    6.8 and 7.0 m/s) and bounds the rollouts by it; the source is left as it was."""
-    import sys
-
+def test_the_fit_writes_the_table_and_the_default_into_a_copy(
+        tiny_model_file, federer_points_and_head_model, tmp_path, monkeypatch, capsys):
+    """`fit_top_speed_file` (`scripts/fit_top_speed.py`) on a file, its training rallies stood
+    in for by 80 generated points of Federer against Nadal: the copy carries each player's top
+    speed (the generator's 6.8 and 7.0 m/s) and bounds the rollouts by it; the source is left
+    as it was."""
     from sportsngen.model.export import read_extra
     from sportsngen.sim.simulator import Simulator
+    from sportsngen.train import rule_tables
 
-    script = load_script("fit_top_speed")
     data = federer_points_and_head_model[0]
-    monkeypatch.setattr(script, "training_rally_data", lambda src, more: [data])
+    monkeypatch.setattr(rule_tables, "training_rally_data", lambda src, more: [data])
     out = tmp_path / "with_top_speed.pt"
-    monkeypatch.setattr(sys, "argv", ["fit_top_speed.py", "--model", str(tiny_model_file),
-                                      "--out", str(out), "--min-frames", "1000"])
-    script.main()
+    rule_tables.fit_top_speed_file(str(tiny_model_file), str(out), min_frames=1000)
     assert "top speed" in capsys.readouterr().out
     table = TopSpeeds.from_dict(read_extra(out)["top_speed"])
     assert set(table.players_mps) == {"Roger Federer", "Rafael Nadal"}

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import json
 import math
+import time
 from dataclasses import replace
 from pathlib import Path
 
@@ -38,17 +39,20 @@ import numpy as np
 import pandas as pd
 
 from sportsngen.synth import profiles as prof
-from sportsngen.synth.profiles import PlayerProfile, sample_population
+from sportsngen.synth.profiles import (
+    PlayerProfile,
+    initial_profile,
+    profile_seeds,
+    read_profiles,
+    sample_population,
+)
 from sportsngen.synth.rally import play_rally
+from sportsngen.synth.targets import RALLY_BINS, load_targets
 from sportsngen.workers import pool_context
 
-DATA = Path(__file__).with_name("data")
-TARGETS_CSV = DATA / "slam2011_targets.csv"
-SEEDS_JSON = DATA / "profile_seeds.json"
 SURFACES_2011 = ("hard", "grass")
 STAT_KEYS = ("first_serve_in", "ace", "double_fault", "first_serve_won", "second_serve_won",
              "first_serve_kmh_median", "second_serve_kmh_median", "rally_mean")
-RALLY_BINS = ("0", "1", "2", "3-4", "5-8", "9+")
 TOLERANCE_PP = {"first_serve_in": 3, "ace": 3, "double_fault": 3, "first_serve_won": 3,
                 "second_serve_won": 3}
 TOLERANCE_KMH = 5.0
@@ -58,33 +62,12 @@ DISGUISE_RANGE_S = (-0.2, 0.4)
 SERVE_MARGIN_RANGE_M = (0.45, 1.2)  # the lower end: every named player's before version 6.2
 
 
-def load_targets(path: Path = TARGETS_CSV) -> pd.DataFrame:
-    """2011 targets, one row per player (index = name), fractions and km/h."""
-    if not Path(path).exists():
-        raise FileNotFoundError(f"targets file {path} missing: run "
-                                "scripts/derive_player_stats.py first")
-    df = pd.read_csv(path, comment="#")
-    key = next(c for c in ("player", "server", "name", "Unnamed: 0") if c in df.columns)
-    df = df.rename(columns=dict(zip(("rally_0", "rally_1", "rally_2", "rally_3_4", "rally_5_8",
-                                     "rally_9plus"), RALLY_BINS)))
-    return df.set_index(key)
-
-
-def profile_seeds(path: Path = SEEDS_JSON) -> dict[str, dict]:
-    """The named players' starting points (handedness, style, character) by name."""
-    return json.loads(Path(path).read_text())["players"]
-
-
-def initial_profile(name: str, target: pd.Series, seed: dict) -> PlayerProfile:
-    """A named player's starting profile: his seed, serve speeds at the 2011 medians with the
-    real spread (IQR = 1.349 sd, within reason)."""
-    kw = {**seed, "name": name}
-    kw["first_serve_kmh"] = float(target["first_serve_kmh_median"])
-    kw["second_serve_kmh"] = float(target["second_serve_kmh_median"])
-    for key in ("first", "second"):
-        iqr = float(target.get(f"{key}_serve_kmh_iqr", 11.0))
-        kw[f"{key}_serve_kmh_sd"] = float(np.clip(iqr / 1.349, 5.0, 16.0))
-    return PlayerProfile.from_dict(kw)
+def starting_profiles(out: Path, init: bool, targets: pd.DataFrame) -> dict[str, PlayerProfile]:
+    """The profiles a calibration starts from: those in `out`, or with `init` (or no `out`
+    yet) each named player's seed (`profile_seeds`, `initial_profile`)."""
+    if init or not out.exists():
+        return {n: initial_profile(n, targets.loc[n], s) for n, s in profile_seeds().items()}
+    return read_profiles(out)
 
 
 def service_outcomes(server: PlayerProfile, opponents: list[PlayerProfile], n_points: int,
@@ -216,11 +199,6 @@ def write_profiles(named: dict[str, PlayerProfile], path: Path, note: str = "") 
     path.write_text(json.dumps(payload, indent=1) + "\n")
     if path.resolve() == prof.PROFILES_JSON.resolve():
         prof._named_cache.cache_clear()
-
-
-def read_profiles(path: Path) -> dict[str, PlayerProfile]:
-    raw = json.loads(Path(path).read_text())["players"]
-    return {p["name"]: PlayerProfile.from_dict(p) for p in raw}
 
 
 def table_2011(named: dict[str, PlayerProfile], sims: dict[str, dict],
@@ -501,3 +479,26 @@ def acceptance_hawkeye(named: dict[str, PlayerProfile], n_points: int, seed: int
     stats = measure_hawkeye(named, n_points, seed, workers)
     cmp = compare(stats, load_targets(), README_GROUPS)
     return comparison_markdown(cmp)
+
+
+def calibrate_profiles(out: Path = prof.PROFILES_JSON, init: bool = False, rounds: int = 6,
+                       points: int = 1500, hawkeye_points: int = 0, damping: float = 0.8,
+                       workers: int = 2, seed: int = 2011, only: list[str] | None = None,
+                       tour_for_thin: bool = False, report: int = 0,
+                       hawkeye_report: int = 0) -> None:
+    """`scripts/calibrate_profiles.py`: from `starting_profiles`, print the 2011 acceptance
+    table (`report` points a player) and/or the Hawk-Eye one (`hawkeye_report` points a
+    matchup), or else `calibrate` and write the profiles to `out`, logging each round."""
+    t0 = time.time()
+    targets = load_targets()
+    named = starting_profiles(out, init, targets)
+    if report:
+        print("simulated / real (2011); '!' = outside tolerance", flush=True)
+        acceptance_2011(named, targets, report, seed + 7, workers)
+    if hawkeye_report:
+        print(acceptance_hawkeye(named, hawkeye_report, seed + 7, workers))
+    if not (report or hawkeye_report):
+        calibrate(named, rounds, points, hawkeye_points, seed, workers, damping, only=only,
+                  out=out, tour_for_thin=tour_for_thin,
+                  log=lambda s: print(f"[{time.time() - t0:.0f} s] {s}", flush=True))
+    print(f"done in {time.time() - t0:.0f} s", flush=True)

@@ -7,8 +7,9 @@ hard the player is to play against (serve disguise and heaviness).
 
 Named profiles (Federer, Nadal, ...) live in ``data/profiles.json``, written by
 ``scripts/calibrate_profiles.py`` so that the generator reproduces each player's real 2011 Grand
-Slam serving statistics. `sample_population` draws anonymous players of varied styles around
-the average of the named players, for training a generic model.
+Slam serving statistics, starting from each player's seed in ``data/profile_seeds.json``
+(`profile_seeds`, `initial_profile`). `sample_population` draws anonymous players of varied
+styles around the average of the named players, for training a generic model.
 """
 
 from __future__ import annotations
@@ -19,10 +20,12 @@ from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from sportsngen.data.tracking import SURFACES
 
 PROFILES_JSON = Path(__file__).with_name("data") / "profiles.json"
+SEEDS_JSON = Path(__file__).with_name("data") / "profile_seeds.json"
 
 HANDEDNESS = ("right", "left")
 GENDERS = ("men", "women")
@@ -248,13 +251,18 @@ def _resolved(p: PlayerProfile, surface: str) -> PlayerProfile:
     return replace(p, **values) if values else p
 
 
+def read_profiles(path: Path) -> dict[str, PlayerProfile]:
+    """The profiles of a file written as `profiles.json` is, by name."""
+    raw = json.loads(Path(path).read_text())["players"]
+    return {p["name"]: PlayerProfile.from_dict(p) for p in raw}
+
+
 @lru_cache(maxsize=1)
 def _named_cache() -> dict[str, PlayerProfile]:
     if not PROFILES_JSON.exists():
         raise FileNotFoundError(f"named profiles file missing: {PROFILES_JSON} "
                                 "(run scripts/calibrate_profiles.py)")
-    raw = json.loads(PROFILES_JSON.read_text())
-    return {p["name"]: PlayerProfile.from_dict(p) for p in raw["players"]}
+    return read_profiles(PROFILES_JSON)
 
 
 def named_profiles() -> dict[str, PlayerProfile]:
@@ -271,6 +279,23 @@ def get_profile(player: str | PlayerProfile) -> PlayerProfile:
         raise ValueError(f"unknown player {player!r}; known players: {sorted(named)} "
                          "(or pass a PlayerProfile, e.g. from sample_population)")
     return named[player]
+
+
+def profile_seeds(path: Path = SEEDS_JSON) -> dict[str, dict]:
+    """The named players' starting points (handedness, style, character) by name."""
+    return json.loads(Path(path).read_text())["players"]
+
+
+def initial_profile(name: str, target: pd.Series, seed: dict) -> PlayerProfile:
+    """A named player's starting profile: his seed, serve speeds at the 2011 medians with the
+    real spread (IQR = 1.349 sd, within reason)."""
+    kw = {**seed, "name": name}
+    kw["first_serve_kmh"] = float(target["first_serve_kmh_median"])
+    kw["second_serve_kmh"] = float(target["second_serve_kmh_median"])
+    for key in ("first", "second"):
+        iqr = float(target.get(f"{key}_serve_kmh_iqr", 11.0))
+        kw[f"{key}_serve_kmh_sd"] = float(np.clip(iqr / 1.349, 5.0, 16.0))
+    return PlayerProfile.from_dict(kw)
 
 
 # Fields the population does not take from the named players: they are the tour's best

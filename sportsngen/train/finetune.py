@@ -26,7 +26,7 @@ from sportsngen.data.tracking import RallyData
 from sportsngen.errors import ModelFileError
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.decoder import SportsNGEN
-from sportsngen.model.export import is_model_file, load_model, what_file
+from sportsngen.model.export import is_model_file, load_model, read_extra, save_model, what_file
 
 
 def read_torch_file(path: str | Path, what: str = "model file or checkpoint"):
@@ -140,6 +140,38 @@ def graft_strike_head(model: SportsNGEN, donor: SportsNGEN) -> SportsNGEN:
                         if k.startswith(("strike_head.", "serve_head.") + shifts)}}
     new.load_state_dict(state)
     return new.eval()
+
+
+def export_checkpoint(checkpoint: str | Path, out: str | Path, source: str | Path,
+                      events_from: str | Path | None = None,
+                      strike_head_from: str | Path | None = None,
+                      average_identity: bool = False) -> Path:
+    """A model file at `out` with the decoder of `checkpoint` (a training's decoder checkpoint,
+    or a model file) and everything else (extras: serve starts, sampling defaults, split) from
+    the model file `source`, the event classifier from `events_from` where given (a file whose
+    g was retrained), the strike head from `strike_head_from` where given
+    (`graft_strike_head`); `average_identity`: the generic identity row set to the players'
+    mean (`average_generic_identity`). All must share the vocabulary. -> `out`."""
+    model, _, vocab, _ = load_pretrained(checkpoint)
+    events_from = events_from or source
+    others = (source, events_from, *([strike_head_from] if strike_head_from else []))
+    loaded = {other: load_model(other) for other in dict.fromkeys(others)}
+    for other, (_, _, other_vocab, _) in loaded.items():
+        if vocab.to_dict() != other_vocab.to_dict():
+            raise SystemExit(f"{checkpoint} and {other} have different vocabularies")
+    event_model = loaded[events_from][1]
+    extra = read_extra(source)
+    if strike_head_from:
+        try:
+            model = graft_strike_head(model, loaded[strike_head_from][0])
+        except ValueError as exc:
+            raise SystemExit(f"{strike_head_from}: {exc}") from exc
+    if average_identity:
+        average_generic_identity(model, vocab)
+    save_model(out, model, vocab, event_model, extra=extra)
+    print(f"wrote {out} (decoder of {checkpoint}; event classifier of {events_from}; "
+          f"{sorted(extra)} of {source})")
+    return Path(out)
 
 
 @torch.no_grad()
