@@ -33,11 +33,13 @@ from omegaconf import OmegaConf
 from torch import nn
 from torch.utils.data import DataLoader
 
-from sportsngen.data.tokens import Augment, Vocab, WindowDataset, object_features, rally_arrays
+from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.data.toy import make_toy_rallies
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.decoder import SportsNGEN, baller2vec_mask
+from sportsngen.model.inputs import object_features
 from sportsngen.train.run import build_model_config
+from sportsngen.train.windows import Augment, WindowDataset
 
 ROOT = Path(__file__).resolve().parents[1]
 BATCH_SIZE = {"tiny": 8, "small": 16}  # experiment=tiny and train.yaml's windows.batch_size

@@ -31,9 +31,9 @@ _COMMON = """
 import json, resource, sys, time
 import numpy as np, torch
 from sportsngen.model.export import load_model, read_extra
-from sportsngen.sim.initial import InitialConditions
+from sportsngen.data.serve_starts import InitialConditions
 from sportsngen.sim.rollout import RolloutInputs, cpu_threads, rollout
-from sportsngen.data.tokens import object_features
+from sportsngen.model.inputs import object_features
 torch.set_num_threads(int(sys.argv[2]))
 path = sys.argv[1]
 model, ec, vocab, cfg = load_model(path)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import argparse
 
-from sportsngen.sim.initial import MAX_PER_KEY_DEFAULT, N_FRAMES_DEFAULT
+from sportsngen.data.serve_starts import MAX_PER_KEY_DEFAULT, N_FRAMES_DEFAULT
 from sportsngen.train.rule_tables import add_initial_conditions
 
 

@@ -9,9 +9,10 @@ import torch
 from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 
-from sportsngen.data.tokens import N_FEATURES, Vocab
+from sportsngen.data.tokens import Vocab
 from sportsngen.model import EventClassifier, ModelConfig, SportsNGEN, load_model, save_model
 from sportsngen.model.config import FEATURE_GROUPS
+from sportsngen.model.inputs import N_FEATURES
 from sportsngen.studies.ablations import overrides
 from sportsngen.train.module import DecoderModule
 from sportsngen.train.run import build_model_config

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 import torch
 
-from sportsngen.data.tokens import BALL
 from sportsngen.model.centre import read_lift_mps2
+from sportsngen.model.inputs import BALL
 from sportsngen.sim.bounce import bounce_frames, bouncing_rows, place_bounces, spin_from_lift_mps
 from sportsngen.synth.physics import fly
 from sportsngen.tennis.court import BALL_RADIUS_M

@@ -7,10 +7,10 @@ from __future__ import annotations
 import pytest
 import torch
 
-from sportsngen.data.tokens import object_features
 from sportsngen.model import SportsNGEN, load_model
 from sportsngen.model.embedding import widen_for_extra
 from sportsngen.model.forecast import FORECAST_FEATURES, clock_columns, extra_columns
+from sportsngen.model.inputs import object_features
 from tests.conftest import init_runs
 from tests.test_model import tiny_cfg
 

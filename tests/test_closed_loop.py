@@ -8,9 +8,10 @@ import torch
 from hydra import compose, initialize_config_dir
 from torch.utils.data import default_collate
 
-from sportsngen.data.tokens import BALL, Vocab, WindowDataset, rally_arrays
+from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.data.toy import make_toy_rallies
 from sportsngen.model import load_model
+from sportsngen.model.inputs import BALL
 from sportsngen.train.closed_loop import (
     ClosedLoopConfig,
     closest_of_k,
@@ -20,6 +21,7 @@ from sportsngen.train.closed_loop import (
 )
 from sportsngen.train.module import DecoderModule
 from sportsngen.train.run import build_model_config, train_from_config
+from sportsngen.train.windows import WindowDataset
 
 torch.set_num_threads(1)
 REPO = Path(__file__).resolve().parents[1]

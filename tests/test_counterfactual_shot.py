@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import torch
 
-from sportsngen.data.tokens import BALL
+from sportsngen.model.inputs import BALL
 from sportsngen.sim.constraints import AllOf
 from sportsngen.sim.frame_draws import redraw_rejected
 from sportsngen.sim.whatif import LEAVE_WINDOW_FRAMES, ShotConstraint

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 import torch
 
-from sportsngen.data.tokens import BALL, Augment, RallyArrays, WindowDataset
+from sportsngen.data.tokens import RallyArrays
+from sportsngen.model.inputs import BALL
 from sportsngen.synth import physics
 from sportsngen.synth.profiles import get_profile
 from sportsngen.synth.rally import continue_rally, play_rally
@@ -19,6 +20,7 @@ from sportsngen.train.expert import (
     save_expert,
     spin_from_lift,
 )
+from sportsngen.train.windows import Augment, WindowDataset
 
 FPS = 25.0
 

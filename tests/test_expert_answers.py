@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sportsngen.data.tokens import BALL, Vocab
+from sportsngen.data.tokens import Vocab
 from sportsngen.eval.diagnostics import DiagnosticsSetup, truth_points
 from sportsngen.eval.expert_answers import (
     expert_shots,
@@ -15,6 +15,7 @@ from sportsngen.eval.expert_answers import (
     summarise_expert_shots,
 )
 from sportsngen.eval.shot_profile import first_strike
+from sportsngen.model.inputs import BALL
 from sportsngen.synth import physics
 from sportsngen.synth.profiles import get_profile
 from sportsngen.synth.rally import play_rally

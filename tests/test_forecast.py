@@ -9,7 +9,6 @@ import pytest
 import torch
 from hydra import compose, initialize_config_dir
 
-from sportsngen.data.tokens import object_features
 from sportsngen.model import SportsNGEN, load_model
 from sportsngen.model.centre import GRAVITY_MPS2
 from sportsngen.model.forecast import (
@@ -25,6 +24,7 @@ from sportsngen.model.forecast import (
     nearest_playable,
     random_flights,
 )
+from sportsngen.model.inputs import object_features
 from sportsngen.tennis.court import BALL_RADIUS_M
 from tests.conftest import REPO, init_runs
 from tests.test_model import tiny_cfg
@@ -384,8 +384,8 @@ def test_the_compiled_physics_step_is_the_torch_one_to_float32_rounding(net, wit
 def test_the_compiled_forecast_columns_are_the_torch_ones(monkeypatch):
     """`forecast_columns`' one compiled call (CPU float32, no intercept) against its torch
     operations, over random flights with and without a frame before: equal to the bit."""
-    from sportsngen.data.tokens import N_FEATURES, POS_SCALE_M, VEL_SCALE_MPS
     from sportsngen.model import forecast
+    from sportsngen.model.inputs import N_FEATURES, POS_SCALE_M, VEL_SCALE_MPS
 
     pos, vel, prev = forecast.random_flights(600, seed=4)
     scale = torch.as_tensor(POS_SCALE_M, dtype=torch.float32)

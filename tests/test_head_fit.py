@@ -5,11 +5,13 @@ import pytest
 import torch
 from torch.utils.data import default_collate
 
-from sportsngen.data.tokens import BALL, Vocab, WindowDataset, flip_xy, rally_arrays
+from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.decoder import SportsNGEN
+from sportsngen.model.inputs import BALL, flip_xy
 from sportsngen.train.head_fit import cached_states, collect_head_states, fit_head, head_nll
 from sportsngen.train.metrics import window_states
+from sportsngen.train.windows import WindowDataset
 
 
 def small_model(**kw) -> SportsNGEN:

@@ -34,6 +34,15 @@ FOUNDATION_MODULES = {
     "sportsngen.eval.hawkeye_report",
 }
 
+# Imports that point up the order on purpose, each with its reason. Two closed-loop table fits
+# measure the model's own rollouts with eval's readers before they fit.
+UPWARD = {
+    ("sportsngen.train.table_fits", "sportsngen.eval.shot_profile"):
+        "the late strikes' table refitted on rollouts' strike endings",
+    ("sportsngen.train.expert_files", "sportsngen.eval.expert_answers"):
+        "the generator's answers to simulated states, read by eval's expert answers",
+}
+
 
 def _module_name(path: Path) -> str:
     parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
@@ -78,8 +87,14 @@ def test_the_scan_reads_the_package():
 @pytest.mark.parametrize("package", ORDER)
 def test_imports_point_down_the_order(package):
     upward = sorted({(a, b) for a, b, _ in IMPORTS if _package(a) == package
-                     and RANK[_package(b)] > RANK[package] and b not in FOUNDATION_MODULES})
+                     and RANK[_package(b)] > RANK[package] and b not in FOUNDATION_MODULES
+                     and (a, b) not in UPWARD})
     assert upward == [], f"{package} imports above itself: {upward}"
+
+
+def test_each_upward_import_is_still_there():
+    """A listed exception that the code no longer has is taken off the list."""
+    assert set(UPWARD) <= {(a, b) for a, b, _ in IMPORTS}
 
 
 def test_foundation_modules_import_nothing_above_synth():

@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 import torch
 
-from sportsngen.data.tokens import N_FEATURES
 from sportsngen.model import (
     EventClassifier,
     ModelConfig,
@@ -19,6 +18,7 @@ from sportsngen.model import (
 )
 from sportsngen.model.bins import Bins, flat_index, unflat_index
 from sportsngen.model.heads import FactorisedHead, JointHead
+from sportsngen.model.inputs import N_FEATURES
 
 torch.set_num_threads(1)
 
@@ -492,7 +492,7 @@ def _rally_frames(server_x_m: float) -> tuple[torch.Tensor, torch.Tensor, torch.
 def test_server_frame_plays_both_ends_alike(server_x_m):
     # Turned 180 degrees about the net's centre, a rally gives the model the same output
     # states, the same target bins and, drawn with the same stream, the turned next frame.
-    from sportsngen.data.tokens import object_features
+    from sportsngen.model.inputs import object_features
 
     model = make_model(bin_centre="cv", ball_centre="physics", frame="server")
     world = make_model(bin_centre="cv", ball_centre="physics")

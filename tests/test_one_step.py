@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from sportsngen.data.tokens import BALL, Vocab, rally_arrays
+from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.diagnostics import DiagnosticsSetup, serve_strike_frames, truth_points
 from sportsngen.eval.one_step import (
@@ -17,6 +17,7 @@ from sportsngen.eval.one_step import (
     server_pace_response,
     server_serve_coupling,
 )
+from sportsngen.model.inputs import BALL
 from tests.test_shot_branches import _Replay
 
 

@@ -6,8 +6,9 @@ import pandas as pd
 import pytest
 import torch
 
-from sportsngen.data.tokens import N_SPECIAL_IDS, Vocab
+from sportsngen.data.tokens import Vocab
 from sportsngen.errors import ArgumentError
+from sportsngen.model.inputs import N_SPECIAL_IDS
 from sportsngen.train.rollout_tables import (
     RALLY_STAGES,
     add_rollout_late_shift,

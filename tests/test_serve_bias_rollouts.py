@@ -7,9 +7,10 @@ import pandas as pd
 import pytest
 import torch
 
-from sportsngen.data.tokens import N_SPECIAL_IDS, RallyArrays, Vocab
+from sportsngen.data.tokens import RallyArrays, Vocab
 from sportsngen.data.tracking import ERROR_KINDS
 from sportsngen.model import serve_bias
+from sportsngen.model.inputs import N_SPECIAL_IDS
 from sportsngen.sim.simulator import points_plan
 from sportsngen.train.serve_bias_rollouts import (
     ROLLOUT_S,

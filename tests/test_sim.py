@@ -13,13 +13,13 @@ import torch
 from hydra import compose, initialize_config_dir
 
 from sportsngen.data.points import POINTS_DTYPES
-from sportsngen.data.tokens import flip_xy
+from sportsngen.data.serve_starts import InitialConditions
 from sportsngen.data.toy import make_toy_rallies
 from sportsngen.eval.stats import serve_stats
 from sportsngen.model.export import load_model, save_model
+from sportsngen.model.inputs import flip_xy
 from sportsngen.sim import Simulator
 from sportsngen.sim.assemble import rules_shot_outcome
-from sportsngen.sim.initial import InitialConditions
 from sportsngen.sim.rollout import RolloutInputs, cpu_threads, rollout
 from sportsngen.tennis.scoring import MatchFormat, MatchState
 

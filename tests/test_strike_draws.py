@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 
-from sportsngen.data.tokens import Vocab, WindowDataset, rally_arrays
+from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.eval.strike_draws import (
     _nearest_target,
     strike_draw_table,
@@ -14,6 +14,7 @@ from sportsngen.eval.strike_draws import (
     strike_errors,
     teacher_forced_strikes,
 )
+from sportsngen.train.windows import WindowDataset
 
 FPS = 25.0
 

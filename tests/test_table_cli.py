@@ -9,8 +9,9 @@ import shutil
 import pandas as pd
 import pytest
 
-from sportsngen.data.tokens import N_SPECIAL_IDS, Vocab
+from sportsngen.data.tokens import Vocab
 from sportsngen.errors import ArgumentError
+from sportsngen.model.inputs import N_SPECIAL_IDS
 from sportsngen.train.strike_fits import FIT_NAMES, StrikeFit, fit_strike_tables_file
 from sportsngen.train.table_cli import named_players, parse_value, player_names, set_sim_defaults
 

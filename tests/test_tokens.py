@@ -5,23 +5,19 @@ import pytest
 import torch
 from torch.utils.data import default_collate
 
-from sportsngen.data.tokens import (
-    BALL,
-    GENERIC_ID,
-    Augment,
-    Vocab,
-    WindowDataset,
-    ball_noise_amplitudes,
-    check_finite,
-    flip_xy,
-    object_features,
-    rally_arrays,
-    score_features,
-    score_vector,
-)
+from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.data.toy import make_toy_rallies
 from sportsngen.data.tracking import RallyData
 from sportsngen.model.bins import Bins
+from sportsngen.model.inputs import (
+    BALL,
+    GENERIC_ID,
+    flip_xy,
+    object_features,
+    score_features,
+    score_vector,
+)
+from sportsngen.train.windows import Augment, WindowDataset, ball_noise_amplitudes, check_finite
 
 torch.set_num_threads(1)
 

@@ -13,12 +13,13 @@ import torch
 from hydra import compose, initialize_config_dir
 from torch.utils.data import default_collate
 
-from sportsngen.data.tokens import GENERIC_ID, N_SPECIAL_IDS, Vocab, WindowDataset, rally_arrays
+from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.data.toy import make_toy_rallies
 from sportsngen.model import load_model
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.model.export import read_extra, update_extra
+from sportsngen.model.inputs import GENERIC_ID, N_SPECIAL_IDS
 from sportsngen.train.datamodule import load_rally_data
 from sportsngen.train.evaluate import data_config, evaluate_held_out, metrics_table
 from sportsngen.train.finetune import (
@@ -35,6 +36,7 @@ from sportsngen.train.module import (
     movement_onsets,
 )
 from sportsngen.train.run import build_model_config, train_from_config
+from sportsngen.train.windows import WindowDataset
 
 torch.set_num_threads(1)
 REPO = Path(__file__).resolve().parents[1]

@@ -1,17 +1,11 @@
-"""Windows of tracking frames -> model inputs (object tokens, context) and next-frame targets.
-
-Per frame there are three objects in a fixed order, [server, receiver, ball]. Each object token
-carries an identity index (a learned embedding in the model) and eight numbers normalised by
-constants of the sport: position (3), velocity (3, backward finite difference, so a token never
-sees the future), distance to the ball (0 for the ball) and time since the rally began. The
-context of a window is its rally's surface, tournament, first/second serve and a numeric score
-vector. The target of a frame is every object's position at the next frame; the model turns it
-into bin indices around a centre (`sportsngen.model.centre`) with `sportsngen.model.bins`.
-
-`rally_arrays` converts a `RallyData` once into flat numpy arrays; `WindowDataset` cuts windows
-from them (random crops and augmentation when training, a fixed tiling otherwise). Each frame also
-carries a "near contact" flag (within `CONTACT_TOL_FRAMES` of a racket contact in the shots
-table), so that validation can score the ball in flight and at the racket separately.
+"""Tracking -> the model's tokens: the vocabulary of identities, surfaces and tournaments
+(`Vocab`), and `rally_arrays`, which converts a `RallyData` once into flat numpy arrays in the
+model's input schema (`sportsngen.model.inputs`: the objects of a frame in a fixed order,
+[server, receiver, ball], their identity rows, each rally's context and numeric score vector)
+and the frames' event labels. Each frame also carries a "near contact" flag (within
+`CONTACT_TOL_FRAMES` of a racket contact in the shots table), so that validation can score the
+ball in flight and at the racket separately. Training windows are cut from these arrays by
+`sportsngen.train.windows`.
 """
 
 from __future__ import annotations
@@ -20,34 +14,21 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
-import torch
-from torch.utils.data import Dataset, get_worker_info
 
 from sportsngen.data.tracking import DIRECTIONS, ERROR_KINDS, OUTCOMES, STROKES, SURFACES, RallyData
 from sportsngen.errors import ArgumentError
-from sportsngen.tennis.court import BASELINE_X_M, SINGLES_HALF_WIDTH_M
+from sportsngen.model.inputs import (
+    BALL,
+    BALL_ID,
+    GENERIC_ID,
+    N_OBJECTS,
+    N_SPECIAL_IDS,
+    SCORE_FIELDS,
+    score_vector,
+)
 
-OBJECTS = ("server", "receiver", "ball")
-N_OBJECTS = len(OBJECTS)
-BALL = 2                     # index of the ball among the objects of a frame
-BALL_ID, GENERIC_ID = 0, 1   # identity indices reserved before the named players
-N_SPECIAL_IDS = 2
-N_FEATURES = 8               # position 3, velocity 3, distance to ball 1, elapsed time 1
-
-# Normalising constants (sport scale, so features are O(1)).
-POS_SCALE_M = (BASELINE_X_M, SINGLES_HALF_WIDTH_M, 3.0)
-VEL_SCALE_MPS = 10.0
-DIST_SCALE_M = 10.0
-TIME_SCALE_S = 10.0
-
-SCORE_FIELDS = ("server_sets", "receiver_sets", "server_games", "receiver_games",
-                "server_points", "receiver_points", "in_tiebreak")
-SCORE_SCALE = (3.0, 3.0, 6.0, 6.0, 4.0, 4.0, 1.0)
 LABELS = {"stroke": STROKES, "direction": DIRECTIONS, "outcome": OUTCOMES,
           "error_kind": ERROR_KINDS}
-
-# The paper's ball noise at 25 Hz: +-25 mm in x, +-12.5 mm in y and z.
-BALL_NOISE_M_AT_25HZ = (0.025, 0.0125, 0.0125)
 UNKNOWN_POLICIES = ("generic", "warn", "error")
 CONTACT_TOL_FRAMES = 1       # a frame is "near contact" within this many frames of a shot's frame
 
@@ -115,31 +96,6 @@ class Vocab:
     @classmethod
     def from_dict(cls, d: dict) -> Vocab:
         return cls(tuple(d["players"]), tuple(d["surfaces"]), tuple(d["tournaments"]))
-
-
-def score_vector(server_sets, receiver_sets, server_games, receiver_games, server_points,
-                 receiver_points, in_tiebreak) -> np.ndarray:
-    """Normalised score features (order `SCORE_FIELDS`, server's view); scalars or arrays.
-
-    The same quantities as the first seven of `MatchState.score_vector()` (see
-    `score_features`): points are deuce-reduced (a long deuce game maps onto 40-40 or
-    advantage, a long tie-break onto 6-6 or one point more) so they stay bounded.
-    """
-    sp = np.asarray(server_points, dtype=np.float32)
-    rp = np.asarray(receiver_points, dtype=np.float32)
-    tb = np.asarray(in_tiebreak, dtype=np.float32)
-    excess = np.maximum(np.minimum(sp, rp) - np.where(tb > 0, 6.0, 3.0), 0.0)
-    cols = [server_sets, receiver_sets, server_games, receiver_games, sp - excess, rp - excess, tb]
-    out = np.stack([np.asarray(c, dtype=np.float32) / s for c, s in zip(cols, SCORE_SCALE)],
-                   axis=-1)
-    return out.astype(np.float32)
-
-
-def score_features(match_score_vector) -> np.ndarray:
-    """Model score features from `MatchState.score_vector()` (its first seven fields, raw
-    counts from the server's view, already deuce-reduced): for the simulator."""
-    v = np.asarray(match_score_vector, dtype=np.float32)[..., :len(SCORE_FIELDS)]
-    return (v / np.asarray(SCORE_SCALE, dtype=np.float32)).astype(np.float32)
 
 
 @dataclass
@@ -291,163 +247,3 @@ def _near_contact(shots, rid_to_pos: dict, first: np.ndarray, start: np.ndarray,
         ok = (k >= 0) & (k < length[ri])
         near[start[ri[ok]] + k[ok]] = True
     return near
-
-
-def object_features(pos_m: torch.Tensor, vel_mps: torch.Tensor, t_s: torch.Tensor) -> torch.Tensor:
-    """(..., T, 3, 3) positions and velocities, (..., T) times -> (..., T, 3, N_FEATURES)."""
-    scale = torch.tensor(POS_SCALE_M, dtype=pos_m.dtype, device=pos_m.device)
-    dist = torch.linalg.vector_norm(pos_m - pos_m[..., BALL:BALL + 1, :], dim=-1, keepdim=True)
-    t = (t_s / TIME_SCALE_S)[..., None, None].expand(*pos_m.shape[:-1], 1)
-    return torch.cat([pos_m / scale, vel_mps / VEL_SCALE_MPS, dist / DIST_SCALE_M, t], dim=-1)
-
-
-def flip_xy(arr):
-    """Rotate by 180 degrees about the vertical through the net centre: (x, y) -> (-x, -y).
-    A numpy array or a torch tensor (a collated batch's); a new one either way."""
-    out = arr.clone() if torch.is_tensor(arr) else arr.copy()
-    out[..., :2] *= -1
-    return out
-
-
-def ball_noise_amplitudes(fps: float) -> tuple[np.ndarray, np.ndarray]:
-    """(position m, velocity m/s) half-widths of the uniform ball noise at frame rate `fps`.
-
-    The paper's values are per frame at 25 Hz; the position noise scales with the frame
-    interval so that it stays the same fraction of a frame's motion, and the velocity noise is
-    that position noise over one frame (the same in m/s at any rate).
-    """
-    pos = np.asarray(BALL_NOISE_M_AT_25HZ, dtype=np.float32) * (25.0 / fps)
-    return pos, pos * fps
-
-
-def player_shifts_m(rng: np.random.Generator, radius_m: float) -> np.ndarray:
-    """(2 players, 2) horizontal offsets (m), each uniform in a disc of `radius_m`."""
-    r = radius_m * np.sqrt(rng.random(2))
-    a = rng.uniform(0.0, 2.0 * np.pi, 2)
-    return np.stack([r * np.cos(a), r * np.sin(a)], axis=-1).astype(np.float32)
-
-
-@dataclass
-class Augment:
-    """Training augmentation switches."""
-
-    flip: bool = True          # x-and-y flip with probability 1/2
-    ball_noise: bool = False   # uniform noise on the ball's input position and velocity
-    random_crop: bool = True   # random window starts (else a fixed tiling)
-    # Each player's whole window moved on the court by a constant offset, uniform in a disc of
-    # this radius (m); his moves (the targets) are kept. Rollouts leave a player a few tenths of
-    # a metre from where the record had him, where a model that saw only exact geometry gives a
-    # ball passing him little chance of a contact (exposure bias): this shows it those states.
-    # Measured at 0.4 m on the version-6 fine-tune: held-out loss 0.722 against 0.732, but aces
-    # 18-24 % against 9-17 % on two seeds (docs/evaluation.md), so 0 by default.
-    player_shift_m: float = 0.0
-
-
-class WindowDataset(Dataset):
-    """Windows of `window_frames` frames cut from `RallyArrays`.
-
-    Without `augment`, windows tile each rally from its start (the last one padded), or are
-    the `items` given ((rally index, first frame) each). With it, each rally gives
-    ceil(length / window) windows at random starts, flipped and noised.
-    """
-
-    def __init__(self, arrays: RallyArrays, window_frames: int, augment: Augment | None = None,
-                 seed: int = 0, items: list[tuple[int, int]] | None = None):
-        if window_frames < 2:
-            raise ValueError(f"window_frames must be at least 2, got {window_frames}")
-        self.a = arrays
-        self.window = int(window_frames)
-        self.augment = augment
-        self.seed = seed
-        self.rng = np.random.default_rng(seed)
-        self._worker: int | None = None
-        n_win = -(-arrays.length // self.window)
-        self.items = [(i, k * self.window) for i, n in enumerate(n_win) for k in range(n)] \
-            if items is None else [(int(i), int(s)) for i, s in items]
-        bad = [(i, s) for i, s in self.items
-               if not (0 <= i < len(arrays.length) and 0 <= s < arrays.length[i])]
-        if bad:
-            raise ValueError(f"{len(bad)} window(s) outside their rallies, first {bad[0]} "
-                             "(rally index, first frame)")
-
-    def __len__(self) -> int:
-        return len(self.items)
-
-    def first_windows(self) -> list[int]:
-        """Indices of the windows that start at their rally's first frame (one a rally, in
-        rally order; without augmentation's random crops, where a rally's serve lies)."""
-        return [i for i, (_, start) in enumerate(self.items) if start == 0]
-
-    def __getitem__(self, idx: int) -> dict:
-        info = get_worker_info()
-        if info is not None and info.id != self._worker:  # each loader worker its own stream
-            self.rng = np.random.default_rng([self.seed, info.seed % 2 ** 32])
-            self._worker = info.id
-        ri, s = self.items[idx]
-        a, w, aug = self.a, self.window, self.augment
-        n = int(a.length[ri])
-        learn = 0 if a.learn_from is None else int(a.learn_from[ri])
-        if aug is not None and aug.random_crop:
-            # A rally learnt from frame `learn` on: windows that hold frames from there.
-            lo = max(learn - w + 2, 0) if learn > 0 else 0
-            s = int(self.rng.integers(min(lo, max(n - w, 0)), max(n - w, 0) + 1))
-        rows = a.pos_m[a.start[ri]:a.start[ri] + n]
-        m = min(w, n - s)
-        pos = np.zeros((w, N_OBJECTS, 3), dtype=np.float32)
-        nxt = np.zeros_like(pos)
-        prev = np.zeros_like(pos)
-        pos[:m] = rows[s:s + m]
-        prev[:m] = rows[max(s - 1, 0):s + m - 1] if s > 0 else np.concatenate(
-            [rows[:1], rows[:m - 1]])
-        n_next = min(m, n - s - 1)
-        nxt[:n_next] = rows[s + 1:s + 1 + n_next]
-        vel = (pos - prev) * a.fps  # backward difference: 0 at the rally's first frame
-        valid = np.arange(w) < m
-        has_next = (np.arange(w) < n_next) & (s + np.arange(w) >= learn)
-        vel[~valid] = 0.0
-        # The velocity a frame earlier (the ball's physics centre reads its acceleration):
-        # 0 for the rally's first two frames.
-        prev_vel = np.zeros_like(vel)
-        prev_vel[1:] = vel[:-1]
-        if s >= 2:
-            prev_vel[0] = (rows[s - 1] - rows[s - 2]) * a.fps
-        prev_vel[~valid] = 0.0
-        labels = np.zeros((w, len(LABELS)), dtype=np.int64)
-        labels[:m] = a.labels[a.start[ri] + s:a.start[ri] + s + m]
-        near = np.zeros(w, dtype=bool)
-        near[:m] = a.near_contact[a.start[ri] + s:a.start[ri] + s + m]
-        if aug is not None:
-            if aug.ball_noise:
-                p_amp, v_amp = ball_noise_amplitudes(a.fps)
-                pos[:m, BALL] += self.rng.uniform(-1, 1, (m, 3)).astype(np.float32) * p_amp
-                vel[:m, BALL] += self.rng.uniform(-1, 1, (m, 3)).astype(np.float32) * v_amp
-                pos[:m, BALL, 2] = np.maximum(pos[:m, BALL, 2], 0.0)
-            if aug.player_shift_m > 0:
-                shift = player_shifts_m(self.rng, aug.player_shift_m)
-                pos[:m, :BALL, :2] += shift
-                nxt[:n_next, :BALL, :2] += shift
-            if aug.flip and self.rng.random() < 0.5:
-                pos, vel, nxt = flip_xy(pos), flip_xy(vel), flip_xy(nxt)
-                prev_vel = flip_xy(prev_vel)
-        return {
-            "rally_id": int(a.rally_id[ri]), "pos_m": pos, "vel_mps": vel, "next_pos_m": nxt,
-            "prev_vel_mps": prev_vel,
-            "t_s": ((s + np.arange(w)) / a.fps).astype(np.float32), "valid": valid,
-            "has_next": has_next, "ident": a.ident[ri], "surface": int(a.surface[ri]),
-            "tournament": int(a.tournament[ri]), "serve": int(a.serve[ri]),
-            "score": a.score[ri], "labels": labels, "near_contact": near,
-        }
-
-
-def check_finite(batch: dict) -> None:
-    """Raise ValueError naming the rallies whose window holds NaN or infinite numbers."""
-    bad = torch.zeros(batch["pos_m"].shape[0], dtype=torch.bool, device=batch["pos_m"].device)
-    for key in ("pos_m", "vel_mps", "prev_vel_mps", "next_pos_m", "t_s", "score"):
-        if key not in batch:  # prev_vel_mps: batches built by hand may leave it out
-            continue
-        x = batch[key]
-        bad |= ~torch.isfinite(x).reshape(x.shape[0], -1).all(dim=1)
-    if bad.any():
-        ids = [int(v) for v in batch["rally_id"][bad].tolist()]
-        raise ValueError(f"NaN or infinite value in the batch, rally {ids[0]}"
-                         + (f" (and rallies {ids[1:]})" if len(ids) > 1 else ""))

@@ -23,11 +23,12 @@ import numpy as np
 import pandas as pd
 import torch
 
-from sportsngen.data.tokens import BALL, Vocab, rally_arrays
+from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.diagnostics import serve_strike_frames
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.model.bins import Bins
+from sportsngen.model.bins import ball_bins as model_ball_bins
 from sportsngen.model.centre import (
     BALL_RADIUS_M,
     ball_acceleration_mps2,
@@ -35,6 +36,7 @@ from sportsngen.model.centre import (
     physics_step_m,
 )
 from sportsngen.model.config import ModelConfig
+from sportsngen.model.inputs import BALL
 from sportsngen.tennis.court import is_in_service_box, is_in_singles
 
 MAX_FLIGHT_FRAMES = 80
@@ -43,8 +45,7 @@ MAX_FLIGHT_FRAMES = 80
 def ball_bins(n_bins: int = 61, spacing: str = "nonuniform", fps: float = 25.0) -> Bins:
     """The ball's bins of a model with these settings (the default range otherwise), as the
     decoder builds them."""
-    cfg = ModelConfig(n_bins=n_bins, bin_spacing=spacing, fps=fps)
-    return Bins(cfg.ball_bin_half_ranges_m, cfg.n_bins, cfg.bin_spacing)
+    return model_ball_bins(ModelConfig(n_bins=n_bins, bin_spacing=spacing, fps=fps))
 
 
 def centre_noise_drift(n_flights: int = 2000, frames: tuple[int, ...] = (10, 25, 50),

@@ -28,11 +28,12 @@ import numpy as np
 import pandas as pd
 import torch
 
-from sportsngen.data.tokens import BALL, rally_arrays
+from sportsngen.data.tokens import rally_arrays
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.reach import REACH_MAX_Z_M
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.model.forecast import STEP_S, ball_forecast
+from sportsngen.model.inputs import BALL
 from sportsngen.sim.constraints import KeepChasing
 from sportsngen.sim.frame_draws import redraw_rejected
 from sportsngen.sim.rollout import cpu_threads, step_features, window_features

@@ -80,14 +80,7 @@ import pandas as pd
 import torch
 from torch.utils.data import default_collate
 
-from sportsngen.data.tokens import (
-    BALL,
-    OBJECTS,
-    RallyArrays,
-    Vocab,
-    WindowDataset,
-    rally_arrays,
-)
+from sportsngen.data.tokens import RallyArrays, Vocab, rally_arrays
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.contact_odds import approach_frames, far_probability
 from sportsngen.eval.flight import flight_residuals, rally_tracks
@@ -102,9 +95,11 @@ from sportsngen.eval.shot_branches import (
     shot_branches,
     shot_outcomes,
 )
+from sportsngen.model.inputs import BALL, OBJECTS
 from sportsngen.sim.assemble import PLAN_COLUMNS
 from sportsngen.tennis.court import SINGLES_HALF_WIDTH_M, is_in_service_box
 from sportsngen.train.metrics import window_states
+from sportsngen.train.windows import WindowDataset
 
 BRANCH_AFTER_FRAMES = 3   # frames after the serve contact kept from the record
 HORIZON_S = 3.0           # a branch is rolled out this long: the serve, the return, its flight

@@ -21,10 +21,11 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from sportsngen.data.tokens import BALL, RallyArrays, Vocab, rally_arrays
+from sportsngen.data.tokens import RallyArrays, Vocab, rally_arrays
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.eval.shot_profile import first_strike, hitter_behind_m
+from sportsngen.model.inputs import BALL
 from sportsngen.tennis.court import (
     BALL_RADIUS_M,
     BASELINE_X_M,

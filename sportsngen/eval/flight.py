@@ -19,10 +19,10 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from sportsngen.data.tokens import BALL
-from sportsngen.model.bins import Bins
+from sportsngen.model.bins import ball_bins
 from sportsngen.model.centre import ball_centre_m
 from sportsngen.model.config import ModelConfig
+from sportsngen.model.inputs import BALL
 
 MIN_HEIGHT_M = 0.3
 MIN_PLAYER_DISTANCE_M = 2.5
@@ -52,8 +52,7 @@ class FlightResiduals:
 
 def centre_bin_share(residual_m: np.ndarray, cfg: ModelConfig) -> float:
     """Share of residuals (n, 3) inside the centre bin of the model's ball bins in x, y and z."""
-    bins = Bins(cfg.ball_bin_half_ranges_m, cfg.n_bins, cfg.bin_spacing)
-    idx = bins.index(torch.as_tensor(residual_m, dtype=torch.float32))
+    idx = ball_bins(cfg).index(torch.as_tensor(residual_m, dtype=torch.float32))
     return float((idx == cfg.n_bins // 2).all(dim=-1).float().mean())
 
 

@@ -31,7 +31,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from sportsngen.data.tokens import OBJECTS, rally_arrays
+from sportsngen.data.tokens import rally_arrays
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.diagnostics import (
     BRANCH_AFTER_FRAMES,
@@ -41,6 +41,7 @@ from sportsngen.eval.diagnostics import (
     serve_strike_frames,
 )
 from sportsngen.eval.shot_branches import branch_rallies
+from sportsngen.model.inputs import OBJECTS
 from sportsngen.synth.profiles import PlayerProfile
 
 ARMS = ("free", "recorded", "still", "swapped")

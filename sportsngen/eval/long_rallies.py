@@ -22,9 +22,10 @@ import numpy as np
 import pandas as pd
 import torch
 
-from sportsngen.data.tokens import BALL, rally_arrays
+from sportsngen.data.tokens import rally_arrays
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.contact_odds import approach_frames, approach_odds, far_probability
+from sportsngen.model.inputs import BALL
 from sportsngen.sim.rollout import window_features
 
 

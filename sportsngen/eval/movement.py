@@ -24,13 +24,14 @@ import pandas as pd
 import torch
 from torch.utils.data import default_collate
 
-from sportsngen.data.tokens import Vocab, WindowDataset, rally_arrays
+from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.diagnostics import serve_branches
 from sportsngen.eval.rules import analyse_rally_data
 from sportsngen.eval.shot_branches import shot_branches, shot_outcomes
 from sportsngen.tennis.court import BASELINE_X_M
 from sportsngen.train.metrics import window_states
+from sportsngen.train.windows import WindowDataset
 
 RECOVERY_FRAMES = 45      # 1.8 s: the run back and the next ball's approach
 CHASE_FRAMES = 35         # 1.4 s: a return's flight to the server, and a rally ball's

@@ -25,10 +25,11 @@ import numpy as np
 import pandas as pd
 from scipy.stats import spearmanr
 
-from sportsngen.data.tokens import OBJECTS, rally_arrays
+from sportsngen.data.tokens import rally_arrays
 from sportsngen.data.tracking import RallyData
 from sportsngen.eval.diagnostics import _generic_vocab, serve_strike_frames
 from sportsngen.eval.shot_branches import branch_rallies
+from sportsngen.model.inputs import OBJECTS
 
 SERVER_SLOT = OBJECTS.index("server")
 COUPLING_AFTER_FRAMES = 9   # the server's speed this many frames after the serve's strike

@@ -30,15 +30,17 @@ import pandas as pd
 import torch
 from torch.utils.data import default_collate
 
-from sportsngen.data.tokens import BALL, WindowDataset, rally_arrays
+from sportsngen.data.tokens import rally_arrays
 from sportsngen.eval.contact_odds import REVERSAL_M, far_probability
 from sportsngen.eval.rules import analyse_rally_data
+from sportsngen.model.inputs import BALL
 from sportsngen.sim import Simulator
 from sportsngen.sim.assemble import realistic_points
 from sportsngen.synth.generate import generate_matches
 from sportsngen.tennis.court import SERVICE_LINE_X_M
 from sportsngen.train.metrics import window_states
 from sportsngen.train.module import movement_onsets
+from sportsngen.train.windows import WindowDataset
 
 SERVER, RECEIVER = "Roger Federer", "Rafael Nadal"
 AFTER_BOUNCE_FRAMES = 30

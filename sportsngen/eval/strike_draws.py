@@ -22,11 +22,13 @@ import pandas as pd
 import torch
 from torch.utils.data import DataLoader, default_collate
 
-from sportsngen.data.tokens import BALL, RallyArrays, WindowDataset
+from sportsngen.data.tokens import RallyArrays
 from sportsngen.data.tracking import RallyData
 from sportsngen.model import strike, strike_heads
+from sportsngen.model.inputs import BALL
 from sportsngen.tennis.court import BASELINE_X_M, SINGLES_HALF_WIDTH_M, net_height_m
 from sportsngen.train.metrics import window_states
+from sportsngen.train.windows import WindowDataset
 
 LEAD_FRAMES = 8        # a strike's window ends this many frames after it (its targets' frames)
 MATCH_FRAMES = 2       # a head target this close to the shots table's contact frame is its strike

@@ -11,7 +11,7 @@ BALL_CENTRES = ("physics", "velocity", "current")
 FRAMES = ("world", "server")
 # Model files saved before `ball_centre` existed centred the ball like the players.
 LEGACY_BALL_CENTRE = {"current": "current", "cv": "velocity"}
-# The object-feature groups as `sportsngen.data.tokens.object_features` lays them out: name ->
+# The object-feature groups as `sportsngen.model.inputs.object_features` lays them out: name ->
 # (first, end) column of the N_FEATURES = 8 features. Ablations switch groups off by name.
 FEATURE_GROUPS = {"position": (0, 3), "velocity": (3, 6), "distance": (6, 7), "time": (7, 8)}
 

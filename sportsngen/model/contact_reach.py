@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import torch
 
-from sportsngen.data.tokens import BALL
+from sportsngen.model.inputs import BALL
 from sportsngen.model.strike_heads import ball_on_receivers_end
 
 # Frames until the ball reaches the hitter's line across the court (negative: past it), and

@@ -26,7 +26,6 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from sportsngen.data.tokens import BALL, GENERIC_ID, N_FEATURES, N_OBJECTS, N_SPECIAL_IDS
 from sportsngen.model import (
     contact_reach,
     reach_kernel,
@@ -49,6 +48,7 @@ from sportsngen.model.forecast import (
     forecast_outside_graph,
 )
 from sportsngen.model.heads import FactorisedHead, SubBinHead, make_head
+from sportsngen.model.inputs import BALL, GENERIC_ID, N_FEATURES, N_OBJECTS, N_SPECIAL_IDS
 from sportsngen.model.packed import kernel_inputs, packed
 from sportsngen.model.sampling import uniform_in_bin
 

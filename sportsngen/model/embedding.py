@@ -12,8 +12,8 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from sportsngen.data.tokens import N_FEATURES, SCORE_FIELDS
 from sportsngen.model.config import FEATURE_GROUPS, ModelConfig
+from sportsngen.model.inputs import N_FEATURES, SCORE_FIELDS
 
 N_CONTEXT = 4  # surface, tournament, serve number, score
 

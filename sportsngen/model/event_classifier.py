@@ -13,10 +13,11 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from sportsngen.data.tokens import LABELS, N_OBJECTS
+from sportsngen.data.tokens import LABELS
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.decoder import Block
 from sportsngen.model.embedding import ObjectEmbedding
+from sportsngen.model.inputs import N_OBJECTS
 
 
 class EventClassifier(nn.Module):

@@ -99,7 +99,7 @@ def read_blob(path: str | Path, map_location: str | torch.device = "cpu") -> dic
 
 def update_extra(path: str | Path, **items) -> Path:
     """Add or replace entries of a model file's `extra` data in place (e.g. the simulator's
-    initial conditions, `sportsngen.sim.initial`)."""
+    initial conditions, `sportsngen.data.serve_starts`)."""
     path = Path(path)
     blob = read_blob(path)
     blob["extra"] = {**dict(blob.get("extra") or {}), **_plain(items)}

@@ -22,7 +22,6 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from sportsngen.data.tokens import BALL, POS_SCALE_M, TIME_SCALE_S, VEL_SCALE_MPS
 from sportsngen.model.centre import (
     BOUNCE_RESTITUTION,
     flight_acceleration_mps2,
@@ -33,6 +32,7 @@ from sportsngen.model.centre import (
     split_lift,
 )
 from sportsngen.model.flight_kernel import feature_columns_rows, flight_rows
+from sportsngen.model.inputs import BALL, POS_SCALE_M, TIME_SCALE_S, VEL_SCALE_MPS
 from sportsngen.model.packed import kernel_inputs
 from sportsngen.tennis.court import BALL_RADIUS_M
 
@@ -200,7 +200,7 @@ def random_flights(n: int, seed: int = 0) -> tuple[torch.Tensor, torch.Tensor, t
     return pos, vel, prev
 
 
-TIME_COLUMN = 7  # the elapsed time's column of the object features (`tokens.object_features`)
+TIME_COLUMN = 7  # the elapsed time's column of the object features (`inputs.object_features`)
 
 
 def clock_columns(feats: torch.Tensor, clock_s: float) -> torch.Tensor:

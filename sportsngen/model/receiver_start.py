@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import torch
 
-from sportsngen.data.tokens import BALL
+from sportsngen.model.inputs import BALL
 
 N_SERVES = 2                   # first, second
 N_WAIT = 13                    # waits of 1..12 frames, and 13 or more

@@ -14,8 +14,8 @@ from collections.abc import Callable
 import numpy as np
 import torch
 
-from sportsngen.data.tokens import BALL, OBJECTS
 from sportsngen.model import strike
+from sportsngen.model.inputs import BALL, OBJECTS
 from sportsngen.model.sampling import uniform_in_bin
 
 SERVER = OBJECTS.index("server")

@@ -12,14 +12,13 @@ from __future__ import annotations
 
 import math
 from functools import lru_cache
-from pathlib import Path
 
 import pandas as pd
 
 from sportsngen.baselines.serve_model import bundled_serve_models
 from sportsngen.eval.stats import return_stats, serve_stats
+from sportsngen.synth.targets import TARGETS_CSV
 
-TARGETS_CSV = Path(__file__).resolve().parents[1] / "synth" / "data" / "slam2011_targets.csv"
 ATTRIBUTION = "Jeff Sackmann / Tennis Abstract, CC BY-NC-SA 4.0"
 SOURCE_2011 = f"2011 US Open + Wimbledon point-by-point data ({ATTRIBUTION})"
 # (key, label, unit): "pct" a share shown as a percentage, "kmh" a speed, "n" a count or mean.

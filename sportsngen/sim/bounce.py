@@ -22,7 +22,6 @@ from collections.abc import Sequence
 import numpy as np
 import torch
 
-from sportsngen.data.tokens import BALL
 from sportsngen.model.centre import (
     MAGNUS_PER_M,
     MAX_LIFT_COEFFICIENT,
@@ -30,6 +29,7 @@ from sportsngen.model.centre import (
     lift_direction,
     read_lift_mps2,
 )
+from sportsngen.model.inputs import BALL
 from sportsngen.model.packed import kernel_inputs
 from sportsngen.synth.physics import fly
 from sportsngen.tennis.court import BALL_RADIUS_M

@@ -12,8 +12,9 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from sportsngen.data.tokens import LABELS, object_features
+from sportsngen.data.tokens import LABELS
 from sportsngen.model.event_classifier import EventClassifier
+from sportsngen.model.inputs import object_features
 
 LABEL_NAMES = tuple(LABELS)            # stroke, direction, outcome, error_kind
 

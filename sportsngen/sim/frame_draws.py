@@ -12,8 +12,8 @@ from typing import Protocol
 import numpy as np
 import torch
 
-from sportsngen.data.tokens import BALL
 from sportsngen.model.decoder import SportsNGEN
+from sportsngen.model.inputs import BALL
 from sportsngen.sim.bounce import place_bounces
 from sportsngen.sim.kinematics import PlayerLimits, limit_player_acceleration, limit_player_speed
 from sportsngen.tennis.rally import awaiting_return

@@ -42,8 +42,8 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from sportsngen.data.tokens import BALL
 from sportsngen.errors import ArgumentError
+from sportsngen.model.inputs import BALL
 from sportsngen.model.packed import kernel_inputs
 from sportsngen.sim import constraint_kernel
 

@@ -27,8 +27,8 @@ import numpy as np
 import torch
 from tqdm.auto import tqdm
 
-from sportsngen.data.tokens import BALL, object_features
 from sportsngen.model.decoder import SportsNGEN
+from sportsngen.model.inputs import BALL, object_features
 from sportsngen.model.receiver_start import receiver_waiting, wait_frames
 from sportsngen.sim.frame_draws import Constraint, FrameDraws, Tracker
 from sportsngen.sim.kinematics import PlayerLimits
@@ -62,7 +62,7 @@ class RolloutInputs:
     surface: np.ndarray      # (B,) int64
     tournament: np.ndarray   # (B,) int64
     serve: np.ndarray        # (B,) int64: 0 first serve, 1 second serve
-    score: np.ndarray        # (B, 7) float32 (`sportsngen.data.tokens.score_vector`)
+    score: np.ndarray        # (B, 7) float32 (`sportsngen.model.inputs.score_vector`)
     # (B,) each row's own count of initial frames (at most T0; the rest of its row is not
     # read): rallies branched at different frames share one rollout. None: T0 for every row.
     init_frames: np.ndarray | None = None

@@ -8,7 +8,7 @@
 
 Everything goes through `simulate_rallies`: a plan (one row a rally: who serves, which serve,
 side, end, surface, score) becomes initial frames drawn from the model's pool of historical
-serve starts (`sportsngen.sim.initial`), one batched rollout (`sportsngen.sim.rollout`) under
+serve starts (`sportsngen.data.serve_starts`), one batched rollout (`sportsngen.sim.rollout`) under
 the rally-end rules (`sportsngen.tennis.rally`), event labels from the classifier
 (`sportsngen.sim.events`) and a `RallyData` (`sportsngen.sim.assemble`).
 """
@@ -24,7 +24,8 @@ import numpy as np
 import pandas as pd
 import torch
 
-from sportsngen.data.tokens import SCORE_FIELDS, Vocab, score_vector
+from sportsngen.data.serve_starts import InitialConditions
+from sportsngen.data.tokens import Vocab
 from sportsngen.data.tracking import SURFACES, RallyData
 from sportsngen.errors import (
     ArgumentError,
@@ -37,6 +38,7 @@ from sportsngen.eval.calibration import IsotonicCalibrator, LogisticCalibrator, 
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.model.event_classifier import EventClassifier
 from sportsngen.model.export import load_model, read_extra, update_extra
+from sportsngen.model.inputs import SCORE_FIELDS, score_vector
 from sportsngen.sim import whatif
 from sportsngen.sim.assemble import PLAN_COLUMNS, assemble
 from sportsngen.sim.constraints import (
@@ -49,7 +51,6 @@ from sportsngen.sim.constraints import (
 )
 from sportsngen.sim.events import frame_labels
 from sportsngen.sim.frame_draws import Constraint
-from sportsngen.sim.initial import InitialConditions
 from sportsngen.sim.kinematics import PlayerLimits
 from sportsngen.sim.match import MatchResult, simulate_matches
 from sportsngen.sim.reach_table import ReachTable

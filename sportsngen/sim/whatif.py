@@ -26,9 +26,10 @@ import pandas as pd
 import torch
 
 from sportsngen.baselines.markov import match_win_probability as markov_match_win
-from sportsngen.data.tokens import BALL, Vocab, rally_arrays
+from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.data.tracking import DIRECTIONS, RallyData
 from sportsngen.errors import ArgumentError, check_int, check_players
+from sportsngen.model.inputs import BALL
 from sportsngen.sim.assemble import PLAN_COLUMNS, realistic_points
 from sportsngen.sim.rollout import pad_tracks
 from sportsngen.tennis import court

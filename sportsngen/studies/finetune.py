@@ -181,8 +181,8 @@ def finetune_study(player: str, ks: list[int], base_steps: int, ft_steps: int,
 
     from omegaconf import OmegaConf
 
+    from sportsngen.data.serve_starts import InitialConditions
     from sportsngen.model.export import read_extra
-    from sportsngen.sim.initial import InitialConditions
     from sportsngen.synth.dataset import load_synthetic, matchups
     from sportsngen.synth.generate import generate_matches
 

@@ -44,8 +44,8 @@ from dataclasses import dataclass
 
 import torch
 
-from sportsngen.data.tokens import BALL, N_OBJECTS, object_features
 from sportsngen.model.decoder import SportsNGEN
+from sportsngen.model.inputs import BALL, N_OBJECTS, object_features
 
 ON_DRIFT = ("snap", "mask")
 

@@ -21,9 +21,10 @@ import pandas as pd
 import torch
 from tqdm.auto import tqdm
 
-from sportsngen.data.tokens import BALL, RallyArrays
+from sportsngen.data.tokens import RallyArrays
 from sportsngen.model import contact_reach
 from sportsngen.model.decoder import SportsNGEN
+from sportsngen.model.inputs import BALL
 from sportsngen.train.finetune import with_flag
 from sportsngen.train.head_fit import window_batches
 from sportsngen.train.metrics import window_states

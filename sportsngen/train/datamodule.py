@@ -11,9 +11,10 @@ import lightning as L
 import numpy as np
 from torch.utils.data import DataLoader
 
-from sportsngen.data.tokens import Augment, RallyArrays, Vocab, WindowDataset, rally_arrays
+from sportsngen.data.tokens import RallyArrays, Vocab, rally_arrays
 from sportsngen.data.tracking import RallyData
 from sportsngen.errors import ArgumentError
+from sportsngen.train.windows import Augment, WindowDataset
 
 DATA_SOURCES = ("toy", "synthetic", "folder")
 _TOY_KEYS = {"source", "n_rallies", "seed", "fps"}

@@ -29,8 +29,9 @@ from omegaconf import OmegaConf
 from torch.utils.data import DataLoader
 
 from sportsngen.data.paths import conf_dir
-from sportsngen.data.tokens import BALL, WindowDataset, rally_arrays
+from sportsngen.data.tokens import rally_arrays
 from sportsngen.model.export import load_model, read_extra
+from sportsngen.model.inputs import BALL
 from sportsngen.train.datamodule import (
     data_fingerprint,
     load_rally_data,
@@ -45,6 +46,7 @@ from sportsngen.train.metrics import (
     evaluate_windows,
     window_states,
 )
+from sportsngen.train.windows import WindowDataset
 
 CONF_DATA = conf_dir() / "data"
 LOG_2PI = math.log(2.0 * math.pi)

@@ -34,14 +34,10 @@ import numpy as np
 import pandas as pd
 import torch
 
-from sportsngen.data.tokens import (
-    BALL,
-    CONTACT_TOL_FRAMES,
-    RallyArrays,
-    rally_arrays,
-)
+from sportsngen.data.tokens import CONTACT_TOL_FRAMES, RallyArrays, rally_arrays
 from sportsngen.data.tracking import RallyData
 from sportsngen.model.centre import physics_step_m
+from sportsngen.model.inputs import BALL
 from sportsngen.synth import physics
 from sportsngen.synth.cycle import RallyState
 from sportsngen.synth.profiles import PlayerProfile

@@ -21,12 +21,13 @@ from pathlib import Path
 import torch
 from torch import nn
 
-from sportsngen.data.tokens import GENERIC_ID, N_SPECIAL_IDS, Vocab
+from sportsngen.data.tokens import Vocab
 from sportsngen.data.tracking import RallyData
 from sportsngen.errors import ModelFileError
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.model.export import is_model_file, load_model, read_extra, save_model, what_file
+from sportsngen.model.inputs import GENERIC_ID, N_SPECIAL_IDS
 
 
 def read_torch_file(path: str | Path, what: str = "model file or checkpoint"):

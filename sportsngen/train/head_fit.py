@@ -25,10 +25,12 @@ import torch
 from torch.utils.data import DataLoader, Subset, default_collate
 from tqdm.auto import tqdm
 
-from sportsngen.data.tokens import BALL, RallyArrays, WindowDataset, flip_xy
+from sportsngen.data.tokens import RallyArrays
 from sportsngen.model import strike, strike_heads
 from sportsngen.model.decoder import SportsNGEN
+from sportsngen.model.inputs import BALL, flip_xy
 from sportsngen.train.metrics import window_states
+from sportsngen.train.windows import WindowDataset
 
 HEADS = ("serve", "strike")
 # The `WindowDataset` item's entries with a frame axis (second after the batch's).

@@ -19,8 +19,9 @@ import math
 
 import torch
 
-from sportsngen.data.tokens import BALL, check_finite, object_features
 from sportsngen.model.decoder import SportsNGEN
+from sportsngen.model.inputs import BALL, object_features
+from sportsngen.train.windows import check_finite
 
 CV_SIGMAS_M = torch.logspace(-3.5, 0.5, 25, dtype=torch.float64)
 PARTS = ("player", "flight", "contact")  # player tokens; ball tokens in flight / at contact

@@ -8,13 +8,15 @@ import time
 import lightning as L
 import torch
 
-from sportsngen.data.tokens import BALL, Vocab, check_finite, object_features
+from sportsngen.data.tokens import Vocab
 from sportsngen.model.config import ModelConfig
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.model.event_classifier import EventClassifier
 from sportsngen.model.forecast import extra_columns
+from sportsngen.model.inputs import BALL, object_features
 from sportsngen.train.closed_loop import ClosedLoopConfig, mix_closed_loop
 from sportsngen.train.metrics import NextFrameMetrics, window_states
+from sportsngen.train.windows import check_finite
 
 
 def _masked_mean(x: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:

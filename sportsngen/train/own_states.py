@@ -2,7 +2,7 @@
 serve: training targets for the states a simulation reaches.
 
 A simulated point starts from a recorded toss's first frames (the model file's pool,
-`sportsngen.sim.initial`) and the model plays the rest of the toss itself, so the decoder's
+`sportsngen.data.serve_starts`) and the model plays the rest of the toss itself, so the decoder's
 state at its serve is not the record's: on the bundled file's validation rallies its tosses
 are struck up to 0.15 m higher than the recorded ones (whose contact the generator fixes per
 player), and the serve head, which had only seen recorded tosses, faulted second serves 0.157

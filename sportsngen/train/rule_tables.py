@@ -4,7 +4,7 @@ reach for the return and each player's for the rally balls (`sim.reach_table`,
 `scripts/fit_return_reach.py`), each player's top running speed (`sim.top_speed`,
 `scripts/fit_top_speed.py`), where the players' offsets fall inside the player head's bins
 (`model.bin_quantiles`, `scripts/fit_player_bins.py`); and the simulator's serve starts
-rebuilt from other data (`sim.initial`, `scripts/add_initial_conditions.py`).
+rebuilt from other data (`data.serve_starts`, `scripts/add_initial_conditions.py`).
 
 The rallies read are the file's training split and, with `more_data`, every rally of that
 data config (`train.evaluate.training_rally_data`).
@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sportsngen.data.serve_starts import MAX_PER_KEY_DEFAULT, N_FRAMES_DEFAULT, InitialConditions
 from sportsngen.data.tracking import RallyData
 from sportsngen.model.bin_quantiles import (
     MIN_OFFSETS,
@@ -25,7 +26,6 @@ from sportsngen.model.bin_quantiles import (
     player_offsets,
 )
 from sportsngen.model.export import load_model, update_extra
-from sportsngen.sim.initial import MAX_PER_KEY_DEFAULT, N_FRAMES_DEFAULT, InitialConditions
 from sportsngen.sim.reach_table import MIN_BALLS, reach_table_from_data
 from sportsngen.sim.simulator import Simulator, model_path
 from sportsngen.sim.top_speed import MIN_FRAMES, QUANTILE, top_speeds_from_data

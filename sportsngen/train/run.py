@@ -23,7 +23,8 @@ from hydra.utils import instantiate
 from lightning.pytorch.callbacks import EMAWeightAveraging
 from omegaconf import DictConfig, OmegaConf
 
-from sportsngen.data.tokens import Augment, RallyArrays, Vocab
+from sportsngen.data.serve_starts import InitialConditions
+from sportsngen.data.tokens import RallyArrays, Vocab
 from sportsngen.data.tracking import RallyData
 from sportsngen.errors import ModelFileError
 from sportsngen.model.config import ModelConfig
@@ -31,7 +32,6 @@ from sportsngen.model.embedding import widen_for_extra
 from sportsngen.model.event_classifier import EventClassifier
 from sportsngen.model.export import is_model_file, read_extra, save_model
 from sportsngen.model.forecast import FORECAST_FEATURES, INTERCEPT_FEATURES
-from sportsngen.sim.initial import InitialConditions
 from sportsngen.train.datamodule import TrackingDataModule, data_fingerprint, load_rally_data
 from sportsngen.train.expert import load_expert
 from sportsngen.train.finetune import (
@@ -44,6 +44,7 @@ from sportsngen.train.finetune import (
 )
 from sportsngen.train.module import TOKEN_WEIGHTS, DecoderModule, EventModule
 from sportsngen.train.player_tables import fit_player_tables, player_rule_tables
+from sportsngen.train.windows import Augment
 
 log = logging.getLogger(__name__)
 

@@ -25,9 +25,10 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
-from sportsngen.data.tokens import N_SPECIAL_IDS, RallyArrays
+from sportsngen.data.tokens import RallyArrays
 from sportsngen.data.tracking import ERROR_KINDS, SURFACES
 from sportsngen.model import serve_bias
+from sportsngen.model.inputs import N_SPECIAL_IDS
 from sportsngen.sim.simulator import points_plan
 from sportsngen.train.serve_bias import MAX_SHIFT, share_logit
 

@@ -13,10 +13,10 @@ from pathlib import Path
 
 import torch
 
-from sportsngen.data.tokens import N_SPECIAL_IDS
 from sportsngen.errors import ArgumentError
 from sportsngen.model.decoder import SportsNGEN
 from sportsngen.model.export import load_model, read_extra, save_model
+from sportsngen.model.inputs import N_SPECIAL_IDS
 from sportsngen.sim.simulator import Simulator, model_path
 from sportsngen.train.evaluate import training_arrays
 

@@ -24,8 +24,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sportsngen.data.tokens import Vocab, flip_xy, rally_arrays
+from sportsngen.data.tokens import Vocab, rally_arrays
 from sportsngen.data.tracking import RallyData
+from sportsngen.model.inputs import flip_xy
 
 N_FRAMES_DEFAULT = 10            # 0.4 s of the toss at 25 Hz: the serve itself is simulated
 MAX_PER_KEY_DEFAULT = 100        # examples kept per (server, serve number, side)
