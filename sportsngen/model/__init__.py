@@ -11,17 +11,28 @@ One simulation step, as the simulator would run it (B rallies in a batch)::
     nxt = model.sample_next(h, pos, vel, top_p_player, top_p_ball, generator,
                             prev_vel)                                   # (B, 3, 3)
 
-(`object_features` from `sportsngen.data.tokens`; velocities are backward differences,
+(`object_features` from `sportsngen.model.inputs`; velocities are backward differences,
 `prev_vel` those of the frame before, for the ball's physics centre. A model with a strike head
 also redraws a sampled strike with `model.place_strikes` and puts the launch's next two frames
-down itself: `sportsngen.sim.rollout` does both.)
+down itself: `sportsngen.sim.frame_draws` does both.)
 """
 
-from sportsngen.model.config import ModelConfig
-from sportsngen.model.decoder import KVCache, SportsNGEN, baller2vec_mask
-from sportsngen.model.event_classifier import EventClassifier
-from sportsngen.model.export import load_model, save_model
-from sportsngen.model.sampling import sample_top_p, top_p_filter
+from __future__ import annotations
 
-__all__ = ["EventClassifier", "KVCache", "ModelConfig", "SportsNGEN", "baller2vec_mask",
-           "load_model", "sample_top_p", "save_model", "top_p_filter"]
+import importlib
+
+# The package's names are imported on first use (PEP 562), so that reading a light submodule
+# (`model.inputs`, the input schema `data.tokens` cuts tracking to) does not load the decoder,
+# which itself reads `data.tokens`: a load-time cycle otherwise.
+_WHERE = {"ModelConfig": "config", "KVCache": "decoder", "SportsNGEN": "decoder",
+          "baller2vec_mask": "decoder", "EventClassifier": "event_classifier",
+          "load_model": "export", "save_model": "export", "sample_top_p": "sampling",
+          "top_p_filter": "sampling"}
+
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name: str):
+    if name in _WHERE:
+        return getattr(importlib.import_module(f"sportsngen.model.{_WHERE[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
