@@ -36,6 +36,7 @@ import torch
 
 from sportsngen.studies.tables import md_table, write_markdown
 from sportsngen.train.evaluate import CONF_DATA
+from sportsngen.viz.study_figures import plot_finetune_study
 
 NAMED = ("Roger Federer", "Rafael Nadal", "Novak Djokovic", "Andy Murray", "John Isner",
          "Serena Williams", "Maria Sharapova")
@@ -109,27 +110,6 @@ def evaluate(model_path: Path, player: str, opponent: str, truth, initial, n_poi
             physical = key.endswith(("_m", "_kmh"))
             out[f"{key}_{name}"] = float(q.get(key, np.nan) if physical else st[key])
     return out
-
-
-def plot(table: pd.DataFrame, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(2, 3, figsize=(12, 6.5))
-    x = np.arange(len(table))
-    for ax, (key, label, f) in zip(axes.ravel(), METRICS):
-        ax.plot(x, table[f"{key}_sim"] * f, "o-", label="fine-tuned model")
-        ax.axhline(table[f"{key}_truth"].iloc[0] * f, color="k", ls="--", label="ground truth")
-        ax.set_xticks(x, [str(k) for k in table["k"]])
-        ax.set_xlabel("k (player sequences)")
-        ax.set_title(label)
-    axes[0, 0].legend(fontsize=8)
-    fig.suptitle("Generic model fine-tuned on k sequences of an unseen player")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def train_models(player: str, ks: list[int], base_steps: int, ft_steps: int, base_points: int,
@@ -210,7 +190,7 @@ def finetune_study(player: str, ks: list[int], base_steps: int, ft_steps: int,
               flush=True)
     table = pd.DataFrame(rows)
     table.to_csv(out_dir / "finetune.csv", index=False)
-    plot(table, out_dir / "finetune.png")
+    plot_finetune_study(table, out_dir / "finetune.png", METRICS)
     if base is None:
         how = (f"--base-steps {base_steps}", f"A generic `small` model trained "
                f"{base_steps} steps without {player}")

@@ -23,6 +23,7 @@ from sportsngen.sim.rollout import rollout
 from sportsngen.sim.whatif import _plan, _rally
 from sportsngen.studies.tables import md_table, write_markdown
 from sportsngen.synth.generate import generate_matches
+from sportsngen.viz.study_figures import plot_horizon
 
 PLAYERS = ("Roger Federer", "Rafael Nadal")
 BRANCH_S = (1.0, 2.0, 3.0, 4.0)
@@ -72,25 +73,6 @@ def horizon_errors(sim: Simulator, tracks: dict, n: int, h: int, rng: np.random.
                             for k in sq_lin}})
 
 
-def plot(df: pd.DataFrame, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.6))
-    for ax, k in zip(axes, ("ball", "players")):
-        ax.plot(df["t_s"], df[f"{k}_rmse_model_m"], label="SportsNGEN rollout")
-        ax.plot(df["t_s"], df[f"{k}_rmse_linear_m"], label="linear extrapolation", ls="--")
-        ax.set_xlabel("time after branch (s)")
-        ax.set_ylabel("RMSE (m)")
-        ax.set_title(k)
-        ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
 def horizon_study(model: str | None, rallies: int, n: int, horizon_s: float, seed: int,
                   threads: int | None, out: Path) -> pd.DataFrame:
     """Branch `rallies` held-out rallies, roll out, write horizon.png, horizon.md and
@@ -109,7 +91,7 @@ def horizon_study(model: str | None, rallies: int, n: int, horizon_s: float, see
     wall = time.perf_counter() - t0
     out.mkdir(parents=True, exist_ok=True)
     df.to_csv(out / "horizon.csv", index=False)
-    plot(df, out / "horizon.png")
+    plot_horizon(df, out / "horizon.png")
     marks = [x for x in (0.2, 0.5, 1.0, horizon_s) if x <= horizon_s]
     rows = []
     for x in marks:

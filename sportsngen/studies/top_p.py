@@ -27,6 +27,7 @@ from sportsngen.sim import Simulator
 from sportsngen.sim.simulator import model_path
 from sportsngen.studies.tables import md_table, write_markdown
 from sportsngen.synth.generate import generate_matches
+from sportsngen.viz.study_figures import plot_top_p_sweep
 
 PLAYERS = ("Roger Federer", "Rafael Nadal")
 SERVE_KEYS = ("first_serve_in", "ace", "double_fault", "serve_points_won")
@@ -51,27 +52,6 @@ def score_rows(cmp: pd.DataFrame, unreal: float) -> dict:
         (np.mean(list(serve.values())) if serve else 1.0)
     return {"non_realistic": unreal, **{f"w_{m}": v for m, v in phys.items()},
             **{f"d_{k}": v for k, v in serve.items()}, "score": float(score)}
-
-
-def plot(df: pd.DataFrame, best: float, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    cols = [c for c in df.columns if c.startswith(("w_", "d_"))] + ["non_realistic", "score"]
-    n = len(cols)
-    fig, axes = plt.subplots((n + 3) // 4, 4, figsize=(13, 2.6 * ((n + 3) // 4)))
-    for ax, c in zip(np.ravel(axes), cols):
-        ax.plot(df["top_p"], df[c], marker="o")
-        ax.axvline(best, color="grey", ls="--", lw=0.8)
-        ax.set_title(c.replace("w_", "W/IQR ").replace("d_", "|sim-truth| "), fontsize=8)
-        ax.set_xlabel("top-p", fontsize=8)
-    for ax in np.ravel(axes)[n:]:
-        ax.axis("off")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
 
 
 def top_p_sweep(model: str | None, values: list[float], points: int, seed: int,
@@ -103,7 +83,7 @@ def top_p_sweep(model: str | None, values: list[float], points: int, seed: int,
     out.mkdir(parents=True, exist_ok=True)
     df.to_csv(out / "top_p.csv", index=False)
     best = float(df.loc[df["score"].idxmin(), "top_p"])
-    plot(df, best, out / "top_p.png")
+    plot_top_p_sweep(df, best, out / "top_p.png")
     swept = {"both": "players and ball", "player": f"the players (ball {other:g})",
              "ball": f"the ball (players {other:g})"}[kind]
     show = ["top_p", "non_realistic", "d_first_serve_in", "d_ace", "d_double_fault",

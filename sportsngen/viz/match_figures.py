@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 
 
-def _pyplot():
+def agg_pyplot():
+    """pyplot on the Agg backend (files, no display)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -20,7 +21,7 @@ def _pyplot():
 def plot_win_probability(probs: np.ndarray, names: tuple[str, str], title: str,
                          path: Path) -> None:
     """Player 1's win probability before each point, as a line against 0.5, saved to `path`."""
-    plt = _pyplot()
+    plt = agg_pyplot()
     fig, ax = plt.subplots(figsize=(9, 3.5))
     ax.plot(np.arange(len(probs)), probs, color="tab:blue", lw=1.5)
     ax.axhline(0.5, color="grey", lw=0.8, ls="--")
@@ -37,7 +38,7 @@ def rally_figures(res, out_dir: Path, n_plots: int = 3, max_gif_frames: int = 15
     """Plots of the longest rallies of a simulated match (`MatchResult`) and an animation of the
     longest one, of at most `max_gif_frames` frames (so that a long rally does not take minutes
     to render; 0: no animation)."""
-    plt = _pyplot()
+    plt = agg_pyplot()
     from sportsngen.viz.court_plot import animate_rally, plot_rally
 
     r = res.rallies.rallies.sort_values("rally_length", ascending=False, kind="stable")
