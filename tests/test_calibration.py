@@ -13,9 +13,9 @@ from sportsngen.eval.calibration import (
     ece_if_calibrated,
     expected_calibration_error,
     fit_calibrator,
-    plot_reliability,
     reliability_table,
 )
+from sportsngen.viz.calibration_plot import plot_reliability
 
 
 def test_known_values():

@@ -1,13 +1,10 @@
 """Calibration of probabilistic predictions: reliability table, expected calibration error,
-Brier score, recalibration (logistic on the log-odds, or isotonic) judged out of fold, and the
-paper's reliability diagram with the histogram of predictions (Fig. 14/15).
-
-Pure numpy (plots with matplotlib, imported when drawing).
+Brier score, recalibration (logistic on the log-odds, or isotonic) judged out of fold. Pure
+numpy; the paper's reliability diagram with the histogram of predictions (Fig. 14/15) is
+`viz.calibration_plot.plot_reliability`.
 """
 
 from __future__ import annotations
-
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -274,38 +271,3 @@ def cross_fitted(kind: str, pred, outcome, fold) -> np.ndarray:
         test = fold == k
         out[test] = fit_calibrator(kind, p[~test], y[~test])(p[test])
     return out
-
-
-def plot_reliability(preds: dict[str, np.ndarray], outcome, path: str | Path,
-                     n_bins: int = 10, title: str = "") -> Path:
-    """Reliability diagram (observed frequency against mean prediction per bin, one line per
-    predictor) above the histogram of each predictor's predictions."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, (ax, hx) = plt.subplots(2, 1, figsize=(5.5, 7), height_ratios=(3, 1.4))
-    ax.plot([0, 1], [0, 1], color="grey", ls="--", lw=1, label="perfect")
-    for name, p in preds.items():
-        t = reliability_table(p, outcome, n_bins)
-        ok = t["count"] > 0
-        ece = expected_calibration_error(p, outcome, n_bins)
-        ax.plot(t.loc[ok, "mean_pred"], t.loc[ok, "observed"], marker="o",
-                label=f"{name} (ECE {ece:.3f}, Brier {brier_score(p, outcome):.3f})")
-        hx.hist(p, bins=np.linspace(0, 1, n_bins + 1), alpha=0.5, label=name)
-    ax.set_xlim(0, 1)
-    ax.set_ylim(0, 1)
-    ax.set_xlabel("predicted P(server wins the point)")
-    ax.set_ylabel("observed frequency")
-    ax.set_title(title, fontsize=9)
-    ax.legend(fontsize=7, loc="upper left")
-    hx.set_xlabel("predicted probability")
-    hx.set_ylabel("count")
-    hx.legend(fontsize=7)
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path

@@ -57,7 +57,6 @@ from sportsngen.eval.calibration import (
     ece_if_calibrated,
     expected_calibration_error,
     fit_calibrator,
-    plot_reliability,
 )
 from sportsngen.eval.expert_outcomes import kernel_win_shares, paired_reference_gaps
 from sportsngen.sim import Simulator
@@ -65,6 +64,7 @@ from sportsngen.sim.outcome_pool import pooled_rally_win_probabilities
 from sportsngen.sim.simulator import model_path
 from sportsngen.studies.tables import write_markdown
 from sportsngen.synth.generate import generate_matches
+from sportsngen.viz.calibration_plot import plot_reliability
 
 PLAYERS = ("Roger Federer", "Rafael Nadal")
 
