@@ -258,7 +258,7 @@ def test_a_rollouts_serve_is_drawn_with_its_servers_shift():
     real = model.serve_head.sample
     model.serve_head.sample = lambda *a, **k: drawn.append(real(*a, **k)) or drawn[-1]
     follow_strikes(model, h, pos, vel, nxt, plan, torch.Generator().manual_seed(0),
-                    serve=serve, server_ident=ident)
+                   serve=serve, server_ident=ident)
     bins = drawn[0]
     frac = serve_bias.long_fraction()
     wide = serve_bias.wide_bins(pos[:, 2])
@@ -269,7 +269,7 @@ def test_a_rollouts_serve_is_drawn_with_its_servers_shift():
     # Without the servers' identities the table is not read: some serves go long.
     drawn.clear()
     follow_strikes(model, h, pos, vel, nxt, plan, torch.Generator().manual_seed(0),
-                    serve=serve)
+                   serve=serve)
     assert (frac[drawn[0][:, 0].numpy()] > 0.5).any()
 
 

@@ -403,7 +403,7 @@ def test_a_forced_strike_whose_launch_is_not_found_is_drawn_again(monkeypatch):
     h = torch.randn(2, 3, model.cfg.d_model)
     plan = torch.full((2, 2, 3), float("nan"))
     out, plan = follow_strikes(model, h, pos, vel, nxt.clone(), plan,
-                                torch.Generator().manual_seed(0), np.array([False, True]))
+                               torch.Generator().manual_seed(0), np.array([False, True]))
     # The sampled strike keeps its own frame when its one draw fails; the forced row is drawn
     # again, alone, until a launch is found (the third solve).
     assert calls == [2, 1, 1]
@@ -415,7 +415,7 @@ def test_a_forced_strike_whose_launch_is_not_found_is_drawn_again(monkeypatch):
                                                                    np.zeros(len(c), bool)))
     plan = torch.full((2, 2, 3), float("nan"))
     out, plan = follow_strikes(model, h, pos, vel, nxt.clone(), plan,
-                                torch.Generator().manual_seed(0), np.array([False, True]))
+                               torch.Generator().manual_seed(0), np.array([False, True]))
     assert torch.equal(out[1], nxt[1]) and torch.isnan(plan).all()
     assert strike_heads.FORCED_DRAWS == 8
 
@@ -520,7 +520,7 @@ def test_a_sampled_serve_is_placed_on_its_solved_flight_and_a_toss_is_left_alone
     h = torch.randn(2, 3, model.cfg.d_model)
     plan = torch.full((2, 2, 3), float("nan"))
     out, plan = follow_strikes(model, h, pos, vel, nxt, plan, torch.Generator().manual_seed(0),
-                                top_p_serve=0.8)
+                               top_p_serve=0.8)
     assert torch.equal(out[1], nxt[1]) and torch.isnan(plan[1]).all()
     assert nuclei == [0.8]                                  # one draw, the serve's nucleus
     value = S.strike_bin_value(want.numpy(), None, S.serve_edges())

@@ -106,16 +106,16 @@ def _asked(constraint, bad: torch.Tensor) -> torch.Tensor:
 
 
 def follow_strikes(model: SportsNGEN, h: torch.Tensor, pos: torch.Tensor, vel: torch.Tensor,
-                    nxt: torch.Tensor, plan: torch.Tensor, generator: torch.Generator,
-                    forced: np.ndarray | None = None, top_p_serve: float = 1.0,
-                    serve: torch.Tensor | None = None,
-                    server_ident: torch.Tensor | None = None,
-                    receiver_ident: torch.Tensor | None = None,
-                    returning: torch.Tensor | None = None,
-                    shot: torch.Tensor | None = None,
-                    surface: torch.Tensor | None = None,
-                    veto: Callable[[np.ndarray, np.ndarray, bool], np.ndarray] | None = None
-                    ) -> tuple[torch.Tensor, torch.Tensor]:
+                   nxt: torch.Tensor, plan: torch.Tensor, generator: torch.Generator,
+                   forced: np.ndarray | None = None, top_p_serve: float = 1.0,
+                   serve: torch.Tensor | None = None,
+                   server_ident: torch.Tensor | None = None,
+                   receiver_ident: torch.Tensor | None = None,
+                   returning: torch.Tensor | None = None,
+                   shot: torch.Tensor | None = None,
+                   surface: torch.Tensor | None = None,
+                   veto: Callable[[np.ndarray, np.ndarray, bool], np.ndarray] | None = None
+                   ) -> tuple[torch.Tensor, torch.Tensor]:
     """With a strike head: a ball in the frames after its strike flies the launch solved at the
     strike (`plan`, (B, 2, 3), NaN where none), so the physics centre reads the strike's spin
     from them; a new strike is drawn by the head (`SportsNGEN.place_strikes`), also in the
@@ -196,8 +196,8 @@ class FrameDraws:
                 def veto(r, land_xy, serving):
                     return constraint.judge_strikes(rows[r], n, pos[r], land_xy, serving)
             nxt, plan = follow_strikes(model, h, pos, vel, nxt, plan, self.generator, forced,
-                                        self.top_p_serve, serve, ident[:, 0], ident[:, 1],
-                                        returning, shot, surface, veto)
+                                       self.top_p_serve, serve, ident[:, 0], ident[:, 1],
+                                       returning, shot, surface, veto)
         if self.bounce_surfaces is not None and n >= 3:
             nxt, plan = place_bounces(nxt, plan, pos, vel, prev_vel, fps, self.bounce_surfaces,
                                       rows, planned)
